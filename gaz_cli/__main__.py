@@ -1,0 +1,5 @@
+"""Allow ``python -m gaz_cli``."""
+
+from gaz_cli.cli import main
+
+main()

@@ -1,0 +1,299 @@
+"""The command line: parse, call one library function, print.
+
+No physics and no SQL here. Every library error (:mod:`gaz_cli.errors`) and
+every usage error becomes one line on stderr and a non-zero exit.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import sys
+
+import click
+
+from gaz_cli import __version__
+from gaz_cli.errors import GazError
+
+FORMATS = ("table", "csv", "json")
+
+
+# --- shared options -----------------------------------------------------------
+def db_option(default: str | None = "gaz.db"):
+    return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL",
+                        help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz).")
+
+
+def seed_option(f):
+    return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
+                        help="Random seed; same seed, same rows. Default: a fresh seed, "
+                             "recorded in the database and the summary.")(f)
+
+
+def format_option(f):
+    return click.option("--format", "fmt", type=click.Choice(FORMATS), default="table",
+                        show_default=True, help="Output format.")(f)
+
+
+def positive(name):
+    """A click callback refusing values <= 0 or not finite."""
+    def check(ctx, param, value):
+        if value is not None and (not math.isfinite(value) or value <= 0):
+            raise click.BadParameter(f"{value} must be > 0", param_hint=name)
+        return value
+    return check
+
+
+# --- output helpers -----------------------------------------------------------
+def emit_frames(frames: dict, fmt: str) -> None:
+    """Print named DataFrames (or dicts of scalars) as table, csv or json."""
+    import pandas as pd
+
+    if fmt == "json":
+        out = {}
+        for name, frame in frames.items():
+            out[name] = (json.loads(frame.to_json(orient="records", double_precision=15))
+                         if isinstance(frame, pd.DataFrame) else frame)
+        click.echo(json.dumps(out, indent=2, default=_jsonable))
+        return
+    first = True
+    for name, frame in frames.items():
+        if not isinstance(frame, pd.DataFrame):
+            frame = pd.DataFrame([frame]) if isinstance(frame, dict) else pd.DataFrame(frame)
+        if fmt == "csv":
+            click.echo(f"# {name}")
+            click.echo(frame.to_csv(index=False), nl=False)
+        else:
+            if not first:
+                click.echo()
+            click.echo(f"== {name} ==")
+            with pd.option_context("display.width", 200, "display.max_columns", 50,
+                                   "display.float_format", "{:.6g}".format):
+                click.echo(frame.to_string(index=False) if len(frame) else "(no rows)")
+        first = False
+
+
+def _jsonable(obj):
+    try:
+        return obj.item()
+    except AttributeError:
+        return str(obj)
+
+
+# --- the group ----------------------------------------------------------------
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="gaz")
+def cli():
+    """gaz: hard rods, disks and spheres bouncing in a box; every wall bounce
+    lands in a SQL database (tables SIMULATION, PARTICULE, REBOND).
+
+    \b
+    A first session:
+      gaz place --dim 2 --n 5 --radius 0.5 --length 10 --seed 1
+      gaz simulate --dim 2 --n 200 --length 1e-6 --duration 1e-8 --seed 1 --db gaz.db
+      gaz analyse --db gaz.db
+      sqlite3 gaz.db "SELECT SI_NUM, COUNT(*) FROM REBOND GROUP BY SI_NUM"
+
+    SI units everywhere: metres, seconds, kelvin, kilograms (grams in PARTICULE.PA_M).
+    """
+
+
+# --- place --------------------------------------------------------------------
+@cli.command()
+@click.option("--dim", type=int, required=True, help="Dimension of space: 1, 2 or 3.")
+@click.option("--n", "n", type=int, required=True, help="Number of particles.")
+@click.option("--radius", type=float, required=True, callback=positive("--radius"), help="Particle radius, m.")
+@click.option("--length", type=float, required=True, callback=positive("--length"), help="Box side L, m.")
+@click.option("--method", type=click.Choice(["auto", "rejection", "rapid", "lattice", "grow"]),
+              default="auto", show_default=True,
+              help="rapid: the exam's Q10 (1D, exactly uniform); rejection: random sequential "
+                   "addition on a cell grid; lattice/grow: dense starts. auto: rapid in 1D, else "
+                   "rejection when dilute, a dense method when not.")
+@seed_option
+@click.option("--repeat", type=click.IntRange(1), default=None,
+              help="Q12 study: repeat the placement K times and histogram the centres along x.")
+@click.option("--bins", type=click.IntRange(1), default=50, show_default=True, help="Histogram bins (with --repeat).")
+@click.option("--histogram", type=click.Path(dir_okay=False, writable=True), default=None,
+              help="With --repeat: also plot the histogram to this PNG file.")
+def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
+    """Place N non-overlapping particles at random in [0, L]^D; print the centres as CSV.
+
+    \b
+    Examples:
+      gaz place --dim 1 --n 5 --radius 0.5 --length 10 --seed 1
+      gaz place --dim 1 --n 2 --radius 1 --length 10 --repeat 20000 --bins 40 --histogram q12.png
+    """
+    from gaz_cli import analysis
+
+    if repeat is None:
+        if histogram:
+            raise click.UsageError("--histogram needs --repeat K")
+        positions = analysis.place_once(dim, n, radius, length, method, seed)
+        axes = "xyz"[:dim]
+        click.echo(",".join(axes))
+        for row in positions:
+            click.echo(",".join(repr(float(c)) for c in row))
+        return
+    frame = analysis.placement_histogram(dim, n, radius, length, method, seed, repeat, bins,
+                                         plot=histogram)
+    click.echo(frame.to_csv(index=False), nl=False)
+    if histogram:
+        click.echo(f"histogram written to {histogram}", err=True)
+
+
+# --- simulate -----------------------------------------------------------------
+@cli.command()
+@click.option("--dim", type=int, default=None, help="Dimension of space: 1, 2 or 3.")
+@click.option("--n", "n", type=int, default=None, help="Number of particles (or give counts in --species).")
+@click.option("--length", type=float, default=None, help="Box side L, m.")
+@click.option("--duration", type=float, default=None, help="Simulated time T, s (not the run time).")
+@click.option("--species", default=None, metavar="NAME|NAME:COUNT,...",
+              help="Built-in gas (He Ne Ar Kr Xe H2 N2 O2 CO2 CH4; default Ar) or a mixture Ar:500,He:500.")
+@click.option("--radius", type=float, default=None, help="Custom particle radius, m (with --mass).")
+@click.option("--mass", type=float, default=None, help="Custom particle mass, kg (with --radius).")
+@click.option("--temperature", type=float, default=300.0, show_default=True,
+              help="Temperature of the Maxwell-Boltzmann velocities, K.")
+@seed_option
+@db_option()
+@click.option("--no-db", is_flag=True, help="Write no database (summary only).")
+@click.option("--engine", type=click.Choice(["event", "reference", "step"]), default="event", show_default=True,
+              help="event: fast exact event-driven engine; reference: the exam's algorithm "
+                   "(slow, the specification); step: fixed time step (needs --dt).")
+@click.option("--boundary", type=click.Choice(["walls", "periodic"]), default="walls", show_default=True,
+              help="Hard walls (the exam) or a periodic box (pressure from the collision virial).")
+@click.option("--gravity", type=float, default=0.0, show_default=True,
+              help="Uniform gravity g, m/s^2, pulling towards 0 along the last axis.")
+@click.option("--restitution", type=float, default=1.0, show_default=True,
+              help="Coefficient of restitution of particle collisions (1 = elastic).")
+@click.option("--tc", type=float, default=None,
+              help="TC model contact time, s: collisions within tc of a previous one are elastic "
+                   "(guards against inelastic collapse). Default: 1e-4 of the mean free time when "
+                   "--restitution < 1.")
+@click.option("--record", type=click.Choice(["none", "bounces", "all"]), default="bounces", show_default=True,
+              help="What goes to the database: nothing but the summary, wall bounces (REBOND), "
+                   "or also particle collisions (table CHOC).")
+@click.option("--method", "placement", type=click.Choice(["auto", "rejection", "rapid", "lattice", "grow"]),
+              default="auto", show_default=True, help="Placement method (see gaz place --help).")
+@click.option("--dt", type=float, default=None, help="Time step, s (--engine step).")
+@click.option("--drag", type=float, default=0.0, show_default=True, help="Linear friction gamma, 1/s (--engine step).")
+@click.option("--pair-gravity", type=float, default=0.0, show_default=True,
+              help="Newtonian attraction between bodies with this G, m^3/(kg s^2) (--engine step).")
+@click.option("--softening", type=float, default=0.0, show_default=True, help="Plummer softening length, m.")
+@click.option("--wall-restitution", type=float, default=1.0, show_default=True,
+              help="Restitution of the walls (1 = elastic; --engine step).")
+@click.option("--plane", "planes", multiple=True, metavar="X,Y[,Z]:NX,NY[,NZ][:E]",
+              help="Extra plane wall: a point, its inward normal, optional restitution (--engine step). Repeatable.")
+@click.option("--print-every", type=click.IntRange(0), default=0, show_default=True,
+              help="Diagnostics on stderr every this many steps (--engine step).")
+@click.option("--preset", default=None, help="A ready-made scene of the seeds: comet (003), marbles (002).")
+@click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
+              help="Write snapshots to FILE.h5 (HDF5, H5MD layout) or FILE.pvd (VTK for ParaView).")
+@click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
+@click.option("--save-state", type=click.Path(dir_okay=False), default=None,
+              help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, **options):
+    """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
+
+    \b
+    Examples:
+      gaz simulate --dim 3 --n 1000 --length 1e-7 --duration 1e-9 --seed 1
+      gaz simulate --dim 2 --species Ar:500,He:500 --length 2e-7 --duration 1e-9 --json
+      gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
+    """
+    from gaz_cli import runner, scene as scene_mod
+
+    scene, state = scene_mod.from_options(preset=preset, planes=planes, **options)
+    summary = runner.simulate(scene, db=None if no_db else db, save_state=save_state,
+                              state=state, trajectory=trajectory, every=every,
+                              diagnostics=_print_diagnostic)
+    if as_json:
+        click.echo(json.dumps(summary, default=_jsonable))
+    else:
+        click.echo(runner.describe(summary))
+
+
+def _print_diagnostic(values: dict) -> None:
+    click.echo("  ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
+                         for k, v in values.items()), err=True)
+
+
+# --- analyse ------------------------------------------------------------------
+@cli.command()
+@db_option()
+@click.option("--sim", type=int, default=None, help="Only this simulation (SI_NUM).")
+@format_option
+@click.option("--plot", type=click.Path(file_okay=False), default=None, help="Write PNG figures into DIR.")
+def analyse(db, sim, fmt, plot):
+    """Run the packaged SQL queries (Q34, Q35, Q36, pressure) and compare with theory.
+
+    \b
+    Examples:
+      gaz analyse --db gaz.db
+      gaz analyse --db gaz.db --sim 1 --format json
+    """
+    from gaz_cli import analysis
+
+    frames = analysis.report(db, sim=sim, plot_dir=plot)
+    emit_frames(frames, fmt)
+
+
+# --- animate ------------------------------------------------------------------
+@cli.command()
+@click.argument("trajectory", type=click.Path(exists=True, dir_okay=False))
+@click.option("--output", "-o", type=click.Path(dir_okay=False), default=None,
+              help="GIF file to write (default: the trajectory's name with .gif).")
+@click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
+def animate(trajectory, output, fps):
+    """Render a 1D or 2D trajectory (FILE.h5 from --trajectory) to an animated GIF.
+
+    \b
+    Example:
+      gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
+      gaz animate run.h5 -o run.gif
+    """
+    from gaz_cli import animate as anim
+
+    output = output or os.path.splitext(trajectory)[0] + ".gif"
+    anim.render_gif(trajectory, output, fps=fps)
+    click.echo(f"animation written to {output}", err=True)
+
+
+# --- entry point --------------------------------------------------------------
+def main(argv=None) -> None:
+    """Console entry point: one line on stderr and a non-zero exit for every error."""
+    prog = "gaz"
+    try:
+        cli.main(args=argv, prog_name=prog, standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.Abort:
+        click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
+        sys.exit(130)
+    except click.exceptions.NoArgsIsHelpError as exc:
+        click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
+        sys.exit(0)
+    except click.UsageError as exc:
+        cmd = exc.ctx.command_path if exc.ctx is not None else prog
+        click.echo(f"{cmd}: error: {exc.format_message()} (see '{cmd} --help')", err=True)
+        sys.exit(2)
+    except click.ClickException as exc:
+        click.echo(f"{prog}: error: {exc.format_message()}", err=True)
+        sys.exit(exc.exit_code)
+    except GazError as exc:
+        click.echo(f"{prog}: error: {exc}", err=True)
+        sys.exit(1)
+    except KeyboardInterrupt:
+        click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
+        sys.exit(130)
+    except BrokenPipeError:
+        sys.exit(0)
+    except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
+        if os.environ.get("GAZ_DEBUG"):
+            raise
+        click.echo(f"{prog}: internal error: {type(exc).__name__}: {exc} "
+                   "(set GAZ_DEBUG=1 for a traceback; please report it)", err=True)
+        sys.exit(3)
+    sys.exit(0)

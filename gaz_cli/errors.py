@@ -1,0 +1,25 @@
+"""The library's exceptions.
+
+The library raises these; ``cli.py`` turns every one of them into a one-line
+message on stderr and a non-zero exit, in one place.
+"""
+
+
+class GazError(Exception):
+    """Base class of every error the library reports to a user."""
+
+
+class SceneError(GazError, ValueError):
+    """A scene that cannot be simulated: bad size, unknown species, impossible packing."""
+
+
+class PlacementError(GazError, RuntimeError):
+    """Placement gave up after its bounded effort."""
+
+
+class StoreError(GazError, RuntimeError):
+    """The database cannot be opened, is not a gaz database, or lacks a simulation."""
+
+
+class EngineError(GazError, RuntimeError):
+    """An engine reported a state it cannot continue from (queue overflow, invalid state)."""

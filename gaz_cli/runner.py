@@ -1,0 +1,224 @@
+"""One simulation from scene to database: the driver behind ``gaz simulate``.
+
+Order of operations: validate the scene and fix its seed; place the particles
+and draw their velocities (:func:`gaz_cli.scene.initial_state`, independent of
+the engine); open the simulation's transaction in the store; let the engine
+stream its events into it; write the results row and commit; write the final
+state if asked; return the summary.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from gaz_cli.errors import SceneError
+from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.scene import Scene, State, fresh_seed, initial_state, validate
+
+ENGINES = {
+    "event": "gaz_cli.engine",
+    "reference": "gaz_cli.reference",
+    "step": "gaz_cli.stepper",
+}
+"""Engine name -> module exposing ``run(scene, state, recorder) -> RunStats``."""
+
+
+def engine_run(name: str):
+    """The ``run`` function of the engine called ``name``."""
+    if name not in ENGINES:
+        raise SceneError(f"--engine {name!r} is not one of {', '.join(ENGINES)}")
+    return importlib.import_module(ENGINES[name]).run
+
+
+class Tee(Recorder):
+    """Sends every report to several recorders (database, trajectory, diagnostics)."""
+
+    def __init__(self, *recorders: Recorder):
+        self.recorders = [r for r in recorders if r is not None]
+        self.want_bounces = any(r.want_bounces for r in self.recorders)
+        self.want_collisions = any(r.want_collisions for r in self.recorders)
+        everies = [r.snapshot_every for r in self.recorders if r.snapshot_every]
+        self.snapshot_every = min(everies) if everies else None
+
+    def add_bounces(self, *arrays):
+        for r in self.recorders:
+            if r.want_bounces:
+                r.add_bounces(*arrays)
+
+    def add_collisions(self, *arrays):
+        for r in self.recorders:
+            if r.want_collisions:
+                r.add_collisions(*arrays)
+
+    def add_snapshot(self, t, positions, velocities):
+        for r in self.recorders:
+            if r.snapshot_every:
+                r.add_snapshot(t, positions, velocities)
+
+    def diagnostic(self, values):
+        for r in self.recorders:
+            r.diagnostic(values)
+
+
+def prepare(scene: Scene) -> Scene:
+    """Validate ``scene`` and give it a seed if it has none (recorded, so the run can be repeated)."""
+    scene = validate(scene)
+    if scene.seed is None:
+        scene = replace(scene, seed=fresh_seed())
+    return scene
+
+
+class WallMomentum(Recorder):
+    """Tallies the momentum 2 m |v_perp| given to each wall, for the summary's pressure."""
+
+    want_bounces = True
+
+    def __init__(self, scene: Scene):
+        self.masses = scene.masses()
+        self.dim = scene.dim
+        self.momentum = np.zeros(2 * scene.dim)  # index: wall code + dim, skipping 0
+
+    def add_bounces(self, t, particle, wall, speed, vperp):
+        wall = np.asarray(wall)
+        index = np.where(wall > 0, wall + self.dim - 1, wall + self.dim)
+        np.add.at(self.momentum, index, 2.0 * self.masses[np.asarray(particle)] * np.asarray(vperp))
+
+
+class Diagnostics(Recorder):
+    """Forwards an engine's periodic diagnostics to a callable."""
+
+    def __init__(self, callback):
+        self.callback = callback
+
+    def diagnostic(self, values):
+        self.callback(values)
+
+
+def _check_writable(path: str | None, option: str) -> None:
+    if path:
+        parent = Path(path).expanduser().resolve().parent
+        if not parent.is_dir():
+            raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
+
+
+def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
+             state: State | None = None, trajectory: str | None = None,
+             every: float | None = None, diagnostics=None) -> dict:
+    """Run one simulation; return its summary (a dict, JSON-ready).
+
+    ``db``: path or SQLAlchemy URL of the results store, or None for no
+    database. ``state``: an explicit initial state (presets), else one is
+    drawn from the scene and its seed. ``trajectory``/``every``: snapshot
+    file and interval (simulated s). ``diagnostics``: callable receiving the
+    engine's periodic diagnostics (a dict).
+    """
+    scene = prepare(scene)
+    run = engine_run(scene.engine)
+    _check_writable(save_state, "--save-state")
+    _check_writable(trajectory, "--trajectory")
+    if trajectory and not (every and every > 0):
+        raise SceneError("--trajectory needs --every DT, the simulated time between snapshots")
+    if state is None:
+        state = initial_state(scene)
+    masses = scene.masses()
+    ke_start = state.kinetic_energy(masses)
+    si_num = None
+    tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
+    with contextlib.ExitStack() as stack:
+        writer = None
+        if db is not None:
+            from gaz_cli.store import Store
+            writer = stack.enter_context(Store(db).simulation(scene))
+            si_num = writer.si_num
+        traj = None
+        if trajectory:
+            from gaz_cli.trajectory import open_trajectory
+            traj = stack.enter_context(open_trajectory(trajectory, every, scene))
+        diag = Diagnostics(diagnostics) if diagnostics else None
+        recorder = Tee(writer, tally, traj, diag)
+        stats: RunStats = run(scene, state, recorder)
+        ke_end = stats.final.kinetic_energy(masses)
+        if writer is not None:
+            writer.finish(stats, ke_start, ke_end)
+    if save_state:
+        write_state(save_state, scene, stats.final)
+    wall_momentum = None if tally is None else tally.momentum
+    return summary(scene, stats, si_num, ke_start, ke_end, wall_momentum)
+
+
+def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: float,
+            wall_momentum: np.ndarray | None = None) -> dict:
+    """The --json summary of a run.
+
+    ``pressure`` is the mean over the walls of the measured wall pressure
+    (momentum / (T L^(D-1))), or the virial pressure in a periodic box; None
+    when nothing was recorded to measure it.
+    """
+    from gaz_cli import analysis
+
+    out = {
+        "si_num": si_num,
+        "engine": scene.engine,
+        "dim": scene.dim,
+        "n": scene.n,
+        "length": scene.length,
+        "duration": scene.duration,
+        "seed": scene.seed,
+        "boundary": scene.boundary,
+        "packing_fraction": scene.packing_fraction,
+        "events": int(stats.events),
+        "wall_bounces": int(stats.wall_bounces),
+        "collisions": int(stats.collisions),
+        "kinetic_energy_start": ke_start,
+        "kinetic_energy_end": ke_end,
+        "pressure": analysis.run_pressure(scene, stats, ke_start, ke_end, wall_momentum),
+        "wall_time_s": stats.wall_time_s,
+        "events_per_second": stats.events / stats.wall_time_s if stats.wall_time_s > 0 else None,
+    }
+    for key, value in stats.extras.items():
+        if isinstance(value, (int, float, str, bool)) or value is None:
+            out.setdefault(key, value)
+        elif isinstance(value, dict):
+            out.setdefault(key, {k: v for k, v in value.items() if isinstance(v, (int, float, str))})
+    return out
+
+
+def write_state(path: str, scene: Scene, state: State) -> None:
+    """Final state as CSV: species,x[,y[,z]],vx[,vy[,vz]] (species by name, SI units)."""
+    axes = "xyz"[: scene.dim]
+    header = ["species", *axes, *(f"v{a}" for a in axes)]
+    names = np.array([s.name for s in scene.species])[state.kinds]
+    try:
+        with open(Path(path), "w", encoding="utf-8") as fh:
+            fh.write(",".join(header) + "\n")
+            for name, x, v in zip(names, state.positions, state.velocities):
+                fh.write(",".join([str(name), *(repr(float(c)) for c in x),
+                                   *(repr(float(c)) for c in v)]) + "\n")
+    except OSError as err:
+        raise SceneError(f"cannot write --save-state {path!r}: {err.strerror}") from None
+
+
+def describe(summary: dict) -> str:
+    """A human-readable summary of a run (the non-JSON output of ``gaz simulate``)."""
+    lines = []
+    where = f"simulation {summary['si_num']}" if summary["si_num"] is not None else "simulation (not stored)"
+    lines.append(f"{where}: {summary['n']} particles in {summary['dim']}D, L = {summary['length']:g} m, "
+                 f"T = {summary['duration']:g} s, engine {summary['engine']}, seed {summary['seed']}")
+    lines.append(f"  packing fraction {summary['packing_fraction']:.4g}, boundary {summary['boundary']}")
+    lines.append(f"  events {summary['events']}  wall bounces {summary['wall_bounces']}  "
+                 f"collisions {summary['collisions']}")
+    ks, ke = summary["kinetic_energy_start"], summary["kinetic_energy_end"]
+    drift = (ke - ks) / ks if ks else 0.0
+    lines.append(f"  kinetic energy {ks:.6g} J -> {ke:.6g} J (relative change {drift:.2e})")
+    if summary["pressure"] is not None:
+        lines.append(f"  pressure {summary['pressure']:.6g} Pa (mean over the walls"
+                     f"{'' if summary['boundary'] == 'walls' else ', virial'})")
+    eps = summary["events_per_second"]
+    lines.append(f"  run time {summary['wall_time_s']:.3g} s"
+                 + (f", {eps:,.0f} events/s" if eps else ""))
+    return "\n".join(lines)

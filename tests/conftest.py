@@ -1,0 +1,50 @@
+"""Shared fixtures: scene factories used by tests (and benchmarks)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gaz_cli.constants import K_B
+from gaz_cli.scene import Scene
+from gaz_cli.species import Species, lookup
+
+UNIT = Species("unit", 1.0, 0.5)
+"""A particle of mass 1 kg and diameter 1 m: with temperature 1/K_B, k_B T = m = sigma = 1."""
+
+
+def radius_for(dim: int, n: int, packing_fraction: float, length: float = 1.0) -> float:
+    """Radius giving ``packing_fraction`` for n particles in [0, length]^dim."""
+    unit = {1: 2.0, 2: math.pi, 3: 4.0 * math.pi / 3.0}[dim]
+    return (packing_fraction * length ** dim / (n * unit)) ** (1.0 / dim)
+
+
+@pytest.fixture
+def make_scene():
+    """make_scene(dim, n, packing, seed, **overrides) -> Scene in reduced units (m = kT = 1)."""
+
+    def factory(dim=2, n=50, packing=0.1, seed=1, length=1.0, duration=1.0, **kw):
+        r = radius_for(dim, n, packing, length) if packing > 0 else 0.0
+        species = Species("X", 1.0, r)
+        return Scene(dim=dim, length=length, duration=duration, components=((species, n),),
+                     temperature=1.0 / K_B, seed=seed, **kw)
+
+    return factory
+
+
+@pytest.fixture
+def argon_scene():
+    """argon_scene(dim, n, length, duration, **kw): argon at 300 K."""
+
+    def factory(dim=3, n=100, length=3.4e-8, duration=1e-10, seed=1, **kw):
+        return Scene(dim=dim, length=length, duration=duration,
+                     components=((lookup("Ar"), n),), seed=seed, **kw)
+
+    return factory
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(12345)
