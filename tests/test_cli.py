@@ -1,0 +1,153 @@
+"""The command line driven end to end through click's CliRunner."""
+
+import json
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from gaz_cli import cli as cli_mod
+from gaz_cli.cli import cli
+
+ARGON_3D = ["--dim", "3", "--n", "60", "--length", "2e-8", "--duration", "2e-10", "--seed", "7"]
+
+
+class Result:
+    def __init__(self, exit_code, stdout, stderr):
+        self.exit_code, self.stdout, self.stderr = exit_code, stdout, stderr
+        self.output = stdout + stderr
+
+
+def invoke(args):
+    """Run ``gaz ARGS`` through the real entry point ``main`` (one-line errors, exit codes),
+    inside CliRunner's isolation so that stdout and stderr are captured apart."""
+    runner = CliRunner()
+    with runner.isolation() as streams:
+        try:
+            cli_mod.main(list(args))
+            code = 0
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
+        out, err = streams[0].getvalue(), streams[1].getvalue()
+    return Result(code, out.decode(), err.decode())
+
+
+@pytest.fixture
+def db(tmp_path):
+    return str(tmp_path / "gaz.db")
+
+
+@pytest.mark.parametrize("engine", ["reference", "event"])
+def test_simulate_then_analyse(db, engine):
+    res = invoke(["simulate", *ARGON_3D, "--db", db, "--json", "--engine", engine])
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.stdout)
+    for key in ("si_num", "engine", "events", "wall_bounces", "collisions", "kinetic_energy_start",
+                "kinetic_energy_end", "pressure", "wall_time_s", "events_per_second"):
+        assert key in summary
+    assert summary["engine"] == engine
+    assert summary["kinetic_energy_end"] == pytest.approx(summary["kinetic_energy_start"], rel=1e-9)
+    rows = sqlite3.connect(db).execute("SELECT COUNT(*) FROM REBOND WHERE SI_NUM = ?",
+                                       (summary["si_num"],)).fetchone()[0]
+    assert rows == summary["wall_bounces"] > 0
+    res = invoke(["analyse", "--db", db, "--format", "json"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    assert set(out) >= {"Q34 simulations per dimension", "pressure against the ideal gas"}
+
+
+def test_same_seed_same_rows(tmp_path):
+    frames = []
+    for k in range(2):
+        db = str(tmp_path / f"{k}.db")
+        res = invoke(["simulate", "--dim", "2", "--n", "30", "--length", "1e-7", "--duration", "1e-10",
+                      "--seed", "3", "--db", db])
+        assert res.exit_code == 0, res.output
+        frames.append(pd.read_sql("SELECT * FROM REBOND", sqlite3.connect(db)))
+    assert len(frames[0]) > 0
+    pd.testing.assert_frame_equal(frames[0], frames[1])
+
+
+def test_save_state(tmp_path, db):
+    path = tmp_path / "state.csv"
+    res = invoke(["simulate", "--dim", "2", "--species", "Ar:10,He:5", "--length", "1e-7",
+                  "--duration", "1e-11", "--seed", "1", "--db", db, "--save-state", str(path)])
+    assert res.exit_code == 0, res.output
+    state = pd.read_csv(path)
+    assert list(state.columns) == ["species", "x", "y", "vx", "vy"]
+    assert sorted(state.species.value_counts().items()) == [("Ar", 10), ("He", 5)]
+    assert state[["x", "y"]].to_numpy().min() > 0 and state[["x", "y"]].to_numpy().max() < 1e-7
+
+
+def test_place_csv_and_histogram(tmp_path):
+    res = invoke(["place", "--dim", "2", "--n", "20", "--radius", "0.1", "--length", "5", "--seed", "4"])
+    assert res.exit_code == 0, res.output
+    lines = res.stdout.strip().splitlines()
+    assert lines[0] == "x,y" and len(lines) == 21
+    xy = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    d = np.linalg.norm(xy[:, None] - xy[None], axis=-1) + np.eye(20) * 10
+    assert d.min() >= 0.2 and xy.min() >= 0.1 and xy.max() <= 4.9
+    png = tmp_path / "q12.png"
+    res = invoke(["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10", "--repeat", "500",
+                  "--bins", "10", "--seed", "1", "--histogram", str(png)])
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(__import__("io").StringIO(res.stdout))
+    assert list(table.columns) == ["bin_start", "bin_end", "count"]
+    assert table["count"].sum() == 1000 and table["count"].iloc[0] == 0  # no centre closer than R to 0
+    assert png.stat().st_size > 1000
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["place", "--dim", "1", "--n", "6", "--radius", "0.5", "--length", "5"], "cannot fit"),
+    (["place", "--dim", "2", "--n", "-3", "--radius", "0.5", "--length", "5"], "--n"),
+    (["place", "--dim", "4", "--n", "3", "--radius", "0.5", "--length", "5"], "--dim"),
+    (["place", "--dim", "2", "--n", "3", "--radius", "0", "--length", "5"], "--radius"),
+    (["simulate", "--dim", "5", "--n", "3", "--length", "1e-7", "--duration", "1"], "--dim"),
+    (["simulate", "--dim", "2", "--n", "0", "--length", "1e-7", "--duration", "1"], "--n"),
+    (["simulate", "--dim", "2", "--n", "3", "--length", "-1", "--duration", "1"], "--length"),
+    (["simulate", "--dim", "2", "--n", "3", "--length", "1e-7", "--duration", "0"], "--duration"),
+    (["simulate", "--dim", "2", "--n", "3", "--length", "1e-7", "--duration", "1", "--species", "Zz"],
+     "unknown species"),
+    (["simulate", "--dim", "3", "--n", "100000", "--length", "1e-9", "--duration", "1"], "packing fraction"),
+    (["simulate", "--dim", "2", "--n", "3", "--length", "1e-7", "--duration", "1", "--bogus"], "--bogus"),
+    (["analyse", "--db", "/nonexistent/x.db"], "does not exist"),
+])
+def test_bad_input_one_line(args, needle):
+    res = invoke(args)
+    assert res.exit_code != 0
+    err = res.stderr.strip()
+    assert len(err.splitlines()) == 1, err
+    assert needle in err
+    assert "Traceback" not in res.output
+
+
+def test_analyse_errors(tmp_path, db):
+    junk = tmp_path / "junk.db"
+    junk.write_text("not a database at all")
+    res = invoke(["analyse", "--db", str(junk)])
+    assert res.exit_code != 0 and len(res.stderr.strip().splitlines()) == 1
+    res = invoke(["simulate", "--dim", "1", "--n", "3", "--length", "1e-8", "--duration", "1e-11",
+                  "--seed", "1", "--db", db])
+    assert res.exit_code == 0, res.output
+    res = invoke(["analyse", "--db", db, "--sim", "42"])
+    assert res.exit_code != 0 and "simulation 42 is not in" in res.stderr
+
+
+@pytest.mark.parametrize("fmt", ["table", "csv", "json"])
+def test_analyse_formats(db, fmt):
+    assert invoke(["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-10",
+                   "--seed", "2", "--db", db]).exit_code == 0
+    res = invoke(["analyse", "--db", db, "--sim", "1", "--format", fmt])
+    assert res.exit_code == 0, res.output
+    if fmt == "json":
+        json.loads(res.stdout)
+    assert "PRESSION" in res.stdout or "PRESSION" in json.dumps(json.loads(res.stdout) if fmt == "json" else {})
+
+
+def test_help_teaches():
+    for cmd in ([], ["place"], ["simulate"], ["analyse"]):
+        res = invoke([*cmd, "--help"])
+        assert res.exit_code == 0
+        assert "Example" in res.stdout or "A first session" in res.stdout
