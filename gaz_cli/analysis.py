@@ -106,17 +106,6 @@ def _exact_centre_density(dim, n, radius, length):
 
 
 # --- pressure (gaz simulate's summary) ---------------------------------------------
-def run_pressure(scene, stats, ke_start: float, ke_end: float, wall_momentum=None):
-    """The summary's pressure: mean wall pressure, or the virial pressure in a periodic box."""
-    if scene.boundary == "periodic":
-        temperature = theory.kinetic_temperature(scene.dim, 0.5 * (ke_start + ke_end), scene.n, periodic=True)
-        return float(theory.virial_pressure(scene.dim, scene.n, temperature, scene.volume,
-                                            stats.virial, scene.duration))
-    if wall_momentum is None:
-        return None
-    return float(np.mean(wall_momentum) / (scene.duration * scene.length ** (scene.dim - 1)))
-
-
 # --- block statistics ---------------------------------------------------------------
 def block_sums(t, values, duration: float, blocks: int = BLOCKS) -> np.ndarray:
     """Sum of ``values`` over each of ``blocks`` equal time windows of [0, duration] ((blocks,) array).

@@ -159,8 +159,6 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
     (momentum / (T L^(D-1))), or the virial pressure in a periodic box; None
     when nothing was recorded to measure it.
     """
-    from gaz_cli import analysis
-
     out = {
         "si_num": si_num,
         "engine": scene.engine,
@@ -176,7 +174,7 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
         "collisions": int(stats.collisions),
         "kinetic_energy_start": ke_start,
         "kinetic_energy_end": ke_end,
-        "pressure": analysis.run_pressure(scene, stats, ke_start, ke_end, wall_momentum),
+        "pressure": run_pressure(scene, stats, ke_start, ke_end, wall_momentum),
         "wall_time_s": stats.wall_time_s,
         "events_per_second": stats.events / stats.wall_time_s if stats.wall_time_s > 0 else None,
     }
@@ -203,6 +201,20 @@ def write_state(path: str, scene: Scene, state: State) -> None:
         raise SceneError(f"cannot write --save-state {path!r}: {err.strerror}") from None
 
 
+def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,
+                 wall_momentum: np.ndarray | None = None) -> float | None:
+    """The summary's pressure, Pa: mean wall pressure, or the virial pressure in a periodic box."""
+    from gaz_cli import theory
+
+    if scene.boundary == "periodic":
+        temperature = theory.kinetic_temperature(scene.dim, 0.5 * (ke_start + ke_end), scene.n, periodic=True)
+        return float(theory.virial_pressure(scene.dim, scene.n, temperature, scene.volume,
+                                            stats.virial, scene.duration))
+    if wall_momentum is None:
+        return None
+    return float(np.mean(wall_momentum) / (scene.duration * scene.length ** (scene.dim - 1)))
+
+
 def describe(summary: dict) -> str:
     """A human-readable summary of a run (the non-JSON output of ``gaz simulate``)."""
     lines = []
@@ -216,8 +228,8 @@ def describe(summary: dict) -> str:
     drift = (ke - ks) / ks if ks else 0.0
     lines.append(f"  kinetic energy {ks:.6g} J -> {ke:.6g} J (relative change {drift:.2e})")
     if summary["pressure"] is not None:
-        lines.append(f"  pressure {summary['pressure']:.6g} Pa (mean over the walls"
-                     f"{'' if summary['boundary'] == 'walls' else ', virial'})")
+        how = "mean over the walls" if summary["boundary"] == "walls" else "collision virial"
+        lines.append(f"  pressure {summary['pressure']:.6g} Pa ({how})")
     eps = summary["events_per_second"]
     lines.append(f"  run time {summary['wall_time_s']:.3g} s"
                  + (f", {eps:,.0f} events/s" if eps else ""))
