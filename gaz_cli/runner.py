@@ -74,12 +74,15 @@ def prepare(scene: Scene) -> Scene:
 
 
 class WallMomentum(Recorder):
-    """Tallies the momentum 2 m |v_perp| given to each wall, for the summary's pressure."""
+    """Tallies the momentum (1 + e_w) m |v_perp| given to each wall, for the summary's pressure.
+
+    e_w is the wall's restitution (1 for the exam's elastic walls: 2 m |v_perp|).
+    """
 
     want_bounces = True
 
     def __init__(self, scene: Scene):
-        self.masses = scene.masses()
+        self.masses = (1.0 + scene.wall_restitution) / 2.0 * scene.masses()
         self.dim = scene.dim
         self.momentum = np.zeros(2 * scene.dim)  # index: wall code + dim, skipping 0
 
@@ -233,4 +236,7 @@ def describe(summary: dict) -> str:
     eps = summary["events_per_second"]
     lines.append(f"  run time {summary['wall_time_s']:.3g} s"
                  + (f", {eps:,.0f} events/s" if eps else ""))
+    phases = summary.get("phase_times")
+    if isinstance(phases, dict) and phases:
+        lines.append("  time per phase: " + "  ".join(f"{k} {v:.3g} s" for k, v in phases.items()))
     return "\n".join(lines)

@@ -1,0 +1,793 @@
+"""Numba kernels of the time-stepped engine (seeds 002 and 003).
+
+Private, plain kernels on contiguous arrays: they never raise, they return
+counts and (possibly reallocated) buffers. The driver :func:`_advance` runs a
+block of steps; each step is, in order:
+
+1. half kick  ``v <- v e^{-gamma h} + a (1 - e^{-gamma h}) / gamma`` over
+   h = dt/2, the exact solution for a constant acceleration a (gravity plus
+   pair attraction at the current positions) and linear friction; ``v += a h``
+   without friction; skipped entirely when the scene has no force;
+2. drift ``x += v dt`` (straight lines, so going back along them is exact);
+3. contact passes. Each pass lists the contacts of the *active* particles
+   (all of them in the first pass): crossings of a box wall or an extra
+   plane, and pairs in contact found with a cell list (never O(N^2)). They
+   are sorted by contact time, earliest first, and applied in that order, a
+   particle taking part in at most one contact per pass: a pair is taken back
+   to its contact time along its straight segment, its velocities are changed
+   along the line of centres (any masses, restitution e, TC model), and it is
+   moved forward to the end of the step; a wall contact does the same with
+   the wall (restitution, exact under uniform gravity, see
+   :func:`_wall_contact`). The particles that moved are the next pass's
+   active set; passes repeat until a pass finds nothing or the pass limit
+   is hit (then every particle still beyond a wall is put back);
+4. pair accelerations at the new positions (when pair gravity is on);
+5. half kick.
+
+Contact rule (physics.md section 9): with dr = r_j - r_i, dv = v_j - v_i at the
+end of the step, a = |dv|^2, b = dr.dv, c = |dr|^2 - sigma^2, going back by tau
+gives |dr - dv tau|^2 = a tau^2 - 2 b tau + c. ``overlap`` detection (seed
+002): a pair collides when c < 0 and b < 0, at tau = -c / (sqrt(b^2 - a c) - b)
+(the cancellation-free root). ``swept`` detection also catches the pairs that
+touched during the step and no longer approach at its end (grazing contacts):
+tau = (b + sqrt(b^2 - a c)) / a when b >= 0. In both, tau is limited by the
+particles' *age*, the time since their trajectory last bent in this step, so
+going back never leaves the real straight segment.
+
+Times of the phases are read with clock_gettime(CLOCK_MONOTONIC) from inside
+the kernel (about 30 ns a call).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import prange, types
+
+from gaz_cli.numba_config import njit, pnjit
+
+"""Parallel kernels (prange over particles)."""
+
+PARALLEL_PAIR_MIN = 1024
+"""Pair-force sums use the parallel kernel from this many bodies on: a sum then takes milliseconds,
+so starting the threads costs little; with one thread the parallel kernel runs as fast as the serial
+one, with two idle cores twice as fast (on a machine whose cores are busy, threads only add waiting)."""
+
+# status codes of _advance
+DONE = 0
+"""All requested steps were run."""
+FLUSH = 1
+"""Stopped early: the event buffers are full enough to be handed to the recorder."""
+
+# counters (int64 array) of _advance
+C_BOUNCES, C_COLLISIONS, C_PASSES, C_PASS_LIMIT, C_PLANE, C_MAX_PASSES, C_PAIR_EVALS, C_STEPS = range(8)
+N_COUNTERS = 8
+# phase clocks (float64 array, seconds)
+T_PUSH, T_COLLISIONS, T_WALLS = range(3)
+N_TIMERS = 3
+
+_clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.voidptr))
+
+
+@njit
+def _now(clock_id, buf):
+    """Monotonic clock, s; ``buf`` (2,) int64 scratch; clock_id < 0 disables timing (returns 0)."""
+    if clock_id < 0:
+        return 0.0
+    _clock_gettime(clock_id, buf.ctypes.data)
+    return buf[0] + 1e-9 * buf[1]
+
+
+# --- buffers -------------------------------------------------------------------
+@njit
+def _grow_f(a):
+    """Double the rows of a 2D float64 buffer, keeping its content."""
+    out = np.empty((2 * a.shape[0] + 16, a.shape[1]), dtype=np.float64)
+    out[: a.shape[0]] = a
+    return out
+
+
+@njit
+def _grow_i(a):
+    """Double the rows of a 2D int64 buffer, keeping its content."""
+    out = np.empty((2 * a.shape[0] + 16, a.shape[1]), dtype=np.int64)
+    out[: a.shape[0]] = a
+    return out
+
+
+# --- forces --------------------------------------------------------------------
+@njit
+def _pair_acc_serial(pos, mass, G, eps2, acc):
+    """Plummer-softened Newtonian accelerations, O(N^2/2), into acc (N, D) m/s^2."""
+    n, dim = pos.shape
+    acc[:] = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            r2 = eps2
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                r2 += dx * dx
+            if r2 <= 0.0:
+                continue
+            inv = G / (r2 * math.sqrt(r2))
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                acc[i, d] += mass[j] * inv * dx
+                acc[j, d] -= mass[i] * inv * dx
+
+
+@pnjit
+def _pair_acc_parallel(pos, mass, G, eps2, acc, nthreads):
+    """As :func:`_pair_acc_serial`, the N^2/2 pairs shared among ``nthreads`` threads.
+
+    Thread t takes the rows i = t, t + nthreads, ... (balanced over the
+    triangle j > i) and accumulates into its own (N, D) buffer; the buffers
+    are summed at the end (no races, no atomics).
+    """
+    n, dim = pos.shape
+    buf = np.zeros((nthreads, n, dim))
+    for t in prange(nthreads):
+        for i in range(t, n, nthreads):
+            for j in range(i + 1, n):
+                r2 = eps2
+                for d in range(dim):
+                    dx = pos[j, d] - pos[i, d]
+                    r2 += dx * dx
+                if r2 <= 0.0:
+                    continue
+                inv = G / (r2 * math.sqrt(r2))
+                for d in range(dim):
+                    dx = pos[j, d] - pos[i, d]
+                    buf[t, i, d] += mass[j] * inv * dx
+                    buf[t, j, d] -= mass[i] * inv * dx
+    for i in prange(n):
+        for d in range(dim):
+            s = 0.0
+            for t in range(nthreads):
+                s += buf[t, i, d]
+            acc[i, d] = s
+
+
+@njit
+def _pair_acc(pos, mass, G, eps2, acc, nthreads):
+    """Pair accelerations, serial for few bodies (or one thread), parallel over nthreads for many."""
+    if pos.shape[0] >= PARALLEL_PAIR_MIN and nthreads > 1:
+        _pair_acc_parallel(pos, mass, G, eps2, acc, nthreads)
+    else:
+        _pair_acc_serial(pos, mass, G, eps2, acc)
+
+
+@njit
+def _pair_potential(pos, mass, G, eps2):
+    """Total pair potential energy -sum_{i<j} G m_i m_j / sqrt(r^2 + eps^2), J."""
+    n, dim = pos.shape
+    u = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            r2 = eps2
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                r2 += dx * dx
+            if r2 > 0.0:
+                u -= G * mass[i] * mass[j] / math.sqrt(r2)
+    return u
+
+
+@njit
+def _kick(vel, acc, has_pair, g, gamma, h):
+    """Half kick over h s: exact for constant acceleration (acc + gravity) with linear friction.
+
+    Separate loops per force set: gravity alone touches only the last column.
+    """
+    n, dim = vel.shape
+    if gamma > 0.0:
+        f = math.exp(-gamma * h)
+        c = -math.expm1(-gamma * h) / gamma
+        for i in range(n):
+            for d in range(dim):
+                vel[i, d] *= f
+    else:
+        c = h
+    if g > 0.0:
+        dv = g * c
+        for i in range(n):
+            vel[i, dim - 1] -= dv
+    if has_pair:
+        for i in range(n):
+            for d in range(dim):
+                vel[i, d] += acc[i, d] * c
+
+
+@njit
+def _drift(pos, vel, dt, age):
+    """Straight flight over dt s; every particle's age (time since its path bent) becomes dt."""
+    n, dim = pos.shape
+    for i in range(n):
+        for d in range(dim):
+            pos[i, d] += vel[i, d] * dt
+        age[i] = dt
+
+
+# --- walls ---------------------------------------------------------------------
+@njit
+def _wall_contact(d_e, w_h, alpha, h, age, e):
+    """Contact of one particle with one wall, along the wall's inward normal.
+
+    d_e (m): signed distance of the centre from its contact position at the
+    end of the step (< 0: beyond the wall); w_h (m/s): normal drift velocity;
+    alpha (m/s^2): normal acceleration of gravity (0 for walls parallel to
+    it); h = dt/2; age (s); e: restitution. Under uniform gravity the path
+    is a parabola whose end point and end velocity w_h + alpha h are exact
+    in kick-drift-kick, so going back along it finds the exact contact.
+
+    Returns (tau, w_c, d_new, w_h_new): the time back to the contact (s;
+    -1: none within the age, an invalid state), the normal velocity just
+    before it (< 0), and the new end distance and normal drift velocity.
+    """
+    w_e = w_h + alpha * h
+    tau = -1.0
+    if alpha == 0.0:
+        if w_e < 0.0:
+            tau = d_e / w_e
+    else:
+        disc = w_e * w_e - 2.0 * alpha * d_e
+        if disc >= 0.0:
+            # 0.5 alpha tau^2 - w_e tau + d_e = 0, cancellation-free roots
+            sq = math.sqrt(disc)
+            q = 0.5 * (w_e + sq) if w_e >= 0.0 else 0.5 * (w_e - sq)
+            r1 = q / (0.5 * alpha)
+            r2 = d_e / q if q != 0.0 else -1.0
+            for r in (r1, r2):
+                if r >= 0.0 and w_e - alpha * r < 0.0 and (tau < 0.0 or r < tau):
+                    tau = r
+    if tau < 0.0 or tau > age:
+        return -1.0, w_e, 0.0, w_h
+    w_c = w_e - alpha * tau
+    w_out = -e * w_c
+    d_new = w_out * tau + 0.5 * alpha * tau * tau
+    return tau, w_c, d_new, w_out + alpha * tau - alpha * h
+
+
+@njit
+def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, want, bf, bi, nb):
+    """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
+
+    Taken back to its contact (:func:`_wall_contact`), its normal velocity
+    reversed and scaled by ``ew``, moved forward to the end of the step. An
+    invalid state (no contact within its age) is put on the wall, its
+    velocity reversed if still moving out. The bounce is recorded in bf (t,
+    |v|, |v_perp| at contact) and bi (particle, RE_DIR) at row nb when
+    ``want``. Returns (bf, bi, nb, bounces: 0 or 1).
+    """
+    dim = pos.shape[1]
+    r = radius[i]
+    sign = -1.0 if upper else 1.0  # inward normal along axis d
+    alpha = -g * sign if d == dim - 1 else 0.0
+    d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
+    w_h = sign * vel[i, d]
+    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], ew)
+    if tau < 0.0:
+        d_new = 0.0
+        if w_c < 0.0:
+            tau = 0.0
+            w_new = -ew * w_c - alpha * h
+        else:
+            w_new = w_h
+    bounced = 0
+    if tau >= 0.0:
+        if want:
+            if nb >= bf.shape[0]:
+                bf = _grow_f(bf)
+                bi = _grow_i(bi)
+            s2 = w_c * w_c
+            for k in range(dim):
+                if k != d:
+                    s2 += vel[i, k] * vel[i, k]
+            bf[nb, 0] = t_end - tau
+            bf[nb, 1] = math.sqrt(s2)
+            bf[nb, 2] = -w_c
+            bi[nb, 0] = i
+            bi[nb, 1] = (d + 1) if upper else -(d + 1)
+            nb += 1
+        bounced = 1
+        if tau < age[i]:
+            age[i] = tau
+    if d_new < 0.0:
+        d_new = 0.0
+    pos[i, d] = (length - r - d_new) if upper else (r + d_new)
+    vel[i, d] = sign * w_new
+    return bf, bi, nb, bounced
+
+
+@njit
+def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
+    """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
+
+    Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
+    it bounced, 0 if it was only put back on the plane (invalid state).
+    """
+    dim = pos.shape[1]
+    dist = 0.0
+    w_h = 0.0
+    for d in range(dim):
+        nd = planes[p, dim + d]
+        dist += (pos[i, d] - planes[p, d]) * nd
+        w_h += vel[i, d] * nd
+    d_e = dist - radius[i]
+    e = planes[p, 2 * dim]
+    alpha = -g * planes[p, 2 * dim - 1]
+    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], e)
+    bounced = 0
+    if tau < 0.0:
+        d_new = 0.0
+        if w_c < 0.0:
+            tau = 0.0
+            w_new = -e * w_c - alpha * h
+        else:
+            w_new = w_h
+    if tau >= 0.0:
+        bounced = 1
+        if tau < age[i]:
+            age[i] = tau
+    if d_new < 0.0:
+        d_new = 0.0
+    for d in range(dim):
+        nd = planes[p, dim + d]
+        pos[i, d] += (d_new - d_e) * nd
+        vel[i, d] += (w_new - w_h) * nd
+    return bounced
+
+
+@njit
+def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_i, cand_j, cand_tau):
+    """Write the wall and plane crossings of the active particles from row k; returns the new count.
+
+    Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
+    tau = time back to the contact, 0 for an invalid state (handled last).
+    Rows beyond the arrays' size are counted, not written: the caller grows
+    the arrays and scans again.
+    """
+    n, dim = pos.shape
+    nplanes = planes.shape[0]
+    for i in range(n):
+        if not active[i]:
+            continue
+        r = radius[i]
+        for d in range(dim):
+            x = pos[i, d]
+            if r <= x <= length - r:
+                continue
+            upper = x > length - r
+            sign = -1.0 if upper else 1.0
+            alpha = -g * sign if d == dim - 1 else 0.0
+            d_e = (length - r - x) if upper else (x - r)
+            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, age[i], ew)[0]
+            if k < cand_i.shape[0]:
+                cand_i[k] = i
+                cand_j[k] = -1 - (2 * d + (1 if upper else 0))
+                cand_tau[k] = tau if tau > 0.0 else 0.0
+            k += 1
+        for p in range(nplanes):
+            dist = 0.0
+            w_h = 0.0
+            for d in range(dim):
+                nd = planes[p, dim + d]
+                dist += (pos[i, d] - planes[p, d]) * nd
+                w_h += vel[i, d] * nd
+            if dist >= r:
+                continue
+            alpha = -g * planes[p, 2 * dim - 1]
+            tau = _wall_contact(dist - r, w_h, alpha, h, age[i], planes[p, 2 * dim])[0]
+            if k < cand_i.shape[0]:
+                cand_i[k] = i
+                cand_j[k] = -1 - (2 * dim + p)
+                cand_tau[k] = tau if tau > 0.0 else 0.0
+            k += 1
+    return k
+
+
+@njit
+def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
+    """Candidate arrays of at least ``need`` rows keeping the first ``keep``."""
+    size = max(need, 2 * cand_i.shape[0])
+    ni = np.empty(size, np.int64)
+    nj = np.empty(size, np.int64)
+    nt = np.empty(size, np.float64)
+    ni[:keep] = cand_i[:keep]
+    nj[:keep] = cand_j[:keep]
+    nt[:keep] = cand_tau[:keep]
+    return ni, nj, nt
+
+
+@njit
+def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want, bf, bi, nb, counters):
+    """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
+    n, dim = pos.shape
+    for i in range(n):
+        for d in range(dim):
+            if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
+                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, radius, age,
+                                            length, ew, g, h, t_end, want, bf, bi, nb)
+                counters[C_BOUNCES] += b
+        for p in range(planes.shape[0]):
+            dist = 0.0
+            for d in range(dim):
+                dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
+            if dist < radius[i]:
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, radius, age, planes, g, h)
+    return bf, bi, nb
+
+
+# --- cell list -----------------------------------------------------------------
+@njit
+def _cells_per_axis(length, reach, n, dim):
+    """Cells per axis: side at least ``reach`` m, at most about 32N cells in all.
+
+    The cap bounds the O(cells) binning cost for dilute gases; 32 cells per
+    particle keep piles (settled granular matter, 15 times denser than the
+    average) cheap to search.
+    """
+    nc = int(length / reach) if reach > 0.0 else 1 << 30
+    cap = int((32.0 * n + 64.0) ** (1.0 / dim) + 1e-9)
+    if nc > cap:
+        nc = cap
+    if nc < 1:
+        nc = 1
+    return nc
+
+
+@njit
+def _cell_coord(x, length, nc):
+    c = int(x / length * nc)
+    if c < 0:
+        return 0
+    if c >= nc:
+        return nc - 1
+    return c
+
+
+@njit
+def _bin(pos, length, nc, cell_of, start, order):
+    """Counting sort of particles into nc^D cells: particles of cell k are order[start[k]:start[k+1]]."""
+    n, dim = pos.shape
+    ncells = nc ** dim
+    for k in range(ncells + 1):
+        start[k] = 0
+    for i in range(n):
+        k = 0
+        for d in range(dim - 1, -1, -1):
+            k = k * nc + _cell_coord(pos[i, d], length, nc)
+        cell_of[i] = k
+        start[k + 1] += 1
+    for k in range(ncells):
+        start[k + 1] += start[k]
+    fill = start[:ncells].copy()
+    for i in range(n):
+        k = cell_of[i]
+        order[fill[k]] = i
+        fill[k] += 1
+
+
+@njit
+def _contact_tau(pos, vel, i, j, sigma, age_max, swept):
+    """How far back (s, >= 0) pair (i, j) touched within age_max, or -1 for no contact.
+
+    See the module docstring for the rule; always the cancellation-free root.
+    """
+    dim = pos.shape[1]
+    a = 0.0
+    b = 0.0
+    c = -sigma * sigma
+    for d in range(dim):
+        dr = pos[j, d] - pos[i, d]
+        dv = vel[j, d] - vel[i, d]
+        a += dv * dv
+        b += dr * dv
+        c += dr * dr
+    if b < 0.0:
+        if c >= 0.0:
+            return -1.0  # approaching but apart: a future contact
+        tau = -c / (math.sqrt(b * b - a * c) - b)
+        return tau if tau < age_max else age_max
+    if not swept or a <= 0.0:
+        return -1.0
+    disc = b * b - a * c
+    if disc < 0.0:
+        return -1.0
+    tau = (b + math.sqrt(disc)) / a
+    return tau if tau <= age_max else -1.0
+
+
+@njit
+def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, dt, length, nc,
+            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau):
+    """Write the pairs in contact with at least one active particle from row k; returns the new count.
+
+    Each pair is reported once; rows beyond the arrays' size are counted,
+    not written (the caller grows the arrays and calls again). Search
+    radius around an active particle i (m), over the cells it covers:
+
+    * overlap detection: sigma_max (a pair of two active particles is
+      examined from the lower index);
+    * swept detection: a pair can have touched during the step only if
+      |dr| <= sigma + (|v_i| + |v_j|) dt. When every particle is active
+      (first pass) each pair is examined from its faster member, within
+      sigma_max + 2 |v_i| dt; otherwise within sigma_max + (|v_i| + vmax) dt,
+      a pair of two active particles still from the faster. So only the fast
+      particles search far. ``speed`` (N,) |v| m/s, ``vmax`` its maximum.
+    """
+    n, dim = pos.shape
+    side = length / nc
+    for i in range(n):
+        if not active[i]:
+            continue
+        if swept:
+            if all_active:
+                rho = sigma_max + 2.0 * speed[i] * dt
+            else:
+                rho = sigma_max + (speed[i] + vmax) * dt
+        else:
+            rho = sigma_max
+        m = int(math.ceil(rho * 1.000001 / side))
+        if m < 1:
+            m = 1
+        c0 = _cell_coord(pos[i, 0], length, nc)
+        c1 = _cell_coord(pos[i, 1], length, nc) if dim > 1 else 0
+        c2 = _cell_coord(pos[i, 2], length, nc) if dim > 2 else 0
+        m1 = m if dim > 1 else 0
+        m2 = m if dim > 2 else 0
+        lo0 = c0 - m if c0 - m > 0 else 0
+        hi0 = c0 + m if c0 + m < nc else nc - 1
+        for k2 in range(max(c2 - m2, 0), min(c2 + m2, nc - 1) + 1):
+            for k1 in range(max(c1 - m1, 0), min(c1 + m1, nc - 1) + 1):
+                # the cells along axis 0 are consecutive: one range of ``order``
+                row = (k2 * nc + k1) * nc
+                for q in range(start[row + lo0], start[row + hi0 + 1]):
+                    j = order[q]
+                    if j == i:
+                        continue
+                    if active[j]:
+                        if swept:
+                            if speed[j] > speed[i] or (speed[j] == speed[i] and j < i):
+                                continue
+                        elif j < i:
+                            continue
+                    amax = age[i] if age[i] < age[j] else age[j]
+                    tau = _contact_tau(pos, vel, i, j, radius[i] + radius[j], amax, swept)
+                    if tau < 0.0:
+                        continue
+                    if k < cand_i.shape[0]:
+                        cand_i[k] = i
+                        cand_j[k] = j
+                        cand_tau[k] = tau
+                    k += 1
+    return k
+
+
+@njit
+def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
+    """Take pair (i, j) back by tau s, change its velocities along the line of centres, move it forward.
+
+    Restitution e, or 1 under the TC model when either partner collided less
+    than tc s before. Returns the impulse |J| (kg m/s), 0 if the pair does
+    not approach at contact (nothing done).
+    """
+    dim = pos.shape[1]
+    nrm = np.empty(dim)
+    dist2 = 0.0
+    for d in range(dim):
+        nrm[d] = (pos[j, d] - vel[j, d] * tau) - (pos[i, d] - vel[i, d] * tau)
+        dist2 += nrm[d] * nrm[d]
+    if dist2 <= 0.0:
+        return 0.0
+    inv = 1.0 / math.sqrt(dist2)
+    vn = 0.0
+    for d in range(dim):
+        nrm[d] *= inv
+        vn += (vel[j, d] - vel[i, d]) * nrm[d]
+    if vn >= 0.0:
+        return 0.0
+    t_c = t_end - tau
+    ee = e
+    if tc > 0.0 and (t_c - tlast[i] < tc or t_c - tlast[j] < tc):
+        ee = 1.0
+    mi = mass[i]
+    mj = mass[j]
+    jn = (1.0 + ee) * mi * mj / (mi + mj) * vn  # < 0
+    for d in range(dim):
+        dvi = jn / mi * nrm[d]
+        dvj = -jn / mj * nrm[d]
+        vel[i, d] += dvi
+        vel[j, d] += dvj
+        pos[i, d] += dvi * tau  # r_c + v' tau = r - v tau + v' tau
+        pos[j, d] += dvj * tau
+    age[i] = tau
+    age[j] = tau
+    tlast[i] = t_c
+    tlast[j] = t_c
+    return -jn
+
+
+# --- one block of steps ------------------------------------------------------------
+@njit
+def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
+             length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
+             want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
+             counters, clocks, virial, clock_id, nthreads):
+    """Run up to ``nsteps`` steps of dt s from time t0 s (see the module docstring).
+
+    pos, vel, acc (N, D) float64 are updated in place (acc holds the pair
+    accelerations at the current positions); age, tlast (N,) scratch and TC
+    times. Bounces go to bf (k, 3: t, |v|, |v_perp|) / bi (k, 2: particle,
+    RE_DIR) from row nb, collisions to cf (k, 2: t, |J|) / ci (k, 2: i, j)
+    from row ncoll; buffers grow as needed. counters (int64), clocks
+    (float64, s) and virial (1,) accumulate. clock_id: the clock_gettime
+    clock (-1: no phase timing); nthreads: threads for the pair forces. Stops early (status FLUSH) once
+    either buffer holds ``flush_at`` rows.
+
+    Returns (status, steps_done, bf, bi, nb, cf, ci, ncoll).
+    """
+    n, dim = pos.shape
+    has_pair = G > 0.0
+    has_kick = has_pair or g > 0.0 or gamma > 0.0
+    h = 0.5 * dt
+    tbuf = np.zeros(2, np.int64)
+    rmax = 0.0
+    for i in range(n):
+        if radius[i] > rmax:
+            rmax = radius[i]
+    nc_max = _cells_per_axis(length, 2.0 * rmax, n, dim)
+    start = np.empty(nc_max ** dim + 1, np.int64)
+    cell_of = np.empty(n, np.int64)
+    order = np.empty(n, np.int64)
+    active = np.zeros(n, np.uint8)
+    done = np.zeros(n, np.uint8)
+    speed = np.zeros(n)
+    cand_i = np.empty(64, np.int64)
+    cand_j = np.empty(64, np.int64)
+    cand_tau = np.empty(64, np.float64)
+    steps = 0
+    status = DONE
+    for s in range(nsteps):
+        if nb >= flush_at or ncoll >= flush_at:
+            status = FLUSH
+            break
+        t_end = t0 + (s + 1) * dt
+        # --- push: half kick, drift
+        c0 = _now(clock_id, tbuf)
+        if has_kick:
+            _kick(vel, acc, has_pair, g, gamma, h)
+        _drift(pos, vel, dt, age)
+        c1 = _now(clock_id, tbuf)
+        clocks[T_PUSH] += c1 - c0
+        # --- contact passes: walls, planes and pairs, earliest first
+        for i in range(n):
+            active[i] = 1
+        passes = 0
+        wall_time = 0.0
+        while True:
+            passes += 1
+            w0 = _now(clock_id, tbuf)
+            k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0, cand_i, cand_j, cand_tau)
+            if k > cand_i.shape[0]:
+                cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
+                k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0,
+                               cand_i, cand_j, cand_tau)
+            wall_time += _now(clock_id, tbuf) - w0
+            vmax = 0.0
+            vsum2 = 0.0
+            if swept:
+                for i in range(n):
+                    v2 = 0.0
+                    for d in range(dim):
+                        v2 += vel[i, d] * vel[i, d]
+                    speed[i] = math.sqrt(v2)
+                    vsum2 += v2
+                    if speed[i] > vmax:
+                        vmax = speed[i]
+            # cells as wide as the reach of a particle at twice the rms speed (nearly all of them);
+            # the few faster ones search further
+            nc = _cells_per_axis(length, 2.0 * rmax + 4.0 * math.sqrt(vsum2 / n) * dt, n, dim)
+            if nc > nc_max:
+                nc = nc_max
+            _bin(pos, length, nc, cell_of, start, order)
+            kw = k
+            k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length, nc,
+                        cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau)
+            if k > cand_i.shape[0]:
+                cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, kw, k)
+                k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length,
+                            nc, cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau)
+            for i in range(n):
+                done[i] = 0
+            applied = 0
+            if k > 0:
+                idx = np.argsort(-cand_tau[:k], kind="mergesort")
+                for m in range(k):
+                    i = cand_i[idx[m]]
+                    j = cand_j[idx[m]]
+                    if done[i] or (j >= 0 and done[j]):
+                        continue
+                    tau = cand_tau[idx[m]]
+                    if j < 0:
+                        w0 = _now(clock_id, tbuf)
+                        w = -1 - j
+                        if w < 2 * dim:
+                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, radius, age, length,
+                                                        ew, g, h, t_end, want_b, bf, bi, nb)
+                            counters[C_BOUNCES] += b
+                        else:
+                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, radius, age,
+                                                               planes, g, h)
+                        done[i] = 1
+                        applied += 1
+                        wall_time += _now(clock_id, tbuf) - w0
+                        continue
+                    impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc)
+                    if impulse <= 0.0:
+                        continue
+                    done[i] = 1
+                    done[j] = 1
+                    applied += 1
+                    counters[C_COLLISIONS] += 1
+                    virial[0] += impulse * (radius[i] + radius[j])
+                    if want_c:
+                        if ncoll >= cf.shape[0]:
+                            cf = _grow_f(cf)
+                            ci = _grow_i(ci)
+                        cf[ncoll, 0] = t_end - tau
+                        cf[ncoll, 1] = impulse
+                        ci[ncoll, 0] = i
+                        ci[ncoll, 1] = j
+                        ncoll += 1
+            if applied == 0:
+                break
+            for i in range(n):
+                active[i] = done[i]
+            if passes >= max_passes:
+                counters[C_PASS_LIMIT] += 1
+                w0 = _now(clock_id, tbuf)
+                bf, bi, nb = _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want_b,
+                                          bf, bi, nb, counters)
+                wall_time += _now(clock_id, tbuf) - w0
+                break
+        counters[C_PASSES] += passes
+        if passes > counters[C_MAX_PASSES]:
+            counters[C_MAX_PASSES] = passes
+        c3 = _now(clock_id, tbuf)
+        clocks[T_COLLISIONS] += c3 - c1 - wall_time
+        clocks[T_WALLS] += wall_time
+        # --- forces at the new positions, second half kick
+        if has_pair:
+            _pair_acc(pos, mass, G, eps2, acc, nthreads)
+            counters[C_PAIR_EVALS] += 1
+        if has_kick:
+            _kick(vel, acc, has_pair, g, gamma, h)
+        clocks[T_PUSH] += _now(clock_id, tbuf) - c3
+        steps += 1
+    counters[C_STEPS] += steps
+    return status, steps, bf, bi, nb, cf, ci, ncoll
+
+
+@njit
+def _overlaps_approaching(pos, vel, radius, length):
+    """Number of pairs overlapping and approaching (cell list), for tests and checks."""
+    n, dim = pos.shape
+    rmax = 0.0
+    for i in range(n):
+        if radius[i] > rmax:
+            rmax = radius[i]
+    nc = _cells_per_axis(length, 2.0 * rmax, n, dim)
+    start = np.empty(nc ** dim + 1, np.int64)
+    cell_of = np.empty(n, np.int64)
+    order = np.empty(n, np.int64)
+    _bin(pos, length, nc, cell_of, start, order)
+    active = np.ones(n, np.uint8)
+    age = np.full(n, np.inf)
+    ci = np.empty(16, np.int64)
+    cj = np.empty(16, np.int64)
+    ct = np.empty(16, np.float64)
+    return _detect(pos, vel, radius, age, active, True, np.zeros(n), 0.0, 2.0 * rmax, 0.0, length, nc, cell_of, start,
+                   order, False, 0, ci, cj, ct)
