@@ -23,6 +23,8 @@ from gaz_cli.scene import Scene, State
 from gaz_cli.species import Species
 from gaz_cli.store import Store
 
+from cli_helpers import invoke
+
 MASS, RADIUS, TEMPERATURE = 6.6e-26, 1.8e-10, 300.0        # an argon-like particle, kg, m, K
 
 
@@ -241,28 +243,13 @@ def test_tc_elastic_matches_a_loop():
 # --------------------------------------------------------------------- formats and errors
 
 
-def _invoke(args):
-    from click.testing import CliRunner
-
-    from gaz_cli import cli
-
-    runner = CliRunner()
-    with runner.isolation() as streams:
-        try:
-            cli.main(list(args))
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-        return code, streams[0].getvalue().decode(), streams[1].getvalue().decode()
-
-
 def test_formats_carry_the_same_numbers(synthetic_db):
-    code, out_json, _ = _invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--format", "json"])
+    code, out_json, _ = invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--format", "json"])
     assert code == 0
     data = json.loads(out_json)
-    code, out_csv, _ = _invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--format", "csv"])
+    code, out_csv, _ = invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--format", "csv"])
     assert code == 0
-    code, out_table, _ = _invoke(["analyse", "--db", synthetic_db, "--sim", "1"])
+    code, out_table, _ = invoke(["analyse", "--db", synthetic_db, "--sim", "1"])
     assert code == 0
     frames = analysis.report(synthetic_db, sim=1)
     assert set(data) == set(frames)
@@ -283,7 +270,7 @@ def test_formats_carry_the_same_numbers(synthetic_db):
 
 
 def test_unknown_simulation_is_one_line(synthetic_db):
-    code, out, err = _invoke(["analyse", "--db", synthetic_db, "--sim", "9"])
+    code, out, err = invoke(["analyse", "--db", synthetic_db, "--sim", "9"])
     assert code != 0 and out == ""
     assert err.strip().count("\n") == 0 and "simulation 9 is not in" in err and "1-2" in err
 
@@ -317,7 +304,7 @@ def test_plots_are_written(synthetic_db, tmp_path):
 def test_plot_dir_that_cannot_be_made_is_one_line(synthetic_db, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    code, _, err = _invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--plot", str(blocker / "sub")])
+    code, _, err = invoke(["analyse", "--db", synthetic_db, "--sim", "1", "--plot", str(blocker / "sub")])
     assert code != 0 and err.strip().count("\n") == 0 and "--plot" in err
 
 

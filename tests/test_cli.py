@@ -6,32 +6,9 @@ import sqlite3
 import numpy as np
 import pandas as pd
 import pytest
-from click.testing import CliRunner
-
-from gaz_cli import cli as cli_mod
-from gaz_cli.cli import cli
+from cli_helpers import invoke
 
 ARGON_3D = ["--dim", "3", "--n", "60", "--length", "2e-8", "--duration", "2e-10", "--seed", "7"]
-
-
-class Result:
-    def __init__(self, exit_code, stdout, stderr):
-        self.exit_code, self.stdout, self.stderr = exit_code, stdout, stderr
-        self.output = stdout + stderr
-
-
-def invoke(args):
-    """Run ``gaz ARGS`` through the real entry point ``main`` (one-line errors, exit codes),
-    inside CliRunner's isolation so that stdout and stderr are captured apart."""
-    runner = CliRunner()
-    with runner.isolation() as streams:
-        try:
-            cli_mod.main(list(args))
-            code = 0
-        except SystemExit as exc:
-            code = exc.code if isinstance(exc.code, int) else 1
-        out, err = streams[0].getvalue(), streams[1].getvalue()
-    return Result(code, out.decode(), err.decode())
 
 
 @pytest.fixture
