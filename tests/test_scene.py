@@ -69,3 +69,28 @@ def test_periodic_initial_state_has_zero_momentum(argon_scene):
     st = initial_state(scene)
     p = (scene.masses()[:, None] * st.velocities).sum(axis=0)
     assert np.abs(p).max() < 1e-12 * np.abs(scene.masses()[:, None] * st.velocities).sum()
+
+
+@pytest.mark.parametrize("dim, packing, boundary", [
+    (2, 0.5, "periodic"), (2, 0.5, "walls"), (3, 0.4, "periodic"), (2, 0.65, "periodic"), (3, 0.2, "walls"),
+])
+def test_initial_states_never_overlap(make_scene, dim, packing, boundary):
+    """Every seed gives a valid start (growth that leaves an overlap falls back to a lattice)."""
+    from gaz_cli.placement import first_overlap
+
+    for seed in range(12):
+        scene = make_scene(dim=dim, n=400, packing=packing, seed=seed, boundary=boundary)
+        state = initial_state(scene)
+        assert first_overlap(state.positions, scene.radii(), scene.length, boundary == "periodic") == -1, seed
+        r = scene.radii()[:, None]
+        lo, hi = (0.0, scene.length) if boundary == "periodic" else (r, scene.length - r)
+        assert (state.positions >= lo).all() and (state.positions <= hi).all()
+
+
+def test_overlap_checker_finds_a_planted_overlap(rng):
+    from gaz_cli.placement import first_overlap, place
+
+    x = place(3, np.full(1000, 0.02), 1.0, rng)
+    assert first_overlap(x, np.full(1000, 0.02), 1.0) == -1
+    x[7] = x[500] + np.array([0.039, 0.0, 0.0])
+    assert first_overlap(x, np.full(1000, 0.02), 1.0) in (7, 500)

@@ -1,0 +1,1221 @@
+"""Numba kernels of the event-driven engine: plain arrays in, status codes out.
+
+Algorithm (one scheduled event per particle, after Smallenburg, Eur. Phys.
+J. E 45, 22, 2022, with cell lists; calendar queue after G. Paul,
+J. Comput. Phys. 221, 615, 2007):
+
+* Every particle k stores its state at its own time stamp (lazy update) and
+  two predictions: its earliest pair collision (time, partner, the partner's
+  event counter at prediction time) and its next wall bounce or cell
+  crossing. Its queue key is the earlier of the two, an absolute time.
+* A collision whose partner has changed course since (counter mismatch) is
+  stale: the particle is rescanned when it comes up, never searched for in
+  the queue. A pair that will collide next is always scheduled by at least
+  one of the two, the one that looked at the other last.
+* Cell lists (cells at least one diameter wide, 3^D neighbourhood) in 2D/3D:
+  a cell crossing only scans the 3^(D-1) cells that just came into view. In
+  1D the order never changes: the neighbours are the previous and next rods.
+* The queue is a calendar: buckets of width ``w`` hold unsorted doubly
+  linked lists, the current bucket is a binary heap, far events wait in an
+  overflow list redistributed once per turn of the calendar. O(1) per event
+  on average, independent of N.
+* Numerical safety (Bannerman et al., Comput. Part. Mech. 1, 191, 2014): the
+  pair time is max(0, c / (-b + sqrt(b^2 - a c))) and only for b < 0, so an
+  overlapping pair that approaches collides at once and one that separates
+  is left alone; a particle past a wall and moving out bounces at once; a
+  wall bounce puts the centre exactly on the wall plane, a crossing exactly
+  on the cell face.
+
+Layout: each particle's data sits in one row (``P`` float64 (N, 8): x0 x1 x2
+v0 v1 v2 t_stamp radius; ``I`` int32 (N, 12): counter, partner, partner's
+counter, crossing code, cell, slot in its cell, cell coordinates c0 c1 c2,
+rank in 1D). Helpers are ``inline='always'`` so the hot loop holds no calls
+passing arrays (Numba's reference counting cost most of the time otherwise).
+The kernels are specialised per scene kind by :func:`build`: the flags are
+compile-time constants, so a scene without gravity runs no gravity
+arithmetic and a scene of points (all radii 0) does no pair search.
+
+Units are whatever the caller uses (SI in gaz); times are absolute.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numba
+import numpy as np
+from numba.core import types
+from numba.core.extending import intrinsic
+
+from gaz_cli.numba_config import njit
+
+_inline = numba.njit(inline="always", error_model="numpy")
+"""Helpers inlined into the kernels at Numba-IR level: the scene flags they
+take become constants there (loops over D unrolled, unused branches gone)."""
+
+_helper = numba.njit(error_model="numpy")
+"""Helpers without flags, compiled once and left to LLVM to inline: Numba-IR
+inlining is slow to compile, and with borrowed arrays a call costs nothing
+much."""
+
+INF = math.inf
+
+# --- row layouts ------------------------------------------------------------
+# P (N, 8) float64
+PV = 3  # velocity columns 3..5 (positions 0..2)
+PT = 6  # time stamp of the row
+PR = 7  # radius
+P_WIDTH = 8
+# I (N, 12) int32
+CNT, PART, PCNT, CODE, CELL, SLOT, C0, RANK, PART2, PCNT2 = 0, 1, 2, 3, 4, 5, 6, 9, 10, 11
+I_WIDTH = 12
+# EV (N, 4) float64: predictions (first and second collision, crossing, queue key)
+TCOL, TX, KEY, TCOL2 = 0, 1, 2, 3
+EV_WIDTH = 4
+# Q (N, 4) int32: queue links. QB: bucket slot (>= 0), or HEAP / OVER / NONE
+QB, QN, QP, HP = 0, 1, 2, 3
+HEAP, OVER, NONE = -1, -2, -3
+
+# IS int64 state vector
+(S_CUR, S_HSIZE, S_OHEAD, S_NBK, S_EVENTS, S_COLL, S_BOUNCE, S_CROSS, S_STALE,
+ S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND) = range(19)
+IS_SIZE = 19
+# FS float64 state vector
+F_W, F_IW, F_VIRIAL, F_L, F_G, F_E, F_TC, F_H, F_TNOW = range(9)
+FS_SIZE = 9
+
+NLCODE = 1 << 10
+"""Crossing code of a neighbour-list rebuild (leaving the sphere of radius h)."""
+
+# kernel status codes
+DONE, BUFFER_FULL, CELL_FULL, PAUSE, NL_FULL = 0, 1, 2, 3, 4
+
+
+# --- small helpers ----------------------------------------------------------
+@intrinsic
+def _borrow(typingctx, arr):
+    """The same array without its reference count (a borrowed view).
+
+    Numba increments and decrements an array's reference count, atomically,
+    wherever an array variable is copied, which includes every inlined helper
+    taking the array; in the event loop that cost more than the physics. A
+    kernel borrows its arguments once at entry: the caller holds the real
+    references for the whole call, so the views stay valid, and NRT_incref
+    on a null meminfo is a no-op that LLVM removes.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, value=args[0])
+        dst = context.make_array(sig.return_type)(context, builder)
+        for name in ("parent", "nitems", "itemsize", "data", "shape", "strides"):
+            setattr(dst, name, getattr(src, name))
+        dst.meminfo = context.get_constant_null(types.MemInfoPointer(types.voidptr))
+        return dst._getvalue()
+
+    return arr(arr), codegen
+
+
+@_inline
+def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
+    """Time until |dx + dv t| = sig: max(0, c / (-b + sqrt(b^2 - a c))) if b < 0 and b^2 > a c, else inf.
+
+    The stable root of physics.md section 9: an overlapping pair that
+    approaches collides at once (0), one that separates never (inf).
+    Written without branches: in a scan the sign of b is a coin toss that
+    a branch predictor loses half the time.
+    """
+    b = dx0 * dv0
+    c = dx0 * dx0
+    a = dv0 * dv0
+    if D > 1:
+        b += dx1 * dv1
+        c += dx1 * dx1
+        a += dv1 * dv1
+    if D > 2:
+        b += dx2 * dv2
+        c += dx2 * dx2
+        a += dv2 * dv2
+    c -= sig * sig
+    disc = b * b - a * c
+    t = c / (math.sqrt(max(disc, 0.0)) - b)
+    t = max(t, 0.0)
+    return t if (b < 0.0 and disc > 0.0) else INF
+
+
+@_inline
+def _scan_cells(P, cells, ccount, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
+                nc, L, g, best, bj, best2, bj2, D, PER, GRAV):
+    """Two earliest collisions of k (its row at time t) with the particles of a block of cells.
+
+    The block is c + (lo..hi) on each axis (wrapped with an image shift when
+    periodic, clipped with walls). Returns the improved (best time, partner,
+    second time, second partner); the second saves a rescan when the first
+    turns out stale.
+    """
+    xk0 = P[k, 0]
+    vk0 = P[k, PV]
+    xk1 = P[k, 1] if D > 1 else 0.0
+    vk1 = P[k, PV + 1] if D > 1 else 0.0
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    rk = P[k, PR]
+    if D < 3:
+        lo2 = 0
+        hi2 = 0
+    for o0 in range(lo0, hi0 + 1):
+        n0 = c0 + o0
+        s0 = 0.0
+        if n0 < 0:
+            if PER:
+                n0 += nc
+                s0 = -L
+            else:
+                continue
+        elif n0 >= nc:
+            if PER:
+                n0 -= nc
+                s0 = L
+            else:
+                continue
+        for o1 in range(lo1, hi1 + 1):
+            n1 = c1 + o1
+            s1 = 0.0
+            if n1 < 0:
+                if PER:
+                    n1 += nc
+                    s1 = -L
+                else:
+                    continue
+            elif n1 >= nc:
+                if PER:
+                    n1 -= nc
+                    s1 = L
+                else:
+                    continue
+            for o2 in range(lo2, hi2 + 1):
+                n2 = c2 + o2
+                s2 = 0.0
+                if D > 2:
+                    if n2 < 0:
+                        if PER:
+                            n2 += nc
+                            s2 = -L
+                        else:
+                            continue
+                    elif n2 >= nc:
+                        if PER:
+                            n2 -= nc
+                            s2 = L
+                        else:
+                            continue
+                    cell = (n0 * nc + n1) * nc + n2
+                else:
+                    cell = n0 * nc + n1
+                for s in range(ccount[cell]):
+                    m = cells[cell, s]
+                    dtm = t - P[m, PT]
+                    dx0 = P[m, 0] + P[m, PV] * dtm + s0 - xk0
+                    dv0 = P[m, PV] - vk0
+                    dx1 = 0.0
+                    dv1 = 0.0
+                    dx2 = 0.0
+                    dv2 = 0.0
+                    if D > 1:
+                        dx1 = P[m, 1] + P[m, PV + 1] * dtm + s1 - xk1
+                        dv1 = P[m, PV + 1] - vk1
+                    if D > 2:
+                        dx2 = P[m, 2] + P[m, PV + 2] * dtm + s2 - xk2
+                        dv2 = P[m, PV + 2] - vk2
+                    if GRAV:
+                        if D == 3:
+                            dx2 -= 0.5 * g * dtm * dtm
+                            dv2 -= g * dtm
+                        else:
+                            dx1 -= 0.5 * g * dtm * dtm
+                            dv1 -= g * dtm
+                    tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+                    if tp < best2 and m != k:
+                        if tp < best:
+                            best2 = best
+                            bj2 = bj
+                            best = tp
+                            bj = m
+                        else:
+                            best2 = tp
+                            bj2 = m
+    return best, bj, best2, bj2
+
+
+@_inline
+def _scan_1d(P, order, k, rank, n, t, L, g, PER, GRAV):
+    """Earliest collision of rod k (its row at time t) with its two neighbours in line order."""
+    best = INF
+    bj = -1
+    xk = P[k, 0]
+    vk = P[k, PV]
+    for side in range(-1, 2, 2):
+        r2 = rank + side
+        sh = 0.0
+        if r2 < 0:
+            if PER:
+                r2 += n
+                sh = -L
+            else:
+                continue
+        elif r2 >= n:
+            if PER:
+                r2 -= n
+                sh = L
+            else:
+                continue
+        m = order[r2]
+        if m == k:
+            continue
+        dtm = t - P[m, PT]
+        dx = P[m, 0] + P[m, PV] * dtm + sh - xk
+        dv = P[m, PV] - vk
+        if GRAV:
+            dx -= 0.5 * g * dtm * dtm
+            dv -= g * dtm
+        tp = t + _pair_dt(dx, 0.0, 0.0, dv, 0.0, 0.0, P[k, PR] + P[m, PR], 1)
+        if tp < best:
+            best = tp
+            bj = m
+    return best, bj
+
+
+@_inline
+def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL):
+    """(absolute time, code) of particle k's next wall bounce or cell crossing.
+
+    code = 4 d + 2 [towards +] + [a wall]; (inf, -1) if there is none.
+    Along the gravity axis the times come from the stable quadratic forms
+    of physics.md section 10. With neighbour lists (NL) there are no cell
+    crossings: only the walls.
+    """
+    best = INF
+    code = -1
+    if PER and (D == 1 or not PAIRS or NL):
+        return best, code
+    r = P[k, PR]
+    for d in range(D):
+        x = P[k, d]
+        v = P[k, PV + d]
+        has_lo = True
+        has_hi = True
+        if D == 1:
+            if PAIRS:
+                rk = I[k, RANK]
+                has_lo = rk == 0
+                has_hi = rk == n - 1
+            lo = r
+            hi = L - r
+            lo_wall = True
+            hi_wall = True
+        elif NL:
+            lo = r
+            hi = L - r
+            lo_wall = True
+            hi_wall = True
+        else:
+            c = I[k, C0 + d]
+            if PER:
+                lo = edges[c]
+                hi = edges[c + 1]
+                lo_wall = False
+                hi_wall = False
+            else:
+                lo_wall = c == 0
+                hi_wall = c == nc - 1
+                lo = r if lo_wall else edges[c]
+                hi = L - r if hi_wall else edges[c + 1]
+        dt = INF
+        up = False
+        wall = False
+        if GRAV and d == D - 1:
+            if v > 0.0 and has_hi:
+                du = v * v - 2.0 * g * (hi - x)
+                if du >= 0.0:
+                    dt = 2.0 * (hi - x) / (v + math.sqrt(du))
+                    up = True
+                    wall = hi_wall
+            if not up and has_lo:
+                dd = v * v + 2.0 * g * (x - lo)
+                if dd < 0.0:
+                    dd = 0.0
+                if v >= 0.0:
+                    dt = (v + math.sqrt(dd)) / g
+                else:
+                    dt = 2.0 * (x - lo) / (math.sqrt(dd) - v)
+                wall = lo_wall
+        else:
+            if v > 0.0 and has_hi:
+                dt = (hi - x) / v
+                up = True
+                wall = hi_wall
+            elif v < 0.0 and has_lo:
+                dt = (lo - x) / v
+                wall = lo_wall
+        if dt < 0.0:
+            dt = 0.0
+        if dt < best:
+            best = dt
+            code = 4 * d + (2 if up else 0) + (1 if wall else 0)
+    return P[k, PT] + best, code
+
+
+@_inline
+def _nl_exit(P, XN, k, h, g, D, GRAV):
+    """Absolute time at which particle k (row at its stamp) leaves the sphere of radius h around XN[k].
+
+    Exact root of |d + v t| = h without gravity; with gravity a safe lower
+    bound from |d| + |v| t + g t^2 / 2 = h (an early rebuild costs time, never
+    correctness).
+    """
+    d0 = P[k, 0] - XN[k, 0]
+    d1 = P[k, 1] - XN[k, 1]
+    d2 = P[k, 2] - XN[k, 2] if D > 2 else 0.0
+    v0 = P[k, PV]
+    v1 = P[k, PV + 1]
+    v2 = P[k, PV + 2] if D > 2 else 0.0
+    a = v0 * v0 + v1 * v1 + v2 * v2
+    dd = d0 * d0 + d1 * d1 + d2 * d2
+    if GRAV:
+        room = h - math.sqrt(dd)
+        if room <= 0.0:
+            return P[k, PT]
+        sp = math.sqrt(a)
+        return P[k, PT] + 2.0 * room / (sp + math.sqrt(a + 2.0 * g * room))
+    if a == 0.0:
+        return INF
+    b = d0 * v0 + d1 * v1 + d2 * v2
+    c = dd - h * h
+    disc = b * b - a * c
+    if disc < 0.0:
+        disc = 0.0
+    if b <= 0.0:
+        t = (-b + math.sqrt(disc)) / a
+    else:
+        t = -c / (b + math.sqrt(disc))
+    if t < 0.0:
+        t = 0.0
+    return P[k, PT] + t
+
+
+@_inline
+def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV):
+    """Earliest collision of k (its row at time t) with the particles of its neighbour list."""
+    xk0 = P[k, 0]
+    vk0 = P[k, PV]
+    xk1 = P[k, 1]
+    vk1 = P[k, PV + 1]
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    rk = P[k, PR]
+    for s in range(NN[k]):
+        m = NB[k, s]
+        dtm = t - P[m, PT]
+        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
+        dv0 = P[m, PV] - vk0
+        dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
+        dv1 = P[m, PV + 1] - vk1
+        dx2 = 0.0
+        dv2 = 0.0
+        if D > 2:
+            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
+            dv2 = P[m, PV + 2] - vk2
+        if GRAV:
+            if D == 3:
+                dx2 -= 0.5 * g * dtm * dtm
+                dv2 -= g * dtm
+            else:
+                dx1 -= 0.5 * g * dtm * dtm
+                dv1 -= g * dtm
+        if PER:
+            if dx0 > hl:
+                dx0 -= L
+            elif dx0 < -hl:
+                dx0 += L
+            if dx1 > hl:
+                dx1 -= L
+            elif dx1 < -hl:
+                dx1 += L
+            if D > 2:
+                if dx2 > hl:
+                    dx2 -= L
+                elif dx2 < -hl:
+                    dx2 += L
+        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+        if tp < best:
+            best = tp
+            bj = m
+    return best, bj
+
+
+@_inline
+def _gather_nl(P, XN, cells, ccount, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER):
+    """Neighbours of a list centred at (x0, x1, x2) in cell (c0, c1, c2) into SCR.
+
+    Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
+    their number, or -1 if SCR or one of their lists would overflow. Needs
+    at least 3 cells per axis when periodic (one image per particle).
+    """
+    capnb = SCR.shape[0]
+    hl = 0.5 * L
+    rk = P[k, PR]
+    cnt = 0
+    lo2 = -1 if D > 2 else 0
+    hi2 = 1 if D > 2 else 0
+    for o0 in range(-1, 2):
+        n0 = c0 + o0
+        if n0 < 0 or n0 >= nc:
+            if PER:
+                n0 = n0 + nc if n0 < 0 else n0 - nc
+            else:
+                continue
+        for o1 in range(-1, 2):
+            n1 = c1 + o1
+            if n1 < 0 or n1 >= nc:
+                if PER:
+                    n1 = n1 + nc if n1 < 0 else n1 - nc
+                else:
+                    continue
+            for o2 in range(lo2, hi2 + 1):
+                if D > 2:
+                    n2 = c2 + o2
+                    if n2 < 0 or n2 >= nc:
+                        if PER:
+                            n2 = n2 + nc if n2 < 0 else n2 - nc
+                        else:
+                            continue
+                    cell = (n0 * nc + n1) * nc + n2
+                else:
+                    cell = n0 * nc + n1
+                for s in range(ccount[cell]):
+                    m = cells[cell, s]
+                    if m == k:
+                        continue
+                    d0 = x0 - XN[m, 0]
+                    d1 = x1 - XN[m, 1]
+                    d2 = x2 - XN[m, 2] if D > 2 else 0.0
+                    if PER:
+                        if d0 > hl:
+                            d0 -= L
+                        elif d0 < -hl:
+                            d0 += L
+                        if d1 > hl:
+                            d1 -= L
+                        elif d1 < -hl:
+                            d1 += L
+                        if d2 > hl:
+                            d2 -= L
+                        elif d2 < -hl:
+                            d2 += L
+                    lim = rk + P[m, PR] + 2.0 * h
+                    if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
+                        if cnt >= capnb or NN[m] >= capnb:
+                            return -1
+                        SCR[cnt] = m
+                        cnt += 1
+    return cnt
+
+
+# --- calendar queue -----------------------------------------------------------
+@_helper
+def _heap_push(HK, HI, Q, hsize, key, k):
+    i = hsize
+    while i > 0:
+        p = (i - 1) >> 1
+        if HK[p] <= key:
+            break
+        HK[i] = HK[p]
+        HI[i] = HI[p]
+        Q[HI[i], HP] = i
+        i = p
+    HK[i] = key
+    HI[i] = k
+    Q[k, HP] = i
+    Q[k, QB] = HEAP
+    return hsize + 1
+
+
+@_helper
+def _heap_remove(HK, HI, Q, hsize, i):
+    """Remove the heap entry at position i; returns the new size."""
+    hsize -= 1
+    if i < hsize:
+        key = HK[hsize]
+        k = HI[hsize]
+        moved = False
+        while i > 0:
+            p = (i - 1) >> 1
+            if HK[p] <= key:
+                break
+            HK[i] = HK[p]
+            HI[i] = HI[p]
+            Q[HI[i], HP] = i
+            i = p
+            moved = True
+        if not moved:
+            while True:
+                c = 2 * i + 1
+                if c >= hsize:
+                    break
+                if c + 1 < hsize and HK[c + 1] < HK[c]:
+                    c += 1
+                if HK[c] >= key:
+                    break
+                HK[i] = HK[c]
+                HI[i] = HI[c]
+                Q[HI[i], HP] = i
+                i = c
+        HK[i] = key
+        HI[i] = k
+        Q[k, HP] = i
+    return hsize
+
+
+@_helper
+def _q_insert(Q, HK, HI, BH, k, key, cur, nbk, iw, hsize, ohead):
+    """Queue particle k under ``key``; returns (heap size, overflow head)."""
+    if key == INF:
+        Q[k, QB] = NONE
+        return hsize, ohead
+    f = key * iw
+    if f >= cur + nbk:
+        Q[k, QB] = OVER
+        Q[k, QP] = -1
+        Q[k, QN] = ohead
+        if ohead >= 0:
+            Q[ohead, QP] = k
+        return hsize, k
+    b = np.int64(f)
+    if b <= cur:
+        return _heap_push(HK, HI, Q, hsize, key, k), ohead
+    s = b & (nbk - 1)
+    h = BH[s]
+    Q[k, QB] = s
+    Q[k, QP] = -1
+    Q[k, QN] = h
+    if h >= 0:
+        Q[h, QP] = k
+    BH[s] = k
+    return hsize, ohead
+
+
+@_helper
+def _q_remove(Q, HK, HI, BH, k, nbk, hsize, ohead):
+    """Take particle k out of the queue wherever it is; returns (heap size, overflow head)."""
+    qb = Q[k, QB]
+    if qb == HEAP:
+        hsize = _heap_remove(HK, HI, Q, hsize, Q[k, HP])
+    elif qb != NONE:
+        p = Q[k, QP]
+        nx = Q[k, QN]
+        if p >= 0:
+            Q[p, QN] = nx
+        elif qb == OVER:
+            ohead = nx
+        else:
+            BH[qb] = nx
+        if nx >= 0:
+            Q[nx, QP] = p
+    Q[k, QB] = NONE
+    return hsize, ohead
+
+
+@njit
+def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
+    """Advance the calendar to the next non-empty bucket (not beyond tstop_b, in buckets).
+
+    Moves that bucket's list into the (empty) heap; once per turn of the
+    calendar the overflow list is dealt out again. Returns (cur, heap size,
+    overflow head, buckets stepped). Called once per bucket, so not inlined.
+    """
+    mask = nbk - 1
+    hsize = 0
+    steps = 0
+    while hsize == 0:
+        if cur + 1 > tstop_b:
+            break
+        cur += 1
+        steps += 1
+        if (cur & mask) == 0 and ohead >= 0:
+            k = ohead
+            ohead = -1
+            while k >= 0:
+                nx = Q[k, QN]
+                hsize, ohead = _q_insert(Q, HK, HI, BH, k, EV[k, KEY], cur, nbk, iw, hsize, ohead)
+                k = nx
+        s = cur & mask
+        k = BH[s]
+        BH[s] = -1
+        while k >= 0:
+            nx = Q[k, QN]
+            hsize = _heap_push(HK, HI, Q, hsize, EV[k, KEY], k)
+            k = nx
+    return cur, hsize, ohead, steps
+
+
+# --- kernels that need no specialisation --------------------------------------
+@njit
+def _assign_cells(P, I, cells, ccount, nc, a, D):
+    """Put every particle in its cell (cells of side a, nc per axis). Status CELL_FULL if a cell overflows."""
+    n = P.shape[0]
+    cap = cells.shape[1]
+    ccount[:] = 0
+    for k in range(n):
+        cell = 0
+        for d in range(D):
+            c = int(math.floor(P[k, d] / a))
+            if c < 0:
+                c = 0
+            elif c >= nc:
+                c = nc - 1
+            I[k, C0 + d] = c
+            cell = cell * nc + c
+        if ccount[cell] >= cap:
+            return CELL_FULL
+        I[k, CELL] = cell
+        I[k, SLOT] = ccount[cell]
+        cells[cell, ccount[cell]] = k
+        ccount[cell] += 1
+    return DONE
+
+
+@njit
+def _build_queue(EV, Q, HK, HI, BH, IS, FS):
+    """(Re)build the calendar from the keys EV[:, KEY], current bucket IS[S_CUR]."""
+    n = EV.shape[0]
+    BH[:] = -1
+    cur = IS[S_CUR]
+    nbk = IS[S_NBK]
+    iw = FS[F_IW]
+    hsize = 0
+    ohead = -1
+    for k in range(n):
+        hsize, ohead = _q_insert(Q, HK, HI, BH, k, EV[k, KEY], cur, nbk, iw, hsize, ohead)
+    IS[S_HSIZE] = hsize
+    IS[S_OHEAD] = ohead
+
+
+@njit
+def _build_nl(P, XN, I, cells, ccount, NB, NN, SCR, nc, L, h, D, periodic):
+    """Neighbour lists of every particle around its centre XN (cells already assigned).
+
+    Status NL_FULL if a list would overflow NB's width.
+    """
+    n = P.shape[0]
+    NN[:] = 0
+    for k in range(n):
+        c2 = I[k, C0 + 2] if D > 2 else 0
+        x2 = XN[k, 2] if D > 2 else 0.0
+        cnt = _gather_nl(P, XN, cells, ccount, NN, SCR, k, XN[k, 0], XN[k, 1], x2,
+                         I[k, C0], I[k, C0 + 1], c2, nc, L, h, D, periodic)
+        if cnt < 0:
+            return NL_FULL
+        for s in range(cnt):
+            NB[k, s] = SCR[s]
+        NN[k] = cnt
+    return DONE
+
+
+@njit
+def _state_at(P, t, g, D, out_x, out_v):
+    """Positions and velocities of every particle at time t (no change to the rows)."""
+    n = P.shape[0]
+    for k in range(n):
+        dt = t - P[k, PT]
+        for d in range(D):
+            out_x[k, d] = P[k, d] + P[k, PV + d] * dt
+            out_v[k, d] = P[k, PV + d]
+        if g != 0.0:
+            out_x[k, D - 1] -= 0.5 * g * dt * dt
+            out_v[k, D - 1] -= g * dt
+
+
+# --- specialised kernels --------------------------------------------------------
+@functools.lru_cache(maxsize=None)
+def build(D: int, PER: bool, GRAV: bool, INEL: bool, PAIRS: bool, NL: bool):
+    """The kernels for one kind of scene; the flags are compile-time constants.
+
+    D dimension; PER periodic box (else hard walls); GRAV uniform gravity
+    along axis D-1; INEL restitution < 1 (TC model); PAIRS some radius > 0;
+    NL neighbour lists (2D/3D, PAIRS) instead of cell-crossing events.
+    Returns a namespace holding ``loop``.
+    """
+    NL = bool(NL and PAIRS and D > 1)
+
+    @njit
+    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, ccount, NB, NN, SCR, order, edges,
+             ID, IS, FS, bt, bp, bw, bs, bv, ct, ci, cj, cimp, t_stop, max_events):
+        """Process events in time order up to t_stop (keys <= t_stop).
+
+        With max_events < 0 it only makes the first predictions of every
+        particle at time t_stop (rows all stamped t_stop), for the caller to
+        build the calendar from EV[:, KEY].
+
+        Returns DONE, BUFFER_FULL (a record buffer is full: flush and call
+        again), CELL_FULL / NL_FULL (grow the cells / neighbour lists and
+        call again) or PAUSE (after max_events, for the caller to retune the
+        calendar). All loop state lives in the arrays, so a call resumes
+        exactly where the last one stopped; a status other than DONE is
+        returned before the pending event is touched. Records name the
+        particles by ID[k], the caller's numbering.
+
+        One iteration: take the earliest key; a stale collision (partner's
+        counter changed) only rescans; a collision updates both velocities;
+        a wall bounce reflects; a cell crossing moves the particle between
+        cells; a neighbour-list rebuild re-centres its list. Then every
+        particle whose course or surroundings changed predicts its next
+        collision (full scan, or only the new cells after a crossing) and
+        its next wall/crossing/rebuild, and goes back in the calendar.
+        """
+        P = _borrow(P)
+        M = _borrow(M)
+        TL = _borrow(TL)
+        XN = _borrow(XN)
+        I = _borrow(I)
+        EV = _borrow(EV)
+        Q = _borrow(Q)
+        HK = _borrow(HK)
+        HI = _borrow(HI)
+        BH = _borrow(BH)
+        cells = _borrow(cells)
+        ccount = _borrow(ccount)
+        NB = _borrow(NB)
+        NN = _borrow(NN)
+        SCR = _borrow(SCR)
+        order = _borrow(order)
+        edges = _borrow(edges)
+        ID = _borrow(ID)
+        bt = _borrow(bt)
+        bp = _borrow(bp)
+        bw = _borrow(bw)
+        bs = _borrow(bs)
+        bv = _borrow(bv)
+        ct = _borrow(ct)
+        ci = _borrow(ci)
+        cj = _borrow(cj)
+        cimp = _borrow(cimp)
+        n = P.shape[0]
+        cur = IS[S_CUR]
+        hsize = IS[S_HSIZE]
+        ohead = IS[S_OHEAD]
+        nbk = IS[S_NBK]
+        mask = nbk - 1
+        nc = IS[S_NC]
+        cap = cells.shape[1]
+        bufcap = IS[S_BUFCAP]
+        recb = IS[S_RECB] != 0
+        recc = IS[S_RECC] != 0
+        nbb = IS[S_NBB]
+        ncb = IS[S_NCB]
+        iw = FS[F_IW]
+        L = FS[F_L]
+        hl = 0.5 * L
+        g = FS[F_G]
+        e = FS[F_E]
+        tc = FS[F_TC]
+        h = FS[F_H]
+        ainv = nc / L
+        virial = FS[F_VIRIAL]
+        tstop_b = t_stop * iw
+        n_coll = 0
+        n_bounce = 0
+        n_cross = 0
+        n_stale = 0
+        n_steps = 0
+        n_rebuild = 0
+        n_second = 0
+        done = 0
+        tnow = FS[F_TNOW]
+        predicting = max_events < 0
+        pk = 0
+        status = DONE
+        while True:
+            if predicting:
+                # first predictions: every particle in turn, from time t_stop
+                if pk >= n:
+                    break
+                k = pk
+                pk += 1
+                t = t_stop
+                j = -1
+                nres = 1
+                full = True
+                newcross = True
+                rescan = True
+                lo0 = -1
+                hi0 = 1
+                lo1 = -1
+                hi1 = 1
+                lo2 = -1
+                hi2 = 1
+            else:
+                # --- the next event: the top of the heap of the current bucket
+                if hsize == 0:
+                    cur, hsize, ohead, steps = _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw,
+                                                            ohead, tstop_b)
+                    n_steps += steps
+                if hsize == 0:
+                    status = DONE
+                    break
+                t = HK[0]
+                if t > t_stop:
+                    status = DONE
+                    break
+                if done >= max_events:
+                    status = PAUSE
+                    break
+                k = HI[0]
+                is_col = EV[k, TCOL] <= EV[k, TX]
+                if (recb and nbb >= bufcap) or (recc and ncb >= bufcap):
+                    status = BUFFER_FULL
+                    break
+                code = I[k, CODE]
+                # checks that need room, done before anything changes
+                rebuild = False
+                newcell = -1
+                ng = 0
+                nn0 = 0
+                nn1 = 0
+                nn2 = 0
+                if NL:
+                    rebuild = (not is_col) and code == NLCODE
+                if NL and rebuild:
+                    # k to time t (written out: an inlined call costs compile time)
+                    dta = t - P[k, PT]
+                    if dta != 0.0:
+                        for a in range(D):
+                            P[k, a] += P[k, PV + a] * dta
+                        if GRAV:
+                            P[k, D - 1] -= 0.5 * g * dta * dta
+                            P[k, PV + D - 1] -= g * dta
+                        P[k, PT] = t
+                    if PER:
+                        for a in range(D):
+                            if P[k, a] < 0.0 or P[k, a] >= L:
+                                P[k, a] -= L * math.floor(P[k, a] / L)
+                                if P[k, a] >= L:
+                                    P[k, a] = 0.0
+                    nn0 = min(max(np.int64(P[k, 0] * ainv), 0), nc - 1)
+                    nn1 = min(max(np.int64(P[k, 1] * ainv), 0), nc - 1)
+                    if D > 2:
+                        nn2 = min(max(np.int64(P[k, 2] * ainv), 0), nc - 1)
+                        newcell = (nn0 * nc + nn1) * nc + nn2
+                    else:
+                        newcell = nn0 * nc + nn1
+                    if newcell != I[k, CELL] and ccount[newcell] >= cap:
+                        status = CELL_FULL
+                        break
+                    x2 = P[k, 2] if D > 2 else 0.0
+                    ng = _gather_nl(P, XN, cells, ccount, NN, SCR, k, P[k, 0], P[k, 1], x2,
+                                    nn0, nn1, nn2, nc, L, h, D, PER)
+                    if ng < 0:
+                        status = NL_FULL
+                        break
+                if D > 1 and PAIRS and not NL and not is_col and (code & 1) == 0:
+                    d = code >> 2
+                    c = I[k, C0 + d] + (1 if (code & 2) else -1)
+                    if c < 0:
+                        c += nc
+                    elif c >= nc:
+                        c -= nc
+                    st = 1 if d == D - 1 else (nc if d == D - 2 else nc * nc)
+                    cell = I[k, CELL] + (c - I[k, C0 + d]) * st
+                    if cell != I[k, CELL] and ccount[cell] >= cap:
+                        status = CELL_FULL
+                        break
+                hsize = _heap_remove(HK, HI, Q, hsize, 0)
+                Q[k, QB] = NONE
+                done += 1
+                tnow = t
+
+                # what the event changes, then who must look for new events:
+                # k alone (stale prediction, wall, crossing, rebuild) or k and j (collision)
+                j = -1
+                nres = 1
+                full = True
+                newcross = True
+                rescan = True
+                lo0 = -1
+                hi0 = 1
+                lo1 = -1
+                hi1 = 1
+                lo2 = -1
+                hi2 = 1
+                # k to time t (written out: an inlined call costs compile time)
+                dta = t - P[k, PT]
+                if dta != 0.0:
+                    for a in range(D):
+                        P[k, a] += P[k, PV + a] * dta
+                    if GRAV:
+                        P[k, D - 1] -= 0.5 * g * dta * dta
+                        P[k, PV + D - 1] -= g * dta
+                    P[k, PT] = t
+                if NL and rebuild:
+                    # --- re-centre k's neighbour list where k is now
+                    n_rebuild += 1
+                    for s in range(NN[k]):
+                        m = NB[k, s]
+                        nm = NN[m]
+                        for u in range(nm):
+                            if NB[m, u] == k:
+                                NB[m, u] = NB[m, nm - 1]
+                                NN[m] = nm - 1
+                                break
+                    old = I[k, CELL]
+                    if newcell != old:
+                        sl = I[k, SLOT]
+                        last = cells[old, ccount[old] - 1]
+                        cells[old, sl] = last
+                        I[last, SLOT] = sl
+                        ccount[old] -= 1
+                        I[k, SLOT] = ccount[newcell]
+                        cells[newcell, ccount[newcell]] = k
+                        ccount[newcell] += 1
+                        I[k, CELL] = newcell
+                        I[k, C0] = nn0
+                        I[k, C0 + 1] = nn1
+                        if D > 2:
+                            I[k, C0 + 2] = nn2
+                    for a in range(D):
+                        XN[k, a] = P[k, a]
+                    for s in range(ng):
+                        m = SCR[s]
+                        NB[k, s] = m
+                        NB[m, NN[m]] = k
+                        NN[m] += 1
+                    NN[k] = ng
+                elif is_col:
+                    j = I[k, PART]
+                    if I[j, CNT] != I[k, PCNT]:
+                        # stale: the partner changed course since. If the second
+                        # prediction still holds it is the next collision (the
+                        # partners that changed since predicted theirs with k
+                        # themselves); otherwise look again from now.
+                        n_stale += 1
+                        newcross = False
+                        j2 = I[k, PART2]
+                        if j2 >= 0 and I[j2, CNT] == I[k, PCNT2]:
+                            n_second += 1
+                            EV[k, TCOL] = EV[k, TCOL2]
+                            I[k, PART] = j2
+                            I[k, PCNT] = I[k, PCNT2]
+                            EV[k, TCOL2] = INF
+                            I[k, PART2] = -1
+                            rescan = False
+                    else:
+                        # --- a real collision between k and j at t
+                        nres = 2
+                        hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
+                        # j to time t (written out: an inlined call costs compile time)
+                        dta = t - P[j, PT]
+                        if dta != 0.0:
+                            for a in range(D):
+                                P[j, a] += P[j, PV + a] * dta
+                            if GRAV:
+                                P[j, D - 1] -= 0.5 * g * dta * dta
+                                P[j, PV + D - 1] -= g * dta
+                            P[j, PT] = t
+                        dx0 = P[j, 0] - P[k, 0]
+                        dv0 = P[j, PV] - P[k, PV]
+                        dx1 = 0.0
+                        dv1 = 0.0
+                        dx2 = 0.0
+                        dv2 = 0.0
+                        if D > 1:
+                            dx1 = P[j, 1] - P[k, 1]
+                            dv1 = P[j, PV + 1] - P[k, PV + 1]
+                        if D > 2:
+                            dx2 = P[j, 2] - P[k, 2]
+                            dv2 = P[j, PV + 2] - P[k, PV + 2]
+                        if PER:
+                            dx0 -= L * np.rint(dx0 / L)
+                            if D > 1:
+                                dx1 -= L * np.rint(dx1 / L)
+                            if D > 2:
+                                dx2 -= L * np.rint(dx2 / L)
+                        bn = dx0 * dv0 + dx1 * dv1 + dx2 * dv2
+                        r2 = dx0 * dx0 + dx1 * dx1 + dx2 * dx2
+                        if bn < 0.0 and r2 > 0.0:
+                            mk = M[k]
+                            mj = M[j]
+                            ee = 1.0
+                            if INEL:
+                                if t - TL[k] >= tc and t - TL[j] >= tc:
+                                    ee = e
+                                TL[k] = t
+                                TL[j] = t
+                            # impulse on k: J = f dx, f = (1 + e) mu (dv.dx) / |dx|^2
+                            f = (1.0 + ee) * mk * mj / (mk + mj) * bn / r2
+                            fk = f / mk
+                            fj = f / mj
+                            P[k, PV] += fk * dx0
+                            P[j, PV] -= fj * dx0
+                            if D > 1:
+                                P[k, PV + 1] += fk * dx1
+                                P[j, PV + 1] -= fj * dx1
+                            if D > 2:
+                                P[k, PV + 2] += fk * dx2
+                                P[j, PV + 2] -= fj * dx2
+                            jmag = -f * math.sqrt(r2)
+                            virial += jmag * (P[k, PR] + P[j, PR])
+                            I[k, CNT] += 1
+                            I[j, CNT] += 1
+                            n_coll += 1
+                            if recc:
+                                ct[ncb] = t
+                                ci[ncb] = ID[k]
+                                cj[ncb] = ID[j]
+                                cimp[ncb] = jmag
+                                ncb += 1
+                else:
+                    d = code >> 2
+                    up = (code & 2) != 0
+                    if code & 1:
+                        # --- a wall bounce
+                        vd = P[k, PV + d]
+                        if recb:
+                            sp = P[k, PV] * P[k, PV]
+                            for a in range(1, D):
+                                sp += P[k, PV + a] * P[k, PV + a]
+                            bt[nbb] = t
+                            bp[nbb] = ID[k]
+                            bw[nbb] = (d + 1) if up else -(d + 1)
+                            bs[nbb] = math.sqrt(sp)
+                            bv[nbb] = abs(vd)
+                            nbb += 1
+                        P[k, d] = (L - P[k, PR]) if up else P[k, PR]
+                        P[k, PV + d] = -vd
+                        I[k, CNT] += 1
+                        n_bounce += 1
+                    elif D > 1 and PAIRS and not NL:
+                        # --- a cell crossing (D > 1), wrapping around a periodic box
+                        n_cross += 1
+                        full = False
+                        c = I[k, C0 + d]
+                        if up:
+                            cn = c + 1
+                            xn = edges[cn]
+                            if cn == nc:
+                                cn = 0
+                                xn = 0.0
+                        else:
+                            cn = c - 1
+                            xn = edges[c]
+                            if cn < 0:
+                                cn = nc - 1
+                                xn = L
+                        P[k, d] = xn
+                        if cn != c:
+                            old = I[k, CELL]
+                            st = 1 if d == D - 1 else (nc if d == D - 2 else nc * nc)
+                            cell = old + (cn - c) * st
+                            sl = I[k, SLOT]
+                            last = cells[old, ccount[old] - 1]
+                            cells[old, sl] = last
+                            I[last, SLOT] = sl
+                            ccount[old] -= 1
+                            I[k, SLOT] = ccount[cell]
+                            cells[cell, ccount[cell]] = k
+                            ccount[cell] += 1
+                            I[k, CELL] = cell
+                            I[k, C0 + d] = cn
+                        # only the cells that just came into view
+                        o = 1 if up else -1
+                        if d == 0:
+                            lo0 = o
+                            hi0 = o
+                        elif d == 1:
+                            lo1 = o
+                            hi1 = o
+                        else:
+                            lo2 = o
+                            hi2 = o
+
+            # --- new predictions for k (and j)
+            for side in range(nres):
+                p = k if side == 0 else j
+                if newcross:
+                    tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL)
+                    if NL:
+                        te = _nl_exit(P, XN, p, h, g, D, GRAV)
+                        if te < tx:
+                            tx = te
+                            cd = NLCODE
+                    EV[p, TX] = tx
+                    I[p, CODE] = cd
+                if PAIRS and (D == 1 or NL) and rescan:
+                    if D == 1:
+                        best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
+                    else:
+                        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV)
+                    EV[p, TCOL] = best
+                    I[p, PART] = bj
+                    I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
+                if PAIRS and D > 1 and not NL and rescan:
+                    # a full scan, or the cells that came into view merged
+                    # with the two predictions kept (which keep the counter
+                    # they were made with)
+                    if full:
+                        b1 = INF
+                        p1 = -1
+                        o1 = -2
+                        b2 = INF
+                        p2 = -1
+                        o2 = -2
+                    else:
+                        b1 = EV[p, TCOL]
+                        p1 = I[p, PART]
+                        o1 = p1
+                        b2 = EV[p, TCOL2]
+                        p2 = I[p, PART2]
+                        o2 = p2
+                    oc1 = I[p, PCNT]
+                    oc2 = I[p, PCNT2]
+                    best, bj, best2, bj2 = _scan_cells(
+                        P, cells, ccount, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
+                        lo0, hi0, lo1, hi1, lo2, hi2, nc, L, g, b1, p1, b2, p2,
+                        D, PER, GRAV)
+                    EV[p, TCOL] = best
+                    I[p, PART] = bj
+                    if bj != o1:
+                        I[p, PCNT] = oc2 if bj == o2 else (I[bj, CNT] if bj >= 0 else 0)
+                    EV[p, TCOL2] = best2
+                    I[p, PART2] = bj2
+                    if bj2 != o2:
+                        I[p, PCNT2] = oc1 if bj2 == o1 else (I[bj2, CNT] if bj2 >= 0 else 0)
+                key = min(EV[p, TCOL], EV[p, TX])
+                EV[p, KEY] = key
+                if not predicting:
+                    hsize, ohead = _q_insert(Q, HK, HI, BH, p, key, cur, nbk, iw, hsize, ohead)
+
+        IS[S_CUR] = cur
+        IS[S_HSIZE] = hsize
+        IS[S_OHEAD] = ohead
+        IS[S_NBB] = nbb
+        IS[S_NCB] = ncb
+        IS[S_EVENTS] += done
+        IS[S_COLL] += n_coll
+        IS[S_BOUNCE] += n_bounce
+        IS[S_CROSS] += n_cross
+        IS[S_STALE] += n_stale
+        IS[S_STEPS] += n_steps
+        IS[S_REBUILD] += n_rebuild
+        IS[S_SECOND] += n_second
+        FS[F_VIRIAL] = virial
+        FS[F_TNOW] = tnow
+        return status
+
+    class Kernels:
+        """The specialised kernels of one kind of scene."""
+
+    ns = Kernels()
+    ns.loop = loop
+    ns.flags = (D, PER, GRAV, INEL, PAIRS, NL)
+    return ns
