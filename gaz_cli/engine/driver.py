@@ -44,8 +44,9 @@ EVENTS_PER_BUCKET = 4.0
 NEIGHBOUR_SKIN = 0.25
 """Neighbour lists: a particle may move this many largest diameters from its list's centre."""
 
-NEIGHBOUR_LIST_FROM = {2: 0.45, 3: 0.33}
-"""'auto' uses neighbour lists from this packing fraction on (cell crossings below)."""
+NEIGHBOUR_LIST_FROM = {2: 0.55, 3: 0.33}
+"""'auto' uses neighbour lists from this packing fraction on (cell crossings below);
+crossovers measured on periodic fluids of N = 4000 with each search forced."""
 
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
@@ -138,7 +139,7 @@ class _Simulation:
             by_count = int(math.ceil((CELLS_PER_PARTICLE * n) ** (1.0 / D)))
             nc = max(1, min(by_size, by_count))
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = K.build(D, periodic, g > 0.0, e < 1.0, pairs, use_nl)
+        self.kern = K.build(D, periodic, g > 0.0, pairs, use_nl)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0

@@ -1,24 +1,28 @@
 """Numba kernels of the event-driven engine: plain arrays in, status codes out.
 
 Algorithm (one scheduled event per particle, after Smallenburg, Eur. Phys.
-J. E 45, 22, 2022, with cell lists; calendar queue after G. Paul,
-J. Comput. Phys. 221, 615, 2007):
+J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
+2007):
 
 * Every particle k stores its state at its own time stamp (lazy update) and
-  two predictions: its earliest pair collision (time, partner, the partner's
-  event counter at prediction time) and its next wall bounce or cell
-  crossing. Its queue key is the earlier of the two, an absolute time.
+  its predictions: its two earliest pair collisions (time, partner, the
+  partner's event counter at prediction time) and its next wall bounce,
+  cell crossing or neighbour-list rebuild. Its queue key is the earliest,
+  an absolute time.
 * A collision whose partner has changed course since (counter mismatch) is
-  stale: the particle is rescanned when it comes up, never searched for in
-  the queue. A pair that will collide next is always scheduled by at least
-  one of the two, the one that looked at the other last.
-* Cell lists (cells at least one diameter wide, 3^D neighbourhood) in 2D/3D:
-  a cell crossing only scans the 3^(D-1) cells that just came into view. In
-  1D the order never changes: the neighbours are the previous and next rods.
+  stale: it is never searched for in the queue; when it comes up the second
+  prediction takes over if still valid, else the particle looks again. A
+  pair that will collide next is always scheduled by at least one of the
+  two, the one that looked at the other last.
+* Neighbours: in 1D the order never changes, so the previous and next rods.
+  In 2D/3D either cell lists with crossing events (cells at least one
+  diameter wide, 3^D neighbourhood; a crossing only scans the 3^(D-1) cells
+  that came into view) or, for dense fluids, neighbour lists of radius
+  R_i + R_j + 2h around a centre, rebuilt when the particle has moved h.
 * The queue is a calendar: buckets of width ``w`` hold unsorted doubly
   linked lists, the current bucket is a binary heap, far events wait in an
-  overflow list redistributed once per turn of the calendar. O(1) per event
-  on average, independent of N.
+  overflow list dealt out again once per turn of the calendar. O(1) per
+  event on average, independent of N.
 * Numerical safety (Bannerman et al., Comput. Part. Mech. 1, 191, 2014): the
   pair time is max(0, c / (-b + sqrt(b^2 - a c))) and only for b < 0, so an
   overlapping pair that approaches collides at once and one that separates
@@ -29,11 +33,13 @@ J. Comput. Phys. 221, 615, 2007):
 Layout: each particle's data sits in one row (``P`` float64 (N, 8): x0 x1 x2
 v0 v1 v2 t_stamp radius; ``I`` int32 (N, 12): counter, partner, partner's
 counter, crossing code, cell, slot in its cell, cell coordinates c0 c1 c2,
-rank in 1D). Helpers are ``inline='always'`` so the hot loop holds no calls
-passing arrays (Numba's reference counting cost most of the time otherwise).
-The kernels are specialised per scene kind by :func:`build`: the flags are
-compile-time constants, so a scene without gravity runs no gravity
-arithmetic and a scene of points (all radii 0) does no pair search.
+rank in 1D, second partner and its counter). The kernels borrow their
+arrays (:func:`_borrow`): Numba's atomic reference counting, paid at every
+helper taking an array, cost more than the physics. The kernels are
+specialised per kind of scene by :func:`build` (dimension, boundary,
+gravity, radii > 0, neighbour lists are compile-time constants): a scene
+without gravity runs no gravity arithmetic and a scene of points (all radii
+0) does no pair search.
 
 Units are whatever the caller uses (SI in gaz); times are absolute.
 """
@@ -739,12 +745,13 @@ def _state_at(P, t, g, D, out_x, out_v):
 
 # --- specialised kernels --------------------------------------------------------
 @functools.lru_cache(maxsize=None)
-def build(D: int, PER: bool, GRAV: bool, INEL: bool, PAIRS: bool, NL: bool):
+def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
-    along axis D-1; INEL restitution < 1 (TC model); PAIRS some radius > 0;
-    NL neighbour lists (2D/3D, PAIRS) instead of cell-crossing events.
+    along axis D-1; PAIRS some radius > 0; NL neighbour lists (2D/3D,
+    PAIRS) instead of cell-crossing events. The restitution is a run-time
+    value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
     NL = bool(NL and PAIRS and D > 1)
@@ -820,6 +827,7 @@ def build(D: int, PER: bool, GRAV: bool, INEL: bool, PAIRS: bool, NL: bool):
         g = FS[F_G]
         e = FS[F_E]
         tc = FS[F_TC]
+        inel = e < 1.0  # restitution < 1: a branch taken at collisions only
         h = FS[F_H]
         ainv = nc / L
         virial = FS[F_VIRIAL]
@@ -1046,7 +1054,7 @@ def build(D: int, PER: bool, GRAV: bool, INEL: bool, PAIRS: bool, NL: bool):
                             mk = M[k]
                             mj = M[j]
                             ee = 1.0
-                            if INEL:
+                            if inel:
                                 if t - TL[k] >= tc and t - TL[j] >= tc:
                                     ee = e
                                 TL[k] = t
@@ -1217,5 +1225,5 @@ def build(D: int, PER: bool, GRAV: bool, INEL: bool, PAIRS: bool, NL: bool):
 
     ns = Kernels()
     ns.loop = loop
-    ns.flags = (D, PER, GRAV, INEL, PAIRS, NL)
+    ns.flags = (D, PER, GRAV, PAIRS, NL)
     return ns

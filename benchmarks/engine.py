@@ -1,0 +1,225 @@
+"""Figures of the event-driven engine (issue 3): speed, cost per event against N, start-up.
+
+Not a test: it prints numbers. Run from the repository root:
+
+    /work/venv/bin/python benchmarks/engine.py            # all figures, median of 3 runs
+    /work/venv/bin/python benchmarks/engine.py --only a   # one figure
+    /work/venv/bin/python benchmarks/engine.py --quick    # smaller runs
+
+(a) standard scene: 3D periodic, N = 4000, packing 0.30, FCC start,
+    sigma = m = k_B T = 1, simulated time 100: collisions and events per
+    second, beta P sigma^3 from the collision virial (expected 2.27-2.28),
+    relative energy drift;
+(b) argon at 300 K, 3D box with walls, N = 10 000, packing 0.01;
+(c) 2D, N = 1000 disks, area fraction 0.2, walls;
+(d) 1D, N = 1000 rods, packing 0.5, walls;
+(e) speed-up over gaz_cli.reference on (c) at N = 200 and N = 1000;
+(f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3);
+(g) JIT compile time from an empty cache, and process start to first event
+    with a warm cache.
+
+Rates are given per wall-clock second (what a user waits) and per CPU second
+of this process (what the code costs when the machine is shared); each is
+the median of --repeat runs. Placement and compilation are excluded
+(RunStats.wall_time_s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from gaz_cli import engine
+from gaz_cli.constants import K_B
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species, lookup
+
+UNIT_T = 1.0 / K_B
+
+
+def unit_scene(dim, n, packing, duration, boundary="walls", placement="auto", seed=1):
+    unit = {1: 1.0, 2: math.pi / 4.0, 3: math.pi / 6.0}[dim]
+    length = (n * unit / packing) ** (1.0 / dim)
+    return Scene(dim=dim, length=length, duration=duration,
+                 components=((Species("X", 1.0, 0.5), n),), temperature=UNIT_T, seed=seed,
+                 boundary=boundary, placement=placement, record="none")
+
+
+def timed(scene, state, repeat):
+    """Median wall and CPU rates over ``repeat`` runs: dict of figures and the last RunStats."""
+    walls, cpus = [], []
+    rs = None
+    for _ in range(repeat):
+        c0 = time.process_time()
+        rs = engine.run(scene, state, Recorder())
+        cpu = time.process_time() - c0 - rs.extras["compile_s"]
+        walls.append(rs.wall_time_s)
+        cpus.append(cpu)
+    return {"wall": float(np.median(walls)), "cpu": float(np.median(cpus)), "runs": repeat}, rs
+
+
+def show(label, t, rs):
+    n_ev = rs.events
+    print(f"  {label}: {rs.collisions:,} collisions, {rs.wall_bounces:,} wall bounces, "
+          f"{rs.extras['cell_crossings'] + rs.extras['list_rebuilds']:,} crossings/rebuilds "
+          f"in {t['wall']:.2f} s wall / {t['cpu']:.2f} s CPU (median of {t['runs']})")
+    print(f"    collisions/s: {rs.collisions / t['wall']:,.0f} wall, {rs.collisions / t['cpu']:,.0f} CPU;"
+          f"  events/s (collisions + bounces): {n_ev / t['wall']:,.0f} wall, {n_ev / t['cpu']:,.0f} CPU")
+
+
+def fig_a(args):
+    print("(a) standard scene: 3D periodic, N = 4000, packing 0.30, FCC start, sigma = m = kT = 1, "
+          f"simulated time {args.t_std:g}")
+    sc = unit_scene(3, 4000, 0.30, args.t_std, boundary="periodic", placement="lattice")
+    st = initial_state(sc)
+    t, rs = timed(sc, st, args.repeat)
+    show("run", t, rs)
+    m = sc.masses()
+    e0 = 0.5 * float(np.sum(m * np.sum(st.velocities ** 2, 1)))
+    e1 = 0.5 * float(np.sum(m * np.sum(rs.final.velocities ** 2, 1)))
+    kT = 2.0 * e1 / (3 * (sc.n - 1))
+    rho = sc.n / sc.volume
+    beta_p = rho + rs.virial / (3.0 * sc.volume * sc.duration) / kT
+    print(f"    beta P sigma^3 = {beta_p:.4f} (Carnahan-Starling 2.2770, expected 2.27-2.28);"
+          f" relative energy drift {(e1 - e0) / e0:.1e}; neighbour lists: {rs.extras['neighbour_lists']}")
+
+
+def fig_b(args):
+    ar = lookup("Ar")
+    n, eta = 10_000, 0.01
+    length = (n * 4.0 / 3.0 * math.pi * ar.radius ** 3 / eta) ** (1 / 3)
+    # about 5 collisions per particle: mean free time from kinetic theory
+    speed = math.sqrt(8 * K_B * 300 / (math.pi * ar.mass))
+    free_time = 1.0 / (math.sqrt(2) * math.pi * n / length ** 3 * (2 * ar.radius) ** 2 * speed)
+    duration = args.scale * 10 * free_time
+    print(f"(b) argon at 300 K, 3D walls, N = {n}, packing {eta}, L = {length:.3g} m, "
+          f"duration {duration:.3g} s")
+    sc = Scene(dim=3, length=length, duration=duration, components=((ar, n),), seed=2,
+               record="none")
+    t, rs = timed(sc, initial_state(sc), args.repeat)
+    show("run", t, rs)
+
+
+def fig_c(args):
+    print("(c) 2D, N = 1000 disks, area fraction 0.2, walls, sigma = m = kT = 1")
+    sc = unit_scene(2, 1000, 0.2, 200.0 * args.scale)
+    t, rs = timed(sc, initial_state(sc), args.repeat)
+    show("run", t, rs)
+
+
+def fig_d(args):
+    print("(d) 1D, N = 1000 rods, packing 0.5, walls, sigma = m = kT = 1")
+    sc = unit_scene(1, 1000, 0.5, 2000.0 * args.scale)
+    t, rs = timed(sc, initial_state(sc), args.repeat)
+    show("run", t, rs)
+
+
+def fig_e(args):
+    from gaz_cli import reference
+    print("(e) speed-up over gaz_cli.reference on (c): events (collisions + bounces) per second")
+    for n in (200, 1000):
+        sc_ref = unit_scene(2, n, 0.2, (6.0 if n == 200 else 0.3) * max(args.scale, 0.3))
+        st = initial_state(sc_ref)
+        t0 = time.perf_counter()
+        rr = reference.run(sc_ref, st, Recorder())
+        ref_rate = rr.events / rr.wall_time_s
+        sc = unit_scene(2, n, 0.2, 200.0 * args.scale if n == 1000 else 1000.0 * args.scale)
+        t, rs = timed(sc, initial_state(sc), args.repeat)
+        fast_rate = rs.events / t["wall"]
+        print(f"  N = {n}: reference {ref_rate:,.0f} events/s ({rr.events} events, "
+              f"{time.perf_counter() - t0:.1f} s); engine {fast_rate:,.0f} events/s; "
+              f"speed-up x{fast_rate / ref_rate:,.0f}")
+
+
+def fig_f(args):
+    print("(f) cost per event against N: 3D periodic, packing 0.3, lattice start, "
+          "about 3 10^6 queue events each (collisions, crossings, stale predictions)")
+    sizes = [1000, 10_000, 100_000, 1_000_000] if not args.quick else [1000, 10_000, 100_000]
+    for n in sizes:
+        duration = 3e6 / (n * 5.0) * args.scale
+        sc = unit_scene(3, n, 0.30, duration, boundary="periodic", placement="lattice")
+        t0 = time.perf_counter()
+        st = initial_state(sc)
+        place_s = time.perf_counter() - t0
+        t, rs = timed(sc, st, 1 if n >= 100_000 else args.repeat)
+        q = rs.extras["queue_events"]
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(f"  N = {n:>9,}: {1e9 * t['wall'] / q:6.0f} ns per queue event wall, "
+              f"{1e9 * t['cpu'] / q:6.0f} CPU; {1e9 * t['cpu'] / rs.collisions:6.0f} ns CPU per "
+              f"collision; {rs.collisions / t['cpu']:,.0f} collisions/s CPU; placement "
+              f"{place_s:.1f} s, set-up {rs.extras['init_s']:.2f} s, restarts "
+              f"{rs.extras['restarts']}; peak memory of this process {rss:,.0f} MB")
+
+
+_PROBE = """
+import sys
+if "--no-scipy" in sys.argv:
+    sys.modules["scipy"] = None  # as on an install without the test extra
+import time
+from gaz_cli import engine
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species
+sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
+           temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")
+rs = engine.run(sc, initial_state(sc), Recorder())
+print(time.time(), rs.extras["compile_s"])
+"""
+
+
+def _probe(env, *flags):
+    """(seconds from launching a fresh interpreter to the end of a first tiny run, compile s)."""
+    t0 = time.time()
+    out = subprocess.run([sys.executable, "-c", _PROBE, *flags], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    return float(out[0]) - t0, float(out[1])
+
+
+def fig_g(args):
+    print("(g) start-up: the standard scene's kernels (3D periodic, cells)")
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        start, compile_s = _probe(env)
+        print(f"  cold (empty cache): JIT compile of the engine {compile_s:.1f} s; process start "
+              f"to first event {start:.1f} s (placement kernels compiled too)")
+        for flags, what in (((), "with scipy installed"), (("--no-scipy",), "without scipy")):
+            warm = [_probe(env, *flags)[0] for _ in range(max(3, args.repeat))]
+            print(f"  warm cache, {what}: process start to first event {np.median(warm):.2f} s "
+                  f"(median of {len(warm)}; interpreter, numpy, numba import and first cache "
+                  "load included; numba imports scipy.linalg on its first call when scipy is "
+                  "installed)")
+
+
+FIGURES = {"a": fig_a, "b": fig_b, "c": fig_c, "d": fig_d, "e": fig_e, "f": fig_f, "g": fig_g}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--only", default="abcdefg", help="figures to print, e.g. 'af'")
+    ap.add_argument("--repeat", type=int, default=3, help="runs per figure (median)")
+    ap.add_argument("--quick", action="store_true", help="shorter runs, N up to 10^5 in (f)")
+    args = ap.parse_args()
+    args.scale = 0.2 if args.quick else 1.0
+    args.t_std = 20.0 if args.quick else 100.0
+    load = os.getloadavg()
+    print(f"gaz engine benchmark: {os.cpu_count()} cores, load average {load[0]:.2f} "
+          f"{load[1]:.2f} {load[2]:.2f}, numba threads unused (serial engine)")
+    # compile the kernels used below outside the timed runs
+    engine.run(unit_scene(3, 100, 0.3, 1e-9, boundary="periodic"), initial_state(
+        unit_scene(3, 100, 0.3, 1e-9, boundary="periodic")), Recorder())
+    for key in args.only:
+        FIGURES[key](args)
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
