@@ -105,7 +105,6 @@ def _exact_centre_density(dim, n, radius, length):
     return lambda x: theory.rod_centre_density(x, n, radius, length)
 
 
-# --- pressure (gaz simulate's summary) ---------------------------------------------
 # --- block statistics ---------------------------------------------------------------
 def block_sums(t, values, duration: float, blocks: int = BLOCKS) -> np.ndarray:
     """Sum of ``values`` over each of ``blocks`` equal time windows of [0, duration] ((blocks,) array).

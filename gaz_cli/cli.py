@@ -6,7 +6,6 @@ every usage error becomes one line on stderr and a non-zero exit.
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os

@@ -33,11 +33,17 @@ import numpy as np
 
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.numba_config import njit
+from gaz_cli.scene import ball_volume
 
 METHODS = ("auto", "rejection", "rapid", "lattice", "grow")
 
 RSA_COMFORT = {1: 0.60, 2: 0.45, 3: 0.30}
 """Packing below which 'auto' uses rejection (RSA jamming: 0.7476, 0.547, 0.384)."""
+
+
+def _packing(dim: int, radii: np.ndarray, length: float) -> float:
+    """Packing fraction of particles of ``radii`` in [0, length]^dim."""
+    return float(np.sum(ball_volume(dim, radii)) / length ** dim)
 
 
 def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -59,7 +65,7 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
         return np.zeros((0, dim))
     if method == "rapid" and dim != 1:
         raise SceneError("--method rapid works in 1D only (the exam's Q10); use rejection, grow or lattice")
-    eta = float(np.sum({1: 2.0, 2: math.pi, 3: 4 * math.pi / 3}[dim] * radii ** dim) / length ** dim)
+    eta = _packing(dim, radii, length)
     if dim == 1 and method in ("auto", "grow"):
         method = "rapid"
     chosen_by_auto = method == "auto"
@@ -291,7 +297,7 @@ def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generat
                                     float(cell_size), ncell, head, nxt, max_tries)
         spent += used
         if status == 2 or spent >= budget:
-            eta = float(np.sum({1: 2.0, 2: math.pi, 3: 4 * math.pi / 3}[dim] * radii ** dim) / length ** dim)
+            eta = _packing(dim, radii, length)
             raise PlacementError(
                 f"random placement stuck after {spent} candidates with {placed} of {n} particles "
                 f"placed (packing fraction {eta:.3g}); use --method lattice, lower --n or raise --length")
@@ -782,8 +788,7 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     status, f, events = _ls_grow(x, v, R, float(Ls), bool(periodic), float(rate), 1.0, nc,
                                  int(budget), int(2 * n))
     if status != 0:
-        eta = float(np.sum({1: 2.0, 2: math.pi, 3: 4 * math.pi / 3}[dim] * radii ** dim)
-                    / length ** dim)
+        eta = _packing(dim, radii, length)
         raise PlacementError(
             f"growth jammed at {f ** dim * eta:.3g} of packing fraction {eta:.3g} after {events} "
             f"events; use --method lattice, lower --n or raise --length")

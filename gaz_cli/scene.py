@@ -289,12 +289,13 @@ def from_options(*, dim=None, n=None, length=None, duration=None, species=None, 
 
 
 def default_tc(scene: Scene) -> float:
-    """TC-model contact time: 1e-4 of the mean free time, from the dilute Enskog rate."""
-    masses, radii = scene.masses(), scene.radii()
-    m, sigma = float(masses.mean()), 2.0 * float(radii.mean())
-    n = scene.n / scene.volume
-    vmean = math.sqrt(8 * K_B * scene.temperature / (math.pi * m))
-    cross = {1: 1.0, 2: 2.0 * sigma, 3: math.pi * sigma ** 2}[scene.dim]
+    """TC-model contact time: 1e-4 of the mean free time 1/omega (Enskog, closed-form EOS)."""
+    from gaz_cli import theory
+
+    sigma = 2.0 * float(scene.radii().mean())
     if sigma == 0:
         return 0.0
-    return 1e-4 / (math.sqrt(2.0) * n * cross * vmean)
+    closed_form = {1: "tonks", 2: "henderson", 3: "carnahan-starling"}[scene.dim]
+    omega = theory.enskog_collision_frequency(scene.dim, scene.n / scene.volume, sigma, scene.temperature,
+                                              float(scene.masses().mean()), model=closed_form)
+    return 1e-4 / float(omega)

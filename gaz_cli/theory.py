@@ -441,7 +441,6 @@ def wall_adsorption_shift(dim: int, length, number, radius, model: str = "best")
     step = 1e-5
     z_lo = compressibility_factor(dim, eta * (1.0 - step), model)
     z_hi = compressibility_factor(dim, eta * (1.0 + step), model)
-    z = compressibility_factor(dim, eta, model)
     with np.errstate(divide="ignore", invalid="ignore"):
         dlnz = np.where(eta > 0, (np.log(z_hi) - np.log(z_lo)) / (2.0 * step), 0.0)
     return _out(-(gamma * area / n_particles) * (1.0 + dlnz))

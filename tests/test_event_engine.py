@@ -7,7 +7,6 @@ numerical-stability rules of physics.md §9 on stressed scenes.
 
 from __future__ import annotations
 
-from dataclasses import replace
 
 import numpy as np
 import pytest

@@ -5,7 +5,7 @@ import pytest
 
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
-from gaz_cli.scene import Scene, from_options, initial_state, validate
+from gaz_cli.scene import from_options, initial_state, validate
 from gaz_cli.species import BUILTIN, lookup, parse_mixture
 
 

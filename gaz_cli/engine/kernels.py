@@ -813,7 +813,6 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         hsize = IS[S_HSIZE]
         ohead = IS[S_OHEAD]
         nbk = IS[S_NBK]
-        mask = nbk - 1
         nc = IS[S_NC]
         cap = cells.shape[1]
         bufcap = IS[S_BUFCAP]
