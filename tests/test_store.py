@@ -48,7 +48,7 @@ def test_exam_tables_exactly(tmp_path):
     particles = store.table(st.particule)
     assert list(particles.PA_NOM) == list(BUILTIN)
     ar = particles[particles.PA_NOM == "Ar"].iloc[0]
-    assert ar.PA_M == pytest.approx(6.6338e-23, rel=1e-4)  # grams
+    assert ar.PA_M == pytest.approx(6.6338e-23, rel=1e-4, abs=0)  # grams
 
 
 def test_rows_written_and_q36_matches_python(tmp_path, argon_scene, rng):
@@ -58,15 +58,15 @@ def test_rows_written_and_q36_matches_python(tmp_path, argon_scene, rng):
     rows = store.table(st.rebond, si)
     assert len(rows) == len(t)
     assert list(rows.RE_NUM) == list(range(1, len(t) + 1))
-    assert np.allclose(rows.RE_T, t) and np.array_equal(rows.RE_DIR, wall)
+    assert np.allclose(rows.RE_T, t, rtol=1e-15, atol=0) and np.array_equal(rows.RE_DIR, wall)
     q36 = store.query("q36_momentum_per_wall", si_num=si)
     m = BUILTIN["Ar"].mass
     for code, value in zip(q36.RE_DIR, q36.QUANTITE_MOUVEMENT):
         expected = np.sum(2 * m * vperp[wall == code])
-        assert value == pytest.approx(expected, rel=1e-12)
+        assert value == pytest.approx(expected, rel=1e-12, abs=0)
     pressure = store.query("pressure_per_wall", si_num=si)
     area = scene.length ** 2
-    assert np.allclose(pressure.PRESSION, pressure.QUANTITE_MOUVEMENT / (scene.duration * area), rtol=1e-12)
+    assert np.allclose(pressure.PRESSION, pressure.QUANTITE_MOUVEMENT / (scene.duration * area), rtol=1e-12, atol=0)
 
 
 def test_failed_run_leaves_nothing(tmp_path, argon_scene, rng):
