@@ -51,7 +51,8 @@ import math
 
 import numba
 import numpy as np
-from numba.core import types
+from llvmlite import ir
+from numba.core import cgutils, types
 from numba.core.extending import intrinsic
 
 from gaz_cli.numba_config import njit
@@ -85,8 +86,8 @@ HEAP, OVER, NONE = -1, -2, -3
 
 # IS int64 state vector
 (S_CUR, S_HSIZE, S_OHEAD, S_NBK, S_EVENTS, S_COLL, S_BOUNCE, S_CROSS, S_STALE,
- S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND) = range(19)
-IS_SIZE = 19
+ S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND, S_PF) = range(20)
+IS_SIZE = 20
 # FS float64 state vector
 F_W, F_IW, F_VIRIAL, F_L, F_G, F_E, F_TC, F_H, F_TNOW = range(9)
 FS_SIZE = 9
@@ -124,6 +125,42 @@ def _borrow(typingctx, arr):
     return arr(arr), codegen
 
 
+@intrinsic
+def _prefetch(typingctx, arr, i):
+    """Ask the CPU to start loading row i of an array into the cache (llvm.prefetch).
+
+    A hint with no effect on results: on large systems the rows of the 3^D
+    cells of a scan are all requested at once instead of one after the
+    other, so their cache misses overlap.
+    """
+    if not isinstance(arr, types.Array) or not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        aryty = sig.args[0]
+        ary = context.make_array(aryty)(context, builder, value=args[0])
+        idx = context.cast(builder, args[1], sig.args[1], types.intp)
+        zero = context.get_constant(types.intp, 0)
+        ptr = cgutils.get_item_pointer2(context, builder, ary.data,
+                                        cgutils.unpack_tuple(builder, ary.shape),
+                                        cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
+                                        [idx, zero] if aryty.ndim == 2 else [idx],
+                                        wraparound=False)
+        i32 = ir.IntType(32)
+        if getattr(ptr.type, "is_opaque", False):  # LLVM with opaque pointers
+            name = "llvm.prefetch.p0"
+        else:
+            ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+            name = "llvm.prefetch.p0i8"
+        fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+        fn = cgutils.get_or_insert_function(builder.module, fnty, name)
+        # read, keep in all cache levels, data cache
+        builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
+        return context.get_dummy_value()
+
+    return types.void(arr, i), codegen
+
+
 @_inline
 def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
     """Time until |dx + dv t| = sig: max(0, c / (-b + sqrt(b^2 - a c))) if b < 0 and b^2 > a c, else inf.
@@ -152,8 +189,8 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
 
 @_inline
-def _scan_cells(P, cells, ccount, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
-                nc, L, g, best, bj, best2, bj2, D, PER, GRAV):
+def _scan_cells(P, cells, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
+                nc, L, g, best, bj, best2, bj2, D, PER, GRAV, PF):
     """Two earliest collisions of k (its row at time t) with the particles of a block of cells.
 
     The block is c + (lo..hi) on each axis (wrapped with an image shift when
@@ -171,6 +208,20 @@ def _scan_cells(P, cells, ccount, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2
     if D < 3:
         lo2 = 0
         hi2 = 0
+    if PF:
+        for o0 in range(lo0, hi0 + 1):
+            n0 = c0 + o0
+            n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
+            for o1 in range(lo1, hi1 + 1):
+                n1 = c1 + o1
+                n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
+                for o2 in range(lo2, hi2 + 1):
+                    if D > 2:
+                        n2 = c2 + o2
+                        n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
+                        _prefetch(cells, (n0 * nc + n1) * nc + n2)
+                    else:
+                        _prefetch(cells, n0 * nc + n1)
     for o0 in range(lo0, hi0 + 1):
         n0 = c0 + o0
         s0 = 0.0
@@ -220,7 +271,7 @@ def _scan_cells(P, cells, ccount, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
-                for s in range(ccount[cell]):
+                for s in range(1, cells[cell, 0] + 1):
                     m = cells[cell, s]
                     dtm = t - P[m, PT]
                     dx0 = P[m, 0] + P[m, PV] * dtm + s0 - xk0
@@ -462,7 +513,7 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV):
 
 
 @_inline
-def _gather_nl(P, XN, cells, ccount, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER):
+def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER):
     """Neighbours of a list centred at (x0, x1, x2) in cell (c0, c1, c2) into SCR.
 
     Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
@@ -500,7 +551,7 @@ def _gather_nl(P, XN, cells, ccount, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, 
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
-                for s in range(ccount[cell]):
+                for s in range(1, cells[cell, 0] + 1):
                     m = cells[cell, s]
                     if m == k:
                         continue
@@ -668,11 +719,11 @@ def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
 
 # --- kernels that need no specialisation --------------------------------------
 @njit
-def _assign_cells(P, I, cells, ccount, nc, a, D):
+def _assign_cells(P, I, cells, nc, a, D):
     """Put every particle in its cell (cells of side a, nc per axis). Status CELL_FULL if a cell overflows."""
     n = P.shape[0]
-    cap = cells.shape[1]
-    ccount[:] = 0
+    cap = cells.shape[1] - 1
+    cells[:, 0] = 0
     for k in range(n):
         cell = 0
         for d in range(D):
@@ -683,12 +734,13 @@ def _assign_cells(P, I, cells, ccount, nc, a, D):
                 c = nc - 1
             I[k, C0 + d] = c
             cell = cell * nc + c
-        if ccount[cell] >= cap:
+        cnt = cells[cell, 0] + 1
+        if cnt > cap:
             return CELL_FULL
         I[k, CELL] = cell
-        I[k, SLOT] = ccount[cell]
-        cells[cell, ccount[cell]] = k
-        ccount[cell] += 1
+        I[k, SLOT] = cnt
+        cells[cell, cnt] = k
+        cells[cell, 0] = cnt
     return DONE
 
 
@@ -709,7 +761,7 @@ def _build_queue(EV, Q, HK, HI, BH, IS, FS):
 
 
 @njit
-def _build_nl(P, XN, I, cells, ccount, NB, NN, SCR, nc, L, h, D, periodic):
+def _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, D, periodic):
     """Neighbour lists of every particle around its centre XN (cells already assigned).
 
     Status NL_FULL if a list would overflow NB's width.
@@ -719,7 +771,7 @@ def _build_nl(P, XN, I, cells, ccount, NB, NN, SCR, nc, L, h, D, periodic):
     for k in range(n):
         c2 = I[k, C0 + 2] if D > 2 else 0
         x2 = XN[k, 2] if D > 2 else 0.0
-        cnt = _gather_nl(P, XN, cells, ccount, NN, SCR, k, XN[k, 0], XN[k, 1], x2,
+        cnt = _gather_nl(P, XN, cells, NN, SCR, k, XN[k, 0], XN[k, 1], x2,
                          I[k, C0], I[k, C0 + 1], c2, nc, L, h, D, periodic)
         if cnt < 0:
             return NL_FULL
@@ -757,7 +809,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
     NL = bool(NL and PAIRS and D > 1)
 
     @njit
-    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, ccount, NB, NN, SCR, order, edges,
+    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, NB, NN, SCR, order, edges,
              ID, IS, FS, bt, bp, bw, bs, bv, ct, ci, cj, cimp, t_stop, max_events):
         """Process events in time order up to t_stop (keys <= t_stop).
 
@@ -792,7 +844,6 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         HI = _borrow(HI)
         BH = _borrow(BH)
         cells = _borrow(cells)
-        ccount = _borrow(ccount)
         NB = _borrow(NB)
         NN = _borrow(NN)
         SCR = _borrow(SCR)
@@ -814,10 +865,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         ohead = IS[S_OHEAD]
         nbk = IS[S_NBK]
         nc = IS[S_NC]
-        cap = cells.shape[1]
+        cap = cells.shape[1] - 1
         bufcap = IS[S_BUFCAP]
         recb = IS[S_RECB] != 0
         recc = IS[S_RECC] != 0
+        pf = IS[S_PF] != 0  # prefetch the cells of a scan (large systems)
         nbb = IS[S_NBB]
         ncb = IS[S_NCB]
         iw = FS[F_IW]
@@ -916,11 +968,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                         newcell = (nn0 * nc + nn1) * nc + nn2
                     else:
                         newcell = nn0 * nc + nn1
-                    if newcell != I[k, CELL] and ccount[newcell] >= cap:
+                    if newcell != I[k, CELL] and cells[newcell, 0] >= cap:
                         status = CELL_FULL
                         break
                     x2 = P[k, 2] if D > 2 else 0.0
-                    ng = _gather_nl(P, XN, cells, ccount, NN, SCR, k, P[k, 0], P[k, 1], x2,
+                    ng = _gather_nl(P, XN, cells, NN, SCR, k, P[k, 0], P[k, 1], x2,
                                     nn0, nn1, nn2, nc, L, h, D, PER)
                     if ng < 0:
                         status = NL_FULL
@@ -934,7 +986,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                         c -= nc
                     st = 1 if d == D - 1 else (nc if d == D - 2 else nc * nc)
                     cell = I[k, CELL] + (c - I[k, C0 + d]) * st
-                    if cell != I[k, CELL] and ccount[cell] >= cap:
+                    if cell != I[k, CELL] and cells[cell, 0] >= cap:
                         status = CELL_FULL
                         break
                 hsize = _heap_remove(HK, HI, Q, hsize, 0)
@@ -978,13 +1030,15 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                     old = I[k, CELL]
                     if newcell != old:
                         sl = I[k, SLOT]
-                        last = cells[old, ccount[old] - 1]
+                        co = cells[old, 0]
+                        last = cells[old, co]
                         cells[old, sl] = last
                         I[last, SLOT] = sl
-                        ccount[old] -= 1
-                        I[k, SLOT] = ccount[newcell]
-                        cells[newcell, ccount[newcell]] = k
-                        ccount[newcell] += 1
+                        cells[old, 0] = co - 1
+                        cn1 = cells[newcell, 0] + 1
+                        I[k, SLOT] = cn1
+                        cells[newcell, cn1] = k
+                        cells[newcell, 0] = cn1
                         I[k, CELL] = newcell
                         I[k, C0] = nn0
                         I[k, C0 + 1] = nn1
@@ -1124,13 +1178,15 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                             st = 1 if d == D - 1 else (nc if d == D - 2 else nc * nc)
                             cell = old + (cn - c) * st
                             sl = I[k, SLOT]
-                            last = cells[old, ccount[old] - 1]
+                            co = cells[old, 0]
+                            last = cells[old, co]
                             cells[old, sl] = last
                             I[last, SLOT] = sl
-                            ccount[old] -= 1
-                            I[k, SLOT] = ccount[cell]
-                            cells[cell, ccount[cell]] = k
-                            ccount[cell] += 1
+                            cells[old, 0] = co - 1
+                            cn1 = cells[cell, 0] + 1
+                            I[k, SLOT] = cn1
+                            cells[cell, cn1] = k
+                            cells[cell, 0] = cn1
                             I[k, CELL] = cell
                             I[k, C0 + d] = cn
                         # only the cells that just came into view
@@ -1186,9 +1242,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                     oc1 = I[p, PCNT]
                     oc2 = I[p, PCNT2]
                     best, bj, best2, bj2 = _scan_cells(
-                        P, cells, ccount, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
+                        P, cells, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
                         lo0, hi0, lo1, hi1, lo2, hi2, nc, L, g, b1, p1, b2, p2,
-                        D, PER, GRAV)
+                        D, PER, GRAV, pf)
                     EV[p, TCOL] = best
                     I[p, PART] = bj
                     if bj != o1:
