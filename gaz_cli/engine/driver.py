@@ -116,6 +116,11 @@ def _alloc(shape, dtype=np.float64, fill=None) -> np.ndarray:
     return a
 
 
+def _cell_capacity(per_cell: float) -> int:
+    """Initial room of a cell for ``per_cell`` particles a cell on average (grown when full)."""
+    return int(max(4, math.ceil(2.0 * per_cell + 3.0 * math.sqrt(per_cell) + 2)))
+
+
 def _cell_width(cap: int) -> int:
     """Row width of the cell table for ``cap`` particles a cell: the count, then the
     particles, rounded up to whole 16-byte blocks (a cell's row never straddles more
@@ -229,6 +234,7 @@ class _Simulation:
         self.cap = 0
         self.nb_width = 24 if D == 3 else 12
         self.restarts = 0
+        self.cell_growths = 0
 
         # internal numbering in space order; ident[k] = caller's number of row k
         x = pos.copy()
@@ -302,9 +308,14 @@ class _Simulation:
         if self.use_nl:
             self.XN[:, :D] = x
         if self.pairs and D > 1:
-            per_cell = n / nc ** D
-            cap = max(self.cap, int(max(4, math.ceil(2.0 * per_cell + 3.0 * math.sqrt(per_cell) + 2))))
-            while True:
+            a = L / nc
+            c = np.clip(np.floor(x / a).astype(np.int64), 0, nc - 1)
+            key = c[:, 0]
+            for d in range(1, D):
+                key = key * nc + c[:, d]
+            fullest = int(np.bincount(key, minlength=nc ** D).max())
+            cap = max(self.cap, _cell_capacity(n / nc ** D), fullest)
+            while True:  # (the kernel's rounding decides; the loop is a safety net)
                 self.cells = _alloc((nc ** D, _cell_width(cap)), np.int32)
                 if K._assign_cells(P, I, self.cells, nc, L / nc, D) == K.DONE:
                     break
@@ -471,6 +482,7 @@ class _Simulation:
                 self._flush()
             elif status == K.CELL_FULL:
                 self._grow_cells()
+                self.cell_growths += 1
             elif status == K.NL_FULL:
                 self._grow_lists()
             elif status == K.PAUSE:
@@ -547,6 +559,8 @@ class _Simulation:
             "neighbour_lists": self.use_nl,
             "list_rebuilds": int(IS[K.S_REBUILD]),
             "restarts": self.restarts,
+            "cell_growths": self.cell_growths,
+            "prefetch": bool(IS[K.S_PF]),
             "bucket_width_s": float(self.FS[K.F_W]),
             "buckets": int(IS[K.S_NBK]),
             "compile_s": compile_s,

@@ -1,0 +1,141 @@
+"""The event engine's memory layout changes nothing in the physics.
+
+Large systems get their rows renumbered along a Z-order curve (restarts),
+their arrays on huge pages, their cell scans prefetched, and their cells
+grown when full; none of this may change an event. Each test forces the
+mechanism on a small system and compares with the plain run.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from gaz_cli import engine
+from gaz_cli.engine import driver
+from gaz_cli.recording import MemoryRecorder
+from gaz_cli.scene import initial_state
+
+
+def _run(scene, state):
+    rec = MemoryRecorder(collisions=True)
+    rs = engine.run(scene, state, rec)
+    return rs, rec.collisions(), rec.bounces()
+
+
+def _energy(scene, v):
+    return 0.5 * float(np.sum(scene.masses() * np.sum(v * v, axis=1)))
+
+
+def test_prefetching_is_only_a_hint(make_scene, monkeypatch):
+    scene = make_scene(dim=3, n=400, packing=0.3, duration=0.2, seed=3, boundary="periodic")
+    state = initial_state(scene)
+    plain, cp, _ = _run(scene, state)
+    monkeypatch.setattr(driver, "PREFETCH_FROM_N", 0)
+    hinted, ch, _ = _run(scene, state)
+    assert not plain.extras["prefetch"] and hinted.extras["prefetch"]
+    assert plain.collisions > 2000
+    assert np.array_equal(plain.final.positions, hinted.final.positions)
+    assert np.array_equal(plain.final.velocities, hinted.final.velocities)
+    for key in ("t", "i", "j", "impulse"):
+        assert np.array_equal(cp[key], ch[key])
+
+
+@pytest.mark.parametrize("forced", ["restarts walls", "restarts periodic", "full cells"])
+def test_restarts_and_full_cells_keep_the_events(make_scene, monkeypatch, forced):
+    """Renumbering every event a particle, or cells with no spare room (grown as gravity piles
+    the gas up on the floor), give the same first collisions and wall bounces, conserve
+    energy and keep everyone apart and inside."""
+    boundary = "periodic" if "periodic" in forced else "walls"
+    g = 30.0 if forced == "full cells" else 0.0
+    scene = make_scene(dim=3, n=400, packing=0.3, duration=0.2, seed=5, boundary=boundary,
+                       gravity=g)
+    state = initial_state(scene)
+    plain, cp, bp = _run(scene, state)
+    if forced.startswith("restarts"):
+        monkeypatch.setattr(driver, "RESTART_FROM_N", 0)
+        monkeypatch.setattr(driver, "RESTART_EVERY", 1)
+    else:
+        monkeypatch.setattr(driver, "_cell_capacity", lambda per_cell: 1)
+        monkeypatch.setattr(driver, "_cell_width", lambda cap: cap + 1)
+    forced_run, cf, bf = _run(scene, state)
+    assert plain.extras["restarts"] == 0 and plain.extras["cell_growths"] == 0
+    if forced.startswith("restarts"):
+        assert forced_run.extras["restarts"] >= 5
+    else:
+        assert forced_run.extras["cell_growths"] >= 1
+
+    # the same events, up to round-off, until chaos takes over
+    k = 300
+    assert min(cp["t"].size, cf["t"].size) > k
+    # (which of the two partners made the prediction may change with the numbering)
+    pair_p = np.sort(np.stack([cp["i"][:k], cp["j"][:k]]), axis=0)
+    pair_f = np.sort(np.stack([cf["i"][:k], cf["j"][:k]]), axis=0)
+    assert np.array_equal(pair_p, pair_f)
+    np.testing.assert_allclose(cf["t"][:k], cp["t"][:k], rtol=1e-9, atol=0)
+    if boundary == "walls":
+        kb = min(100, bp["t"].size)
+        assert kb > 20
+        assert np.array_equal(bp["particle"][:kb], bf["particle"][:kb])
+        np.testing.assert_allclose(bf["t"][:kb], bp["t"][:kb], rtol=1e-9, atol=0)
+
+    # and the physics of the whole forced run
+    x, L, r = forced_run.final.positions, scene.length, scene.radii()
+    m = scene.masses()
+    e0 = _energy(scene, state.velocities) + g * float(np.sum(m * state.positions[:, -1]))
+    e1 = _energy(scene, forced_run.final.velocities) + g * float(np.sum(m * x[:, -1]))
+    assert abs(e1 - e0) <= 1e-11 * e0
+    if boundary == "walls":
+        assert np.all(x >= r[:, None] * (1 - 1e-12)) and np.all(x <= L - r[:, None] * (1 - 1e-12))
+    d = x[:, None, :] - x[None, :, :]
+    if boundary == "periodic":
+        d -= L * np.rint(d / L)
+    dist = np.sqrt(np.sum(d * d, axis=2)) + np.eye(len(x)) * L
+    assert dist.min() >= 2 * r.max() * (1 - 1e-9)
+
+
+def test_large_arrays_sit_on_huge_page_boundaries():
+    small = driver._alloc((10, 3), np.int32, fill=7)
+    big = driver._alloc((40_000, 8), fill=-1.5)
+    assert small.shape == (10, 3) and small.dtype == np.int32 and np.all(small == 7)
+    assert big.shape == (40_000, 8) and big.dtype == np.float64 and np.all(big == -1.5)
+    assert big.flags.c_contiguous and big.ctypes.data % driver.HUGE_PAGE == 0
+
+
+def test_z_order_keeps_blocks_of_cells_together():
+    c = np.array([[i, j, k] for i in range(4) for j in range(4) for k in range(4)])
+    key = driver._morton(c)
+    assert np.array_equal(np.sort(key), np.arange(64))
+    # every aligned 2x2x2 block of cells is a run of 8 consecutive keys
+    block = (c // 2) @ np.array([4, 2, 1])
+    for b in range(8):
+        ks = np.sort(key[block == b])
+        assert ks[-1] - ks[0] == 7
+
+
+_PROBE = """
+import sys
+from gaz_cli import engine
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species
+sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
+           temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")
+engine.run(sc, initial_state(sc), Recorder())
+print(int("scipy.linalg" in sys.modules), int("sqlalchemy" in sys.modules))
+"""
+
+
+def test_a_warm_start_loads_no_more_than_the_engine_needs():
+    """With the kernels cached, a run imports neither scipy.linalg (Numba's linear algebra
+    registry, 0.2 s) nor the database layer. The first call may compile (cold cache)."""
+    env = dict(os.environ)
+    out = ""
+    for _ in range(2):
+        out = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True,
+                             text=True, check=True).stdout.split()
+    assert out == ["0", "0"]
