@@ -6,6 +6,7 @@ every usage error becomes one line on stderr and a non-zero exit.
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -302,4 +303,8 @@ def main(argv=None) -> None:
         click.echo(f"{prog}: internal error: {type(exc).__name__}: {exc} "
                    "(set GAZ_DEBUG=1 for a traceback; please report it)", err=True)
         sys.exit(3)
+    finally:
+        # the objects left (Numba's compiler state, mostly) live until exit: a last garbage
+        # collection over them cost ~0.05 s of every run's exit (measured)
+        gc.freeze()
     sys.exit(0)
