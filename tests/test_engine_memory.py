@@ -17,6 +17,7 @@ import pytest
 
 from gaz_cli import engine
 from gaz_cli.engine import driver
+from gaz_cli.engine import kernels as K
 from gaz_cli.recording import MemoryRecorder
 from gaz_cli.scene import initial_state
 
@@ -47,8 +48,8 @@ def test_prefetching_is_only_a_hint(make_scene, monkeypatch):
 
 @pytest.mark.parametrize("forced", ["restarts walls", "restarts periodic", "full cells"])
 def test_restarts_and_full_cells_keep_the_events(make_scene, monkeypatch, forced):
-    """Renumbering every event a particle, or cells with no spare room (grown as gravity piles
-    the gas up on the floor), give the same first collisions and wall bounces, conserve
+    """Renumbering every event a particle, or big cells with no spare room (grown as gravity
+    piles the gas up on the floor), give the same first collisions and wall bounces, conserve
     energy and keep everyone apart and inside."""
     boundary = "periodic" if "periodic" in forced else "walls"
     g = 30.0 if forced == "full cells" else 0.0
@@ -60,8 +61,10 @@ def test_restarts_and_full_cells_keep_the_events(make_scene, monkeypatch, forced
         monkeypatch.setattr(driver, "RESTART_FROM_N", 0)
         monkeypatch.setattr(driver, "RESTART_EVERY", 1)
     else:
+        # big cells (about 6 particles each) with no room to spare
+        monkeypatch.setattr(driver, "CELLS_PER_PARTICLE", 0.1)
         monkeypatch.setattr(driver, "_cell_capacity", lambda per_cell: 1)
-        monkeypatch.setattr(driver, "_cell_width", lambda cap: cap + 1)
+        monkeypatch.setattr(driver, "_cell_width", lambda cap: max(cap + 1, K.GATHER_SLOTS + 1))
     forced_run, cf, bf = _run(scene, state)
     assert plain.extras["restarts"] == 0 and plain.extras["cell_growths"] == 0
     if forced.startswith("restarts"):

