@@ -11,9 +11,13 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
   an absolute time.
 * A collision whose partner has changed course since (counter mismatch) is
   stale: it is never searched for in the queue; when it comes up the second
-  prediction takes over if still valid, else the particle looks again. A
-  pair that will collide next is always scheduled by at least one of the
-  two, the one that looked at the other last.
+  prediction takes over if still valid and sure, else the particle looks
+  again. The second is sure when it is the second earliest of a full scan,
+  or of a full scan merged with the cells a crossing brought into view; once
+  it has taken over, the next one is unknown until the particle looks again
+  (a partial scan cannot tell it: trusting one cost missed collisions).
+  A pair that will collide next is always scheduled by at least one of
+  the two, or one of them looks again before.
 * Neighbours: in 1D the order never changes, so the previous and next rods.
   In 2D/3D either cell lists with crossing events (cells at least one
   diameter wide, 3^D neighbourhood; a crossing only scans the 3^(D-1) cells
@@ -31,9 +35,9 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
   on the cell face.
 
 Layout: each particle's data sits in one row (``P`` float64 (N, 8): x0 x1 x2
-v0 v1 v2 t_stamp radius; ``I`` int32 (N, 12): counter, partner, partner's
+v0 v1 v2 t_stamp radius; ``I`` int32 (N, 13): counter, partner, partner's
 counter, crossing code, cell, slot in its cell, cell coordinates c0 c1 c2,
-rank in 1D, second partner and its counter). The kernels borrow their
+rank in 1D, second partner and its counter, whether that second is sure). The kernels borrow their
 arrays (:func:`_borrow`): Numba's atomic reference counting, paid at every
 helper taking an array, cost more than the physics. The kernels are
 specialised per kind of scene by :func:`build` (dimension, boundary,
@@ -75,8 +79,8 @@ PT = 6  # time stamp of the row
 PR = 7  # radius
 P_WIDTH = 8
 # I (N, 12) int32
-CNT, PART, PCNT, CODE, CELL, SLOT, C0, RANK, PART2, PCNT2 = 0, 1, 2, 3, 4, 5, 6, 9, 10, 11
-I_WIDTH = 12
+CNT, PART, PCNT, CODE, CELL, SLOT, C0, RANK, PART2, PCNT2, SURE = 0, 1, 2, 3, 4, 5, 6, 9, 10, 11, 12
+I_WIDTH = 13
 # EV (N, 4) float64: predictions (first and second collision, crossing, queue key)
 TCOL, TX, KEY, TCOL2 = 0, 1, 2, 3
 EV_WIDTH = 4
@@ -1131,8 +1135,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         n_stale += 1
                         newcross = False
                         j2 = I[k, PART2]
-                        if j2 >= 0 and I[j2, CNT] == I[k, PCNT2]:
+                        if j2 >= 0 and I[j2, CNT] == I[k, PCNT2] and I[k, SURE] != 0:
                             n_second += 1
+                            # what k's scans did not keep comes after this one,
+                            # but the one after it is unknown from now on
+                            I[k, SURE] = 0
                             EV[k, TCOL] = EV[k, TCOL2]
                             I[k, PART] = j2
                             I[k, PCNT] = I[k, PCNT2]
@@ -1327,6 +1334,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         I[p, PCNT] = oc1 if src1 == KEPT1 else oc2
                     EV[p, TCOL2] = best2
                     I[p, PART2] = bj2
+                    if full:
+                        I[p, SURE] = 1
                     if bj2 < 0:
                         I[p, PCNT2] = 0
                     elif src2 == NEW:
