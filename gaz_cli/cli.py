@@ -213,6 +213,11 @@ def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, 
         click.echo(json.dumps(summary, default=_jsonable))
     else:
         click.echo(runner.describe(summary))
+    overlapping = summary.get("overlapping_collisions") or 0
+    if overlapping:
+        click.echo(f"gaz simulate: warning: {overlapping} collisions found their pair already "
+                   "overlapping: the start overlapped, or a collision was missed (please report "
+                   "it with the command line if the start did not overlap)", err=True)
 
 
 def _print_diagnostic(values: dict) -> None:

@@ -128,3 +128,31 @@ def test_help_teaches():
         res = invoke([*cmd, "--help"])
         assert res.exit_code == 0
         assert "Example" in res.stdout or "A first session" in res.stdout
+
+
+def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
+    """The engine counts collisions found already overlapping (a missed collision, or an
+    overlapping start); simulate reports them on stderr, the results still on stdout."""
+    from gaz_cli.engine import driver
+
+    real = driver._Simulation._load
+
+    def overlapping_start(self, x, v, t):
+        if t == 0.0 and len(x) > 1:
+            x = x.copy()
+            x[1] = x[0]  # particle 1 on top of particle 0
+            x[1, 0] += 0.5 * float(self.R[0])
+            v = v.copy()
+            v[1, 0] = -abs(v[1, 0]) - 1.0  # and coming at it
+            v[0, 0] = abs(v[0, 0])
+        real(self, x, v, t)
+
+    monkeypatch.setattr(driver._Simulation, "_load", overlapping_start)
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8",
+                             "--duration", "1e-12", "--seed", "1", "--no-db"])
+    assert code == 0 and out
+    lines = [line for line in err.splitlines() if "overlapping" in line]
+    assert len(lines) == 1 and "warning" in lines[0]
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8",
+                             "--duration", "1e-12", "--seed", "1", "--no-db", "--json"])
+    assert code == 0 and json.loads(out)["overlapping_collisions"] >= 1
