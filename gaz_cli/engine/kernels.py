@@ -37,13 +37,15 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
 Layout: each particle's data sits in one row (``P`` float64 (N, 8): x0 x1 x2
 v0 v1 v2 t_stamp radius; ``I`` int32 (N, 13): counter, partner, partner's
 counter, crossing code, cell, slot in its cell, cell coordinates c0 c1 c2,
-rank in 1D, second partner and its counter, whether that second is sure). The kernels borrow their
-arrays (:func:`_borrow`): Numba's atomic reference counting, paid at every
-helper taking an array, cost more than the physics. The kernels are
-specialised per kind of scene by :func:`build` (dimension, boundary,
-gravity, radii > 0, neighbour lists are compile-time constants): a scene
-without gravity runs no gravity arithmetic and a scene of points (all radii
-0) does no pair search.
+rank in 1D, second partner and its counter, whether that second is sure).
+``cells`` int32 (cells, width): the count in column 0, then the particles
+(width at least GATHER_SLOTS + 1). The kernels borrow their arrays
+(:func:`_borrow`): Numba's atomic reference counting, paid at every helper
+taking an array, cost more than the physics. The kernels are specialised
+per kind of scene by :func:`build` (dimension, boundary, gravity, radii >
+0, neighbour lists, tiny periodic boxes are compile-time constants): a
+scene without gravity runs no gravity arithmetic and a scene of points (all
+radii 0) does no pair search.
 
 Units are whatever the caller uses (SI in gaz); times are absolute.
 """
