@@ -318,3 +318,20 @@ def test_no_collision_is_missed_in_the_standard_scene():
         assert stats.extras["overlapping_collisions"] == 0, seed
         total += stats.collisions
     assert total > 9e5
+
+
+def test_neighbour_lists_in_a_tiny_periodic_box_list_each_neighbour_once():
+    """Two disks in a periodic box small enough for 2 cells an axis: a list gathers from
+    3 cells an axis, so the box gets 3, and each disk lists the other once (with 2 it
+    listed it once per image cell). Found by review; the duplicates only cost time."""
+    from gaz_cli.engine import driver
+
+    scene = unit_scene(2, 2, 0.1056, duration=3.0, boundary="periodic", seed=2,
+                       extras={"neighbours": "lists"})
+    state = State(np.array([[0.3, 0.3], [0.55, 0.3]]), np.array([[0.3, 0.01], [0.31, -0.01]]),
+                  np.zeros(2, dtype=np.int64))
+    sim = driver._Simulation(scene, state, Recorder())
+    assert sim.use_nl and sim.nc >= 3
+    assert list(sim.NN) == [1, 1]
+    stats = sim.run()
+    assert stats.extras["list_rebuilds"] > 10 and list(sim.NN) == [1, 1]

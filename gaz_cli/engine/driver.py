@@ -194,6 +194,10 @@ class _Simulation:
             by_size = int(math.floor(L / (reach * (1.0 + 1e-9))))
             by_count = int(math.ceil((CELLS_PER_PARTICLE * n) ** (1.0 / D)))
             nc = max(1, min(by_size, by_count))
+            if use_nl and periodic:
+                # a list gathers from 3 cells an axis, each once: fewer would list a
+                # neighbour once per image (by_size >= 3 here, see _neighbour_lists)
+                nc = max(nc, 3)
         self.nc, self.use_nl, self.h = nc, use_nl, h
         self.kern = K.build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
         self.edges = np.arange(nc + 1) * (L / nc)

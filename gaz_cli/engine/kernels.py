@@ -894,7 +894,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         call again) or PAUSE (after max_events, for the caller to retune the
         calendar). All loop state lives in the arrays, so a call resumes
         exactly where the last one stopped; a status other than DONE is
-        returned before the pending event is touched. Records name the
+        returned before the pending event changes anything (a list rebuild
+        may have advanced its particle along its own path first, which the
+        event, taken again, does not notice). Records name the
         particles by ID[k], the caller's numbering.
 
         One iteration: take the earliest key; a stale collision (partner's
