@@ -286,8 +286,12 @@ class _Simulation:
             return np.argsort(x[:, 0], kind="stable")
         if not self.pairs:
             return np.arange(self.n)
-        c = np.clip(np.floor(x * (self.nc / self.L)).astype(np.int64), 0, self.nc - 1)
-        return np.argsort(_morton(c), kind="stable")
+        return np.argsort(_morton(self._cell_coords(x)), kind="stable")
+
+    def _cell_coords(self, x: np.ndarray) -> np.ndarray:
+        """Integer cell coordinates (N, D) of positions x, rounded as the kernels round them."""
+        a = self.L / self.nc
+        return np.clip(np.floor(x / a).astype(np.int64), 0, self.nc - 1)
 
     def _load(self, x: np.ndarray, v: np.ndarray, t: float) -> None:
         """Fill the particle rows, cells and lists from positions x and velocities v at time t."""
@@ -312,8 +316,7 @@ class _Simulation:
         if self.use_nl:
             self.XN[:, :D] = x
         if self.pairs and D > 1:
-            a = L / nc
-            c = np.clip(np.floor(x / a).astype(np.int64), 0, nc - 1)
+            c = self._cell_coords(x)
             key = c[:, 0]
             for d in range(1, D):
                 key = key * nc + c[:, d]

@@ -973,6 +973,19 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         pk = 0
         status = DONE
         while True:
+            # who looks for new events after this one, and where: by default k
+            # alone, a full scan, a new crossing time (the event changes these)
+            j = -1
+            nres = 1
+            full = True
+            newcross = True
+            rescan = True
+            lo0 = -1
+            hi0 = 1
+            lo1 = -1
+            hi1 = 1
+            lo2 = -1
+            hi2 = 1
             if predicting:
                 # first predictions: every particle in turn, from time t_stop
                 if pk >= n:
@@ -980,17 +993,6 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 k = pk
                 pk += 1
                 t = t_stop
-                j = -1
-                nres = 1
-                full = True
-                newcross = True
-                rescan = True
-                lo0 = -1
-                hi0 = 1
-                lo1 = -1
-                hi1 = 1
-                lo2 = -1
-                hi2 = 1
             else:
                 # --- the next event: the top of the heap of the current bucket
                 if hsize == 0:
@@ -1073,17 +1075,6 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
 
                 # what the event changes, then who must look for new events:
                 # k alone (stale prediction, wall, crossing, rebuild) or k and j (collision)
-                j = -1
-                nres = 1
-                full = True
-                newcross = True
-                rescan = True
-                lo0 = -1
-                hi0 = 1
-                lo1 = -1
-                hi1 = 1
-                lo2 = -1
-                hi2 = 1
                 # k to time t (written out: an inlined call costs compile time)
                 dta = t - P[k, PT]
                 if dta != 0.0:
@@ -1210,7 +1201,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                                 P[k, PV + 2] += fk * dx2
                                 P[j, PV + 2] -= fj * dx2
                             jmag = -f * math.sqrt(r2)
-                            virial += jmag * (P[k, PR] + P[j, PR])
+                            virial += jmag * sg
                             I[k, CNT] += 1
                             I[j, CNT] += 1
                             n_coll += 1
