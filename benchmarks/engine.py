@@ -14,7 +14,9 @@ Not a test: it prints numbers. Run from the repository root:
 (c) 2D, N = 1000 disks, area fraction 0.2, walls;
 (d) 1D, N = 1000 rods, packing 0.5, walls;
 (e) speed-up over gaz_cli.reference on (c) at N = 200 and N = 1000;
-(f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3);
+(f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3), beside the work
+    per event (pair times, calendar steps: flat) and the latency of one cache miss over
+    as many bytes as the engine holds (what makes the time per event grow);
 (g) JIT compile time from an empty cache, and process start to first event
     with a warm cache.
 
@@ -56,7 +58,7 @@ def unit_scene(dim, n, packing, duration, boundary="walls", placement="auto", se
 
 def timed(scene, state, repeat):
     """Median wall and CPU rates over ``repeat`` runs: dict of figures and the last RunStats."""
-    walls, cpus = [], []
+    walls, cpus, loops = [], [], []
     rs = None
     for _ in range(repeat):
         c0 = time.process_time()
@@ -64,7 +66,9 @@ def timed(scene, state, repeat):
         cpu = time.process_time() - c0 - rs.extras["compile_s"]
         walls.append(rs.wall_time_s)
         cpus.append(cpu)
-    return {"wall": float(np.median(walls)), "cpu": float(np.median(cpus)), "runs": repeat}, rs
+        loops.append(rs.extras["loop_s"])
+    return {"wall": float(np.median(walls)), "cpu": float(np.median(cpus)),
+            "loop": float(np.median(loops)), "runs": repeat}, rs
 
 
 def show(label, t, rs):
@@ -143,10 +147,38 @@ def fig_e(args):
                   f"{ref_rate:,.0f} events/s; speed-up x{fast_rate / ref_rate:,.0f}")
 
 
+def _latency_ns(nbytes: int, loads: int = 2_000_000) -> float:
+    """Nanoseconds per dependent load at random over ``nbytes`` (one load a 64-byte line, huge
+    pages as the engine's arrays): what one cache miss costs when the data is that large."""
+    import numba
+
+    from gaz_cli.engine.driver import _alloc
+
+    @numba.njit(cache=False)
+    def chase(nxt, steps):
+        i = 0
+        for _ in range(steps):
+            i = nxt[i * 8]
+        return i
+
+    lines = max(nbytes // 64, 16)
+    nxt = _alloc(lines * 8, np.int64, fill=0)
+    perm = np.random.default_rng(0).permutation(lines)
+    nxt[perm * 8] = np.roll(perm, -1)  # one cycle through every line, in random order
+    chase(nxt, 1000)
+    t0 = time.perf_counter()
+    chase(nxt, loads)
+    return 1e9 * (time.perf_counter() - t0) / loads
+
+
 def fig_f(args):
     print("(f) cost per event against N: 3D periodic, packing 0.3, lattice start, "
           "about 3 10^6 queue events each (collisions, crossings, stale predictions)")
+    print("    ns/event: event loop only (the O(N) first predictions are set-up, given apart); work "
+          "per event: pair times computed, calendar buckets stepped; memory: ns per dependent load "
+          "at random over as many bytes as the engine's arrays hold (one cache miss at this size)")
     sizes = [1000, 10_000, 100_000, 1_000_000] if not args.quick else [1000, 10_000, 100_000]
+    first = None
     for n in sizes:
         duration = 3e6 / (n * 5.0) * args.scale
         sc = unit_scene(3, n, 0.30, duration, boundary="periodic", placement="lattice")
@@ -154,13 +186,24 @@ def fig_f(args):
         st = initial_state(sc)
         place_s = time.perf_counter() - t0
         t, rs = timed(sc, st, 1 if n >= 100_000 else args.repeat)
-        q = rs.extras["queue_events"]
+        ex = rs.extras
+        q = ex["queue_events"]
+        loop_ns = 1e9 * t["loop"] / q
+        first = first or loop_ns
         rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-        print(f"  N = {n:>9,}: {1e9 * t['wall'] / q:6.0f} ns per queue event wall, "
-              f"{1e9 * t['cpu'] / q:6.0f} CPU; {1e9 * t['cpu'] / rs.collisions:6.0f} ns CPU per "
-              f"collision; {rs.collisions / t['cpu']:,.0f} collisions/s CPU; placement "
-              f"{place_s:.1f} s, set-up {rs.extras['init_s']:.2f} s, restarts "
-              f"{rs.extras['restarts']}; peak memory of this process {rss:,.0f} MB")
+        lat = _latency_ns(n * ENGINE_BYTES_PER_PARTICLE)
+        print(f"  N = {n:>9,}: {loop_ns:6.0f} ns per queue event in the loop (x{loop_ns / first:.2f}), "
+              f"{1e9 * t['wall'] / q:6.0f} with set-up, {1e9 * t['cpu'] / rs.collisions:6.0f} ns CPU "
+              f"per collision; work per event: {ex['pair_tests'] / q:.2f} pair times, "
+              f"{ex['calendar_steps'] / q:.2f} buckets; memory latency {lat:5.1f} ns "
+              f"(event = {loop_ns / lat:.0f} latencies)")
+        print(f"               placement {place_s:.1f} s, set-up {ex['init_s']:.2f} s, restarts "
+              f"{ex['restarts']}; peak memory of this process {rss:,.0f} MB")
+
+
+ENGINE_BYTES_PER_PARTICLE = 8 * 8 + 13 * 4 + 4 * 8 + 4 * 4 + 8 + 2 * 56
+"""Bytes the event loop reads per particle (3D): rows P, I, EV, Q, the mass, and about
+two cell rows' share (cells and calendar buckets)."""
 
 
 _PROBE = """

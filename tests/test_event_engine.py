@@ -7,6 +7,7 @@ numerical-stability rules of physics.md §9 on stressed scenes.
 
 from __future__ import annotations
 
+import math
 
 import numpy as np
 import pytest
@@ -335,3 +336,24 @@ def test_neighbour_lists_in_a_tiny_periodic_box_list_each_neighbour_once():
     assert list(sim.NN) == [1, 1]
     stats = sim.run()
     assert stats.extras["list_rebuilds"] > 10 and list(sim.NN) == [1, 1]
+
+
+def test_work_per_event_does_not_grow_with_n():
+    """O(1) per event: at the same packing fraction, 16 times more particles cost the same pair
+    times and calendar steps per event (cells stay about one diameter wide, buckets hold a few
+    events). A time per event that grows with N is the memory hierarchy, not the algorithm
+    (benchmarks/engine.py, figure f)."""
+    work = {}
+    for n in (1000, 16000):
+        length = (n * math.pi / 6.0 / 0.3) ** (1.0 / 3.0)
+        sc = Scene(dim=3, length=length, duration=1.0, components=((Species("X", 1.0, 0.5), n),),
+                   temperature=1.0 / K_B, seed=4, boundary="periodic", record="none")
+        rs = engine.run(sc, initial_state(sc))
+        q = rs.extras["queue_events"]
+        assert rs.collisions > 4 * n
+        work[n] = (rs.extras["pair_tests"] / q, rs.extras["calendar_steps"] / q,
+                   q / rs.collisions)
+    (p1, s1, e1), (p16, s16, e16) = work[1000], work[16000]
+    assert 10.0 < p1 < 40.0 and p16 == pytest.approx(p1, rel=0.25)
+    assert s1 < 1.0 and s16 < 1.0
+    assert e16 == pytest.approx(e1, rel=0.1)

@@ -54,8 +54,9 @@ RESTART_EVERY = 20
 RESTART_EVERY events per particle (memory locality; small systems fit in cache)."""
 
 PREFETCH_FROM_N = 20_000
-"""Systems of this many particles or more prefetch the cells of each scan (their
-data no longer fits in the caches; below, the hint costs more than it saves)."""
+"""Systems of this many particles or more prefetch the cells and rows of each scan, and
+the rows of the next events (their data no longer fits in the caches; below, the hints
+cost more than they save)."""
 
 HUGE_FROM_BYTES = 1 << 18
 HUGE_PAGE = 2 << 20
@@ -223,7 +224,7 @@ class _Simulation:
         IS[K.S_RECC] = int(self.want_c)
         IS[K.S_NC] = nc
         IS[K.S_N] = n
-        IS[K.S_PF] = int(n >= PREFETCH_FROM_N)
+        IS[K.S_PF] = K.PF_SCAN | K.PF_NEXT if n >= PREFETCH_FROM_N else 0
         FS[K.F_L] = L
         FS[K.F_G] = g
         FS[K.F_E] = e
@@ -573,6 +574,7 @@ class _Simulation:
             "overlapping_collisions": int(IS[K.S_OVERLAP]),
             "second_predictions_used": int(IS[K.S_SECOND]),
             "queue_events": int(IS[K.S_EVENTS]),
+            "pair_tests": int(IS[K.S_PAIRS]),
             "calendar_steps": int(IS[K.S_STEPS]),
             "cells_per_axis": self.nc if self.D > 1 else 0,
             "neighbour_lists": self.use_nl,

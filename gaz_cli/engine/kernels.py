@@ -93,8 +93,8 @@ HEAP, OVER, NONE = -1, -2, -3
 # IS int64 state vector
 (S_CUR, S_HSIZE, S_OHEAD, S_NBK, S_EVENTS, S_COLL, S_BOUNCE, S_CROSS, S_STALE,
  S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND, S_PF,
- S_OVERLAP) = range(21)
-IS_SIZE = 21
+ S_OVERLAP, S_PAIRS) = range(22)
+IS_SIZE = 22
 # FS float64 state vector
 F_W, F_IW, F_VIRIAL, F_L, F_G, F_E, F_TC, F_H, F_TNOW = range(9)
 FS_SIZE = 9
@@ -111,6 +111,10 @@ GATHER_SLOTS = 4
 
 NLCODE = 1 << 10
 """Crossing code of a neighbour-list rebuild (leaving the sphere of radius h)."""
+
+PF_SCAN, PF_NEXT = 1, 2
+"""Prefetch bits of IS[S_PF]: the cells and rows of each scan; the rows of the next events
+(top of the heap), then their cells and partners' rows, one event ahead."""
 
 # kernel status codes
 DONE, BUFFER_FULL, CELL_FULL, PAUSE, NL_FULL = 0, 1, 2, 3, 4
@@ -179,6 +183,24 @@ def _prefetch(typingctx, arr, i):
 
 
 @_inline
+def _prefetch_block(cells, c0, c1, c2, nc, D):
+    """Request the rows of the 3^D cells around cell (c0, c1, c2) (wrapped; a hint only)."""
+    for o0 in range(-1, 2):
+        n0 = c0 + o0
+        n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
+        for o1 in range(-1, 2):
+            n1 = c1 + o1
+            n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
+            if D > 2:
+                for o2 in range(-1, 2):
+                    n2 = c2 + o2
+                    n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
+                    _prefetch(cells, (n0 * nc + n1) * nc + n2)
+            else:
+                _prefetch(cells, n0 * nc + n1)
+
+
+@_inline
 def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
     """Time until |dx + dv t| = sig: max(0, c / (-b + sqrt(b^2 - a c))) if b < 0 and b^2 > a c, else inf.
 
@@ -206,7 +228,7 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
 
 @_inline
-def _scan_cells(P, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
+def _scan_cells(P, I, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
                 nc, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG, PF):
     """Two earliest collisions of k (its row at time t) with the particles of a block of cells.
 
@@ -215,7 +237,7 @@ def _scan_cells(P, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2
     second time, second partner); the second saves a rescan when the first
     turns out stale. With each, where it comes from: KEPT1 / KEPT2 (the
     best / second given in) or NEW (found in this scan, to be stamped with
-    the partner's counter now).
+    the partner's counter now). Last, the number of pair times computed.
 
     Two passes. The first gathers the block's particles into GB (and, with
     IMG, a periodic box of fewer than four cells an axis, the image shift of
@@ -325,6 +347,7 @@ def _scan_cells(P, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2
     if PF:
         for u in range(w):
             _prefetch(P, GB[u])
+            _prefetch(I, GB[u])  # the counter of the partner found, read after the scan
     # pass 2: the pair times
     for u in range(w):
         m = GB[u]
@@ -372,7 +395,7 @@ def _scan_cells(P, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2
                 best2 = tp
                 bj2 = m
                 src2 = NEW
-    return best, bj, src1, best2, bj2, src2
+    return best, bj, src1, best2, bj2, src2, w
 
 
 @_inline
@@ -945,7 +968,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         bufcap = IS[S_BUFCAP]
         recb = IS[S_RECB] != 0
         recc = IS[S_RECC] != 0
-        pf = IS[S_PF] != 0  # prefetch the cells of a scan (large systems)
+        pf = (IS[S_PF] & PF_SCAN) != 0  # prefetch the cells and rows of a scan (large systems)
+        pipe = (IS[S_PF] & PF_NEXT) != 0  # prefetch the next events' rows (large systems)
         nbb = IS[S_NBB]
         ncb = IS[S_NCB]
         iw = FS[F_IW]
@@ -967,6 +991,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         n_rebuild = 0
         n_second = 0
         n_overlap = 0
+        n_pairs = 0  # pair times computed (the work of the scans)
         done = 0
         tnow = FS[F_TNOW]
         predicting = max_events < 0
@@ -1071,6 +1096,16 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 hsize = _heap_remove(HK, HI, Q, hsize, 0)
                 Q[k, QB] = NONE
                 done += 1
+                if pipe:
+                    # the next events are near the top of the heap: start loading
+                    # their rows now, they arrive while this event is processed
+                    for u in range(min(hsize, 3)):
+                        kn = HI[u]
+                        _prefetch(M, kn)
+                        _prefetch(P, kn)
+                        _prefetch(I, kn)
+                        _prefetch(EV, kn)
+                        _prefetch(Q, kn)
                 tnow = t
 
                 # what the event changes, then who must look for new events:
@@ -1144,6 +1179,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     else:
                         # --- a real collision between k and j at t
                         nres = 2
+                        if pipe and D > 1 and PAIRS and not NL:
+                            _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2], nc, D)
                         hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
                         # j to time t (written out: an inlined call costs compile time)
                         dta = t - P[j, PT]
@@ -1292,8 +1329,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if PAIRS and (D == 1 or NL) and rescan:
                     if D == 1:
                         best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
+                        n_pairs += 2
                     else:
                         best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV)
+                        n_pairs += NN[p]
                     EV[p, TCOL] = best
                     I[p, PART] = bj
                     I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
@@ -1315,10 +1354,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         p2 = I[p, PART2]
                     oc1 = I[p, PCNT]
                     oc2 = I[p, PCNT2]
-                    best, bj, src1, best2, bj2, src2 = _scan_cells(
-                        P, cells, GB, GS, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
+                    best, bj, src1, best2, bj2, src2, tested = _scan_cells(
+                        P, I, cells, GB, GS, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
                         lo0, hi0, lo1, hi1, lo2, hi2, nc, L, g, b1, p1, b2, p2,
                         D, PER, GRAV, IMG, pf)
+                    n_pairs += tested
                     EV[p, TCOL] = best
                     I[p, PART] = bj
                     if bj < 0:
@@ -1341,6 +1381,18 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 EV[p, KEY] = key
                 if not predicting:
                     hsize, ohead = _q_insert(Q, HK, HI, BH, p, key, cur, nbk, iw, hsize, ohead)
+            if pipe and hsize > 0 and not predicting:
+                # the next event's particle: its rows were requested one event ago;
+                # now its cells and its partner's rows
+                kn = HI[0]
+                if D > 1 and PAIRS and not NL:
+                    _prefetch_block(cells, I[kn, C0], I[kn, C0 + 1], I[kn, C0 + 2], nc, D)
+                jn = I[kn, PART]
+                if jn >= 0:
+                    _prefetch(M, jn)
+                    _prefetch(P, jn)
+                    _prefetch(I, jn)
+                    _prefetch(Q, jn)
 
         IS[S_CUR] = cur
         IS[S_HSIZE] = hsize
@@ -1356,6 +1408,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         IS[S_REBUILD] += n_rebuild
         IS[S_SECOND] += n_second
         IS[S_OVERLAP] += n_overlap
+        IS[S_PAIRS] += n_pairs
         FS[F_VIRIAL] = virial
         FS[F_TNOW] = tnow
         return status
