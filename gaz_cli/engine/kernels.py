@@ -996,6 +996,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         tnow = FS[F_TNOW]
         predicting = max_events < 0
         pk = 0
+        pb = cur + 1  # the calendar bucket whose list the prefetch walk is in (pipe)
+        pw = -1  # the walk's particle in it (-1: go to the next bucket)
         status = DONE
         while True:
             # who looks for new events after this one, and where: by default k
@@ -1381,6 +1383,21 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 EV[p, KEY] = key
                 if not predicting:
                     hsize, ohead = _q_insert(Q, HK, HI, BH, p, key, cur, nbk, iw, hsize, ohead)
+            if pipe and not predicting:
+                # the lists of the next buckets are walked one particle an event (each
+                # step reads a row requested one event before), so that moving a bucket
+                # into the heap does not wait on one cache miss after another
+                if pb <= cur:
+                    pb = cur + 1
+                    pw = -1
+                if pw >= 0:
+                    pw = Q[pw, QN]
+                elif pb <= cur + 2:
+                    pw = BH[pb & (nbk - 1)]
+                    pb += 1
+                if pw >= 0:
+                    _prefetch(Q, pw)
+                    _prefetch(EV, pw)
             if pipe and hsize > 0 and not predicting:
                 # the next event's particle: its rows were requested one event ago;
                 # now its cells and its partner's rows
