@@ -41,6 +41,13 @@ CELLS_PER_PARTICLE = 2.0
 EVENTS_PER_BUCKET = 4.0
 """Calendar tuning: mean number of events per bucket of the calendar."""
 
+MAX_BUCKETS = 1 << 13
+"""Calendar tuning: at most this many buckets (their heads, 64 KB, stay in the cache; larger
+systems get wider buckets, hence more events a bucket). Every event inserts into a bucket
+at random: with one bucket per particle, as EVENTS_PER_BUCKET alone gives, each insertion
+of a system of 10^5-10^6 particles missed the cache (measured: 12% of the event loop's
+time at 10^6; capped, 10^5 and 10^6 run 11-12% faster, 10^4 the same)."""
+
 NEIGHBOUR_SKIN = 0.25
 """Neighbour lists: a particle may move this many largest diameters from its list's centre."""
 
@@ -380,7 +387,8 @@ class _Simulation:
         self._since_restart = int(self.IS[K.S_EVENTS])
 
     def _calendar_size(self, t_now: float) -> tuple[float, int]:
-        """(bucket width, bucket count) for the pending keys: EVENTS_PER_BUCKET events per bucket.
+        """(bucket width, bucket count) for the pending keys: EVENTS_PER_BUCKET events per bucket
+        (more when MAX_BUCKETS caps the count).
 
         Each particle's next event comes at a rate ~ ln 2 / median(delay);
         the median ignores bursts of simultaneous events (a lattice start
@@ -401,7 +409,11 @@ class _Simulation:
             return self.duration / 1024.0, 16
         horizon = float(np.quantile(finite, 0.9))
         want = max(16, min(1 << 22, int(horizon / w) + 1, 4 * self.n))
-        return w, 1 << int(math.ceil(math.log2(want)))
+        nbk = 1 << int(math.ceil(math.log2(want)))
+        if nbk > MAX_BUCKETS:
+            w *= nbk / MAX_BUCKETS
+            nbk = MAX_BUCKETS
+        return w, nbk
 
     def _tune_calendar(self, t_now: float) -> None:
         """Size the calendar for the pending keys (see _calendar_size) and rebuild it."""
