@@ -32,18 +32,34 @@ def _energy(scene, v):
     return 0.5 * float(np.sum(scene.masses() * np.sum(v * v, axis=1)))
 
 
-def test_prefetching_is_only_a_hint(make_scene, monkeypatch):
-    scene = make_scene(dim=3, n=400, packing=0.3, duration=0.2, seed=3, boundary="periodic")
+@pytest.mark.parametrize("dim, n, boundary, gravity, packing", [
+    (3, 400, "periodic", 0.0, 0.3),
+    (3, 400, "walls", 30.0, 0.3),
+    (2, 300, "walls", 0.0, 0.4),
+    (2, 300, "periodic", 0.0, 0.4),
+    (3, 20, "periodic", 0.0, 0.3),  # three cells an axis: scans carry the cells' images
+])
+def test_prefetching_and_gathering_ahead_change_no_event(make_scene, monkeypatch, dim, n,
+                                                          boundary, gravity, packing):
+    """Large systems prefetch, walk the calendar ahead and gather a collision's two scans before
+    either scans: forced on small systems of every kind, the run is bit for bit the same."""
+    scene = make_scene(dim=dim, n=n, packing=packing, duration=0.2 if n > 100 else 5.0, seed=3,
+                       boundary=boundary, gravity=gravity)
     state = initial_state(scene)
-    plain, cp, _ = _run(scene, state)
+    plain, cp, bp = _run(scene, state)
     monkeypatch.setattr(driver, "PREFETCH_FROM_N", 0)
-    hinted, ch, _ = _run(scene, state)
+    hinted, ch, bh = _run(scene, state)
     assert not plain.extras["prefetch"] and hinted.extras["prefetch"]
-    assert plain.collisions > 2000
+    assert plain.collisions > 1000
+    assert plain.extras["overlapping_collisions"] == 0
+    assert n > 100 or plain.extras["cells_per_axis"] == 3
     assert np.array_equal(plain.final.positions, hinted.final.positions)
     assert np.array_equal(plain.final.velocities, hinted.final.velocities)
     for key in ("t", "i", "j", "impulse"):
         assert np.array_equal(cp[key], ch[key])
+    for key in bp:
+        assert np.array_equal(bp[key], bh[key])
+    assert plain.extras["pair_tests"] == hinted.extras["pair_tests"]
 
 
 @pytest.mark.parametrize("buckets, per_bucket", [(16, 64.0), (1 << 20, 0.25)])

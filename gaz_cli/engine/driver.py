@@ -474,13 +474,14 @@ class _Simulation:
         self._gather_buffers()
 
     def _gather_buffers(self) -> None:
-        """Room for a scan to gather every particle of 3^D full cells (GB) and their image shifts (GS)."""
+        """Room for two scans (a collision's partners) to gather every particle of 3^D full cells
+        (GB) and their image shifts (GS)."""
         if self.cells.shape[1] < K.GATHER_SLOTS + 1:
             raise EngineError(f"cell rows of width {self.cells.shape[1]}: the scans copy "
                               f"{K.GATHER_SLOTS} slots a cell")
         room = 3 ** self.D * (self.cells.shape[1] - 1) + K.GATHER_SLOTS + 1
-        self.GB = np.empty(room, dtype=np.int32)
-        self.GS = np.empty(room if self.periodic else 1, dtype=np.int32)
+        self.GB = np.empty(2 * room, dtype=np.int32)
+        self.GS = np.empty(2 * room if self.periodic else 1, dtype=np.int32)
 
     def _state_internal(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         x = np.empty((self.n, self.D))

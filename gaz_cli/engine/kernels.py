@@ -228,38 +228,24 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
 
 @_inline
-def _scan_cells(P, I, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2,
-                nc, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG, PF):
-    """Two earliest collisions of k (its row at time t) with the particles of a block of cells.
+def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc,
+                  D, PER, IMG, PF):
+    """Gather the particles of a block of cells into GB[base:] (pass 1 of a scan); their number.
 
-    The block is c + (lo..hi) on each axis (wrapped with an image shift when
-    periodic, clipped with walls). Returns the improved (best time, partner,
-    second time, second partner); the second saves a rescan when the first
-    turns out stale. With each, where it comes from: KEPT1 / KEPT2 (the
-    best / second given in) or NEW (found in this scan, to be stamped with
-    the partner's counter now). Last, the number of pair times computed.
-
-    Two passes. The first gathers the block's particles into GB (and, with
-    IMG, a periodic box of fewer than four cells an axis, the image shift of
-    each into GS, as a code 9 w0 + 3 w1 + w2 with w = 0, 1, 2 for a shift of
-    -L, 0, +L; with four cells or more, the block's image of a particle is
-    the nearest one, taken in the second pass): a fixed number of slots is
-    copied from every cell and the write position moves on by the cell's
-    count, so this pass has no branch that depends on how many particles a
-    cell holds. The second pass computes the pair times in one loop. Looping
-    cell by cell, particle by particle, the branch predictor missed about
-    once a cell (cells hold 0, 1 or 2 particles at random); measured on the
-    standard scene, the two passes run 14% more collisions a second. PF
-    (large systems): the rows of the block's cells, then those of the
-    gathered particles, are requested from memory before they are read.
+    The block is c + (lo..hi) on each axis (wrapped when periodic, clipped
+    with walls). With IMG, a periodic box of fewer than four cells an axis,
+    the image shift of each particle goes into GS, as a code 9 w0 + 3 w1 + w2
+    with w = 0, 1, 2 for a shift of -L, 0, +L; with four cells or more, the
+    block's image of a particle is the nearest one, taken by the scan. A
+    fixed number of slots is copied from every cell and the write position
+    moves on by the cell's count, so this pass has no branch that depends on
+    how many particles a cell holds (looping cell by cell, particle by
+    particle, the branch predictor missed about once a cell: cells hold 0, 1
+    or 2 particles at random; measured on the standard scene, gathering first
+    runs 14% more collisions a second). PF (large systems): the rows of the
+    block's cells, then those of the gathered particles, are requested from
+    memory before they are read.
     """
-    xk0 = P[k, 0]
-    vk0 = P[k, PV]
-    xk1 = P[k, 1] if D > 1 else 0.0
-    vk1 = P[k, PV + 1] if D > 1 else 0.0
-    xk2 = P[k, 2] if D > 2 else 0.0
-    vk2 = P[k, PV + 2] if D > 2 else 0.0
-    rk = P[k, PR]
     if D < 3:
         lo2 = 0
         hi2 = 0
@@ -277,11 +263,8 @@ def _scan_cells(P, I, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, 
                         _prefetch(cells, (n0 * nc + n1) * nc + n2)
                     else:
                         _prefetch(cells, n0 * nc + n1)
-    src1 = KEPT1
-    src2 = KEPT2
-    # pass 1: gather (cells hold at least GATHER_SLOTS slots)
-    iL = 1.0 / L
-    w = 0
+    # gather (cells hold at least GATHER_SLOTS slots)
+    w = base
     for o0 in range(lo0, hi0 + 1):
         n0 = c0 + o0
         w0 = 1
@@ -345,11 +328,32 @@ def _scan_cells(P, I, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, 
                         GS[w + q] = code
                 w += cnt
     if PF:
-        for u in range(w):
+        for u in range(base, w):
             _prefetch(P, GB[u])
             _prefetch(I, GB[u])  # the counter of the partner found, read after the scan
-    # pass 2: the pair times
-    for u in range(w):
+    return w - base
+
+
+@_inline
+def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG):
+    """Two earliest collisions of k (its row at time t) with the ng particles gathered at GB[base:].
+
+    Returns the improved (best time, partner, second time, second partner);
+    the second saves a rescan when the first turns out stale. With each,
+    where it comes from: KEPT1 / KEPT2 (the best / second given in) or NEW
+    (found in this scan, to be stamped with the partner's counter now).
+    """
+    xk0 = P[k, 0]
+    vk0 = P[k, PV]
+    xk1 = P[k, 1] if D > 1 else 0.0
+    vk1 = P[k, PV + 1] if D > 1 else 0.0
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    rk = P[k, PR]
+    src1 = KEPT1
+    src2 = KEPT2
+    iL = 1.0 / L
+    for u in range(base, base + ng):
         m = GB[u]
         dtm = t - P[m, PT]
         dx0 = P[m, 0] + P[m, PV] * dtm - xk0
@@ -395,7 +399,7 @@ def _scan_cells(P, I, cells, GB, GS, k, t, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, 
                 best2 = tp
                 bj2 = m
                 src2 = NEW
-    return best, bj, src1, best2, bj2, src2, w
+    return best, bj, src1, best2, bj2, src2
 
 
 @_inline
@@ -959,6 +963,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         cj = _borrow(cj)
         cimp = _borrow(cimp)
         n = P.shape[0]
+        pf = (IS[S_PF] & PF_SCAN) != 0  # prefetch the cells and rows of a scan (large systems)
+        pipe = (IS[S_PF] & PF_NEXT) != 0  # prefetch the next events' rows (large systems)
+        GROOM = GB.shape[0] // 2  # where j's gather goes in GB when both are gathered first
         cur = IS[S_CUR]
         hsize = IS[S_HSIZE]
         ohead = IS[S_OHEAD]
@@ -968,8 +975,6 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         bufcap = IS[S_BUFCAP]
         recb = IS[S_RECB] != 0
         recc = IS[S_RECC] != 0
-        pf = (IS[S_PF] & PF_SCAN) != 0  # prefetch the cells and rows of a scan (large systems)
-        pipe = (IS[S_PF] & PF_NEXT) != 0  # prefetch the next events' rows (large systems)
         nbb = IS[S_NBB]
         ncb = IS[S_NCB]
         iw = FS[F_IW]
@@ -996,8 +1001,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         tnow = FS[F_TNOW]
         predicting = max_events < 0
         pk = 0
-        pb = cur + 1  # the calendar bucket whose list the prefetch walk is in (pipe)
-        pw = -1  # the walk's particle in it (-1: go to the next bucket)
+        wb = cur  # the calendar bucket whose list the prefetch walk is in (pipe)
+        pw = -1  # the walk's particle in it (-1: the list is done)
         status = DONE
         while True:
             # who looks for new events after this one, and where: by default k
@@ -1316,7 +1321,23 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             lo2 = o
                             hi2 = o
 
-            # --- new predictions for k (and j)
+            # --- new predictions for k (and j). Large systems (pipe) gather the
+            # particles of both cell scans first (a collision's second gather
+            # requests its rows from memory before the first scan waits on its
+            # own); small ones gather each just before its scan (faster in cache).
+            cellscan = PAIRS and D > 1 and not NL and rescan
+            ng0 = 0
+            ng1 = 0
+            if cellscan and pipe:
+                for side in range(nres):
+                    p = k if side == 0 else j
+                    ng = _gather_cells(P, I, cells, GB, GS, side * GROOM, I[p, C0],
+                                       I[p, C0 + 1], I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2,
+                                       hi2, nc, D, PER, IMG, pf)
+                    if side == 0:
+                        ng0 = ng
+                    else:
+                        ng1 = ng
             for side in range(nres):
                 p = k if side == 0 else j
                 if newcross:
@@ -1338,7 +1359,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     EV[p, TCOL] = best
                     I[p, PART] = bj
                     I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
-                if PAIRS and D > 1 and not NL and rescan:
+                if cellscan:
                     # a full scan, or the cells that came into view merged
                     # with the two predictions kept (which keep the counter
                     # they were made with; a new one takes the partner's
@@ -1356,11 +1377,17 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         p2 = I[p, PART2]
                     oc1 = I[p, PCNT]
                     oc2 = I[p, PCNT2]
-                    best, bj, src1, best2, bj2, src2, tested = _scan_cells(
-                        P, I, cells, GB, GS, p, t, I[p, C0], I[p, C0 + 1], I[p, C0 + 2],
-                        lo0, hi0, lo1, hi1, lo2, hi2, nc, L, g, b1, p1, b2, p2,
-                        D, PER, GRAV, IMG, pf)
-                    n_pairs += tested
+                    if pipe:
+                        base = side * GROOM
+                        ng = ng0 if side == 0 else ng1
+                    else:
+                        base = 0
+                        ng = _gather_cells(P, I, cells, GB, GS, 0, I[p, C0], I[p, C0 + 1],
+                                           I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D,
+                                           PER, IMG, pf)
+                    best, bj, src1, best2, bj2, src2 = _scan_gathered(
+                        P, GB, GS, base, ng, p, t, L, g, b1, p1, b2, p2, D, PER, GRAV, IMG)
+                    n_pairs += ng
                     EV[p, TCOL] = best
                     I[p, PART] = bj
                     if bj < 0:
@@ -1384,17 +1411,18 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if not predicting:
                     hsize, ohead = _q_insert(Q, HK, HI, BH, p, key, cur, nbk, iw, hsize, ohead)
             if pipe and not predicting:
-                # the lists of the next buckets are walked one particle an event (each
-                # step reads a row requested one event before), so that moving a bucket
-                # into the heap does not wait on one cache miss after another
-                if pb <= cur:
-                    pb = cur + 1
-                    pw = -1
-                if pw >= 0:
+                # the list of the next bucket is walked one particle an event (each
+                # step reads a row requested one event before), from when the current
+                # bucket went into the heap, so that moving it into the heap in turn
+                # does not wait on one cache miss after another
+                if wb <= cur:
+                    wb = cur + 1
+                    pw = BH[wb & (nbk - 1)]
+                elif pw >= 0:
                     pw = Q[pw, QN]
-                elif pb <= cur + 2:
-                    pw = BH[pb & (nbk - 1)]
-                    pb += 1
+                elif wb < cur + 2:
+                    wb += 1
+                    pw = BH[wb & (nbk - 1)]
                 if pw >= 0:
                     _prefetch(Q, pw)
                     _prefetch(EV, pw)
