@@ -1321,25 +1321,36 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             lo2 = o
                             hi2 = o
 
-            # --- new predictions for k (and j). Large systems (pipe) gather the
-            # particles of both cell scans first (a collision's second gather
-            # requests its rows from memory before the first scan waits on its
-            # own); small ones gather each just before its scan (faster in cache).
+            # --- new predictions for k (and j), in steps: a gather of a side's
+            # cells, then the rest for that side. Large systems (pipe) gather both
+            # sides first (a collision's second gather requests its rows from
+            # memory before the first scan waits on its own), small ones gather
+            # each just before its scan (faster in cache). One step loop keeps a
+            # single copy of each inlined helper (compile time).
             cellscan = PAIRS and D > 1 and not NL and rescan
             ng0 = 0
             ng1 = 0
-            if cellscan and pipe:
-                for side in range(nres):
-                    p = k if side == 0 else j
-                    ng = _gather_cells(P, I, cells, GB, GS, side * GROOM, I[p, C0],
-                                       I[p, C0 + 1], I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2,
-                                       hi2, nc, D, PER, IMG, pf)
+            for step in range(2 * nres if cellscan else nres):
+                if not cellscan:
+                    side = step
+                    gathering = False
+                elif pipe:
+                    side = step % nres
+                    gathering = step < nres
+                else:
+                    side = step // 2
+                    gathering = step % 2 == 0
+                p = k if side == 0 else j
+                base = side * GROOM if pipe else 0
+                if gathering:
+                    ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
+                                       I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D, PER,
+                                       IMG, pf)
                     if side == 0:
                         ng0 = ng
                     else:
                         ng1 = ng
-            for side in range(nres):
-                p = k if side == 0 else j
+                    continue
                 if newcross:
                     tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL)
                     if NL:
@@ -1377,14 +1388,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         p2 = I[p, PART2]
                     oc1 = I[p, PCNT]
                     oc2 = I[p, PCNT2]
-                    if pipe:
-                        base = side * GROOM
-                        ng = ng0 if side == 0 else ng1
-                    else:
-                        base = 0
-                        ng = _gather_cells(P, I, cells, GB, GS, 0, I[p, C0], I[p, C0 + 1],
-                                           I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D,
-                                           PER, IMG, pf)
+                    ng = ng0 if side == 0 else ng1
                     best, bj, src1, best2, bj2, src2 = _scan_gathered(
                         P, GB, GS, base, ng, p, t, L, g, b1, p1, b2, p2, D, PER, GRAV, IMG)
                     n_pairs += ng
