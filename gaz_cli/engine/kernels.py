@@ -147,6 +147,40 @@ def _borrow(typingctx, arr):
 
 
 @intrinsic
+def _prefetch_at(typingctx, arr, i, j):
+    """Ask the CPU to start loading element (i, j) of a 2D array into the cache (a hint)."""
+    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        aryty = sig.args[0]
+        ary = context.make_array(aryty)(context, builder, value=args[0])
+        idx = context.cast(builder, args[1], sig.args[1], types.intp)
+        col = context.cast(builder, args[2], sig.args[2], types.intp)
+        ptr = cgutils.get_item_pointer2(context, builder, ary.data,
+                                        cgutils.unpack_tuple(builder, ary.shape),
+                                        cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
+                                        [idx, col], wraparound=False)
+        _emit_prefetch(builder, ptr)
+        return context.get_dummy_value()
+
+    return types.void(arr, i, j), codegen
+
+
+def _emit_prefetch(builder, ptr):
+    """Emit llvm.prefetch (read, keep in all cache levels, data cache) of the byte at ptr."""
+    i32 = ir.IntType(32)
+    if getattr(ptr.type, "is_opaque", False):  # LLVM with opaque pointers
+        name = "llvm.prefetch.p0"
+    else:
+        ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+        name = "llvm.prefetch.p0i8"
+    fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, name)
+    builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
+
+
+@intrinsic
 def _prefetch(typingctx, arr, i):
     """Ask the CPU to start loading row i of an array into the cache (llvm.prefetch).
 
@@ -167,16 +201,7 @@ def _prefetch(typingctx, arr, i):
                                         cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
                                         [idx, zero] if aryty.ndim == 2 else [idx],
                                         wraparound=False)
-        i32 = ir.IntType(32)
-        if getattr(ptr.type, "is_opaque", False):  # LLVM with opaque pointers
-            name = "llvm.prefetch.p0"
-        else:
-            ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())
-            name = "llvm.prefetch.p0i8"
-        fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
-        fn = cgutils.get_or_insert_function(builder.module, fnty, name)
-        # read, keep in all cache levels, data cache
-        builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
+        _emit_prefetch(builder, ptr)
         return context.get_dummy_value()
 
     return types.void(arr, i), codegen
@@ -1111,6 +1136,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch(M, kn)
                         _prefetch(P, kn)
                         _prefetch(I, kn)
+                        _prefetch_at(I, kn, I_WIDTH - 1)  # (a row may straddle two lines)
                         _prefetch(EV, kn)
                         _prefetch(Q, kn)
                 tnow = t
@@ -1441,6 +1467,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     _prefetch(M, jn)
                     _prefetch(P, jn)
                     _prefetch(I, jn)
+                    _prefetch_at(I, jn, I_WIDTH - 1)
                     _prefetch(Q, jn)
 
         IS[S_CUR] = cur
