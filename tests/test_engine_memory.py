@@ -64,8 +64,9 @@ def test_prefetching_and_gathering_ahead_change_no_event(make_scene, monkeypatch
 
 @pytest.mark.parametrize("buckets, per_bucket", [(16, 64.0), (1 << 20, 0.25)])
 def test_the_calendar_shape_changes_no_event(make_scene, monkeypatch, buckets, per_bucket):
-    """A calendar of 16 buckets (hundreds of events in each, a big heap) or of four times as
-    many buckets as the tuning wants gives the same run: the queue only orders the events."""
+    """A calendar of 16 buckets (about 90 events in each, against 3: a bigger heap) or of four
+    times as many buckets as the tuning wants gives the same run: the queue only orders the
+    events."""
     scene = make_scene(dim=3, n=400, packing=0.3, duration=0.2, seed=7, boundary="walls")
     state = initial_state(scene)
     plain, cp, bp = _run(scene, state)
