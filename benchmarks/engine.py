@@ -37,9 +37,12 @@ import sys
 import tempfile
 import time
 
+import numba
 import numpy as np
 
 from gaz_cli import engine
+from gaz_cli.engine import kernels as K
+from gaz_cli.engine.driver import _alloc
 from gaz_cli.constants import K_B
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, initial_state
@@ -147,27 +150,25 @@ def fig_e(args):
                   f"{ref_rate:,.0f} events/s; speed-up x{fast_rate / ref_rate:,.0f}")
 
 
+@numba.njit(cache=False)
+def _chase(nxt, steps):
+    """Follow ``steps`` links of a cycle stored every 8th int64 of nxt (one link a cache line)."""
+    i = 0
+    for _ in range(steps):
+        i = nxt[i * 8]
+    return i
+
+
 def _latency_ns(nbytes: int, loads: int = 2_000_000) -> float:
     """Nanoseconds per dependent load at random over ``nbytes`` (one load a 64-byte line, huge
     pages as the engine's arrays): what one cache miss costs when the data is that large."""
-    import numba
-
-    from gaz_cli.engine.driver import _alloc
-
-    @numba.njit(cache=False)
-    def chase(nxt, steps):
-        i = 0
-        for _ in range(steps):
-            i = nxt[i * 8]
-        return i
-
     lines = max(nbytes // 64, 16)
     nxt = _alloc(lines * 8, np.int64, fill=0)
     perm = np.random.default_rng(0).permutation(lines)
     nxt[perm * 8] = np.roll(perm, -1)  # one cycle through every line, in random order
-    chase(nxt, 1000)
+    _chase(nxt, 1000)
     t0 = time.perf_counter()
-    chase(nxt, loads)
+    _chase(nxt, loads)
     return 1e9 * (time.perf_counter() - t0) / loads
 
 
@@ -201,7 +202,7 @@ def fig_f(args):
               f"{ex['restarts']}; peak memory of this process {rss:,.0f} MB")
 
 
-ENGINE_BYTES_PER_PARTICLE = 8 * 8 + 13 * 4 + 4 * 8 + 4 * 4 + 8 + 2 * 56
+ENGINE_BYTES_PER_PARTICLE = 8 * K.P_WIDTH + 4 * K.I_WIDTH + 8 * K.EV_WIDTH + 4 * 4 + 8 + 2 * 56
 """Bytes the event loop reads per particle (3D): rows P, I, EV, Q, the mass, and about
 two cell rows' share (cells and calendar buckets)."""
 

@@ -338,16 +338,17 @@ def test_neighbour_lists_in_a_tiny_periodic_box_list_each_neighbour_once():
     assert stats.extras["list_rebuilds"] > 10 and list(sim.NN) == [1, 1]
 
 
-def test_work_per_event_does_not_grow_with_n():
+def test_work_per_event_does_not_grow_with_n(make_scene):
     """O(1) per event: at the same packing fraction, 16 times more particles cost the same pair
     times and calendar steps per event (cells stay about one diameter wide, buckets hold a few
     events). A time per event that grows with N is the memory hierarchy, not the algorithm
     (benchmarks/engine.py, figure f)."""
     work = {}
     for n in (1000, 16000):
+        # diameter about 1 whatever n: the same mean free time
         length = (n * math.pi / 6.0 / 0.3) ** (1.0 / 3.0)
-        sc = Scene(dim=3, length=length, duration=1.0, components=((Species("X", 1.0, 0.5), n),),
-                   temperature=1.0 / K_B, seed=4, boundary="periodic", record="none")
+        sc = make_scene(dim=3, n=n, packing=0.3, length=length, duration=1.0, seed=4,
+                        boundary="periodic", record="none")
         rs = engine.run(sc, initial_state(sc))
         q = rs.extras["queue_events"]
         assert rs.collisions > 4 * n

@@ -231,7 +231,7 @@ class _Simulation:
         IS[K.S_RECC] = int(self.want_c)
         IS[K.S_NC] = nc
         IS[K.S_N] = n
-        IS[K.S_PF] = K.PF_SCAN | K.PF_NEXT if n >= PREFETCH_FROM_N else 0
+        IS[K.S_PF] = int(n >= PREFETCH_FROM_N)
         FS[K.F_L] = L
         FS[K.F_G] = g
         FS[K.F_E] = e

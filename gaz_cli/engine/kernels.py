@@ -119,10 +119,6 @@ GATHER_SLOTS = 4
 NLCODE = 1 << 10
 """Crossing code of a neighbour-list rebuild (leaving the sphere of radius h)."""
 
-PF_SCAN, PF_NEXT = 1, 2
-"""Prefetch bits of IS[S_PF]: the cells and rows of each scan; the rows of the next events
-(top of the heap), then their cells and partners' rows, one event ahead."""
-
 # kernel status codes
 DONE, BUFFER_FULL, CELL_FULL, PAUSE, NL_FULL = 0, 1, 2, 3, 4
 
@@ -153,29 +149,13 @@ def _borrow(typingctx, arr):
     return arr(arr), codegen
 
 
-@intrinsic
-def _prefetch_at(typingctx, arr, i, j):
-    """Ask the CPU to start loading element (i, j) of a 2D array into the cache (a hint)."""
-    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
-        return None
-
-    def codegen(context, builder, sig, args):
-        aryty = sig.args[0]
-        ary = context.make_array(aryty)(context, builder, value=args[0])
-        idx = context.cast(builder, args[1], sig.args[1], types.intp)
-        col = context.cast(builder, args[2], sig.args[2], types.intp)
-        ptr = cgutils.get_item_pointer2(context, builder, ary.data,
-                                        cgutils.unpack_tuple(builder, ary.shape),
-                                        cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
-                                        [idx, col], wraparound=False)
-        _emit_prefetch(builder, ptr)
-        return context.get_dummy_value()
-
-    return types.void(arr, i, j), codegen
-
-
-def _emit_prefetch(builder, ptr):
-    """Emit llvm.prefetch (read, keep in all cache levels, data cache) of the byte at ptr."""
+def _emit_prefetch(context, builder, aryty, arr, idxs):
+    """Emit llvm.prefetch (read, keep in all cache levels, data cache) of element idxs of arr."""
+    ary = context.make_array(aryty)(context, builder, value=arr)
+    ptr = cgutils.get_item_pointer2(context, builder, ary.data,
+                                    cgutils.unpack_tuple(builder, ary.shape),
+                                    cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
+                                    idxs, wraparound=False)
     i32 = ir.IntType(32)
     if getattr(ptr.type, "is_opaque", False):  # LLVM with opaque pointers
         name = "llvm.prefetch.p0"
@@ -199,32 +179,41 @@ def _prefetch(typingctx, arr, i):
         return None
 
     def codegen(context, builder, sig, args):
-        aryty = sig.args[0]
-        ary = context.make_array(aryty)(context, builder, value=args[0])
         idx = context.cast(builder, args[1], sig.args[1], types.intp)
         zero = context.get_constant(types.intp, 0)
-        ptr = cgutils.get_item_pointer2(context, builder, ary.data,
-                                        cgutils.unpack_tuple(builder, ary.shape),
-                                        cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
-                                        [idx, zero] if aryty.ndim == 2 else [idx],
-                                        wraparound=False)
-        _emit_prefetch(builder, ptr)
+        _emit_prefetch(context, builder, sig.args[0], args[0],
+                       [idx, zero] if sig.args[0].ndim == 2 else [idx])
         return context.get_dummy_value()
 
     return types.void(arr, i), codegen
 
 
+@intrinsic
+def _prefetch_at(typingctx, arr, i, j):
+    """Ask the CPU to start loading element (i, j) of a 2D array into the cache (a hint)."""
+    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        idx = context.cast(builder, args[1], sig.args[1], types.intp)
+        col = context.cast(builder, args[2], sig.args[2], types.intp)
+        _emit_prefetch(context, builder, sig.args[0], args[0], [idx, col])
+        return context.get_dummy_value()
+
+    return types.void(arr, i, j), codegen
+
+
 @_inline
-def _prefetch_block(cells, c0, c1, c2, nc, D):
-    """Request the rows of the 3^D cells around cell (c0, c1, c2) (wrapped; a hint only)."""
-    for o0 in range(-1, 2):
+def _prefetch_block(cells, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc, D):
+    """Request the rows of the cells c + (lo..hi) on each axis (wrapped; a hint only)."""
+    for o0 in range(lo0, hi0 + 1):
         n0 = c0 + o0
         n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
-        for o1 in range(-1, 2):
+        for o1 in range(lo1, hi1 + 1):
             n1 = c1 + o1
             n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
             if D > 2:
-                for o2 in range(-1, 2):
+                for o2 in range(lo2, hi2 + 1):
                     n2 = c2 + o2
                     n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
                     _prefetch(cells, (n0 * nc + n1) * nc + n2)
@@ -282,19 +271,7 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
         lo2 = 0
         hi2 = 0
     if PF:
-        for o0 in range(lo0, hi0 + 1):
-            n0 = c0 + o0
-            n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
-            for o1 in range(lo1, hi1 + 1):
-                n1 = c1 + o1
-                n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
-                for o2 in range(lo2, hi2 + 1):
-                    if D > 2:
-                        n2 = c2 + o2
-                        n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
-                        _prefetch(cells, (n0 * nc + n1) * nc + n2)
-                    else:
-                        _prefetch(cells, n0 * nc + n1)
+        _prefetch_block(cells, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc, D)
     # gather (cells hold at least GATHER_SLOTS slots)
     w = base
     for o0 in range(lo0, hi0 + 1):
@@ -995,8 +972,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         cj = _borrow(cj)
         cimp = _borrow(cimp)
         n = P.shape[0]
-        pf = (IS[S_PF] & PF_SCAN) != 0  # prefetch the cells and rows of a scan (large systems)
-        pipe = (IS[S_PF] & PF_NEXT) != 0  # prefetch the next events' rows (large systems)
+        pf = IS[S_PF] != 0  # large systems: prefetch, and gather a collision's scans first
         GROOM = GB.shape[0] // 2  # where j's gather goes in GB when both are gathered first
         cur = IS[S_CUR]
         hsize = IS[S_HSIZE]
@@ -1033,7 +1009,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         tnow = FS[F_TNOW]
         predicting = max_events < 0
         pk = 0
-        wb = cur  # the calendar bucket whose list the prefetch walk is in (pipe)
+        wb = cur  # the calendar bucket whose list the prefetch walk is in (pf)
         pw = -1  # the walk's particle in it (-1: the list is done)
         status = DONE
         while True:
@@ -1135,7 +1111,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 hsize = _heap_remove(HK, HI, Q, hsize, 0)
                 Q[k, QB] = NONE
                 done += 1
-                if pipe:
+                if pf:
                     # the next events are near the top of the heap: start loading
                     # their rows now, they arrive while this event is processed
                     for u in range(min(hsize, 3)):
@@ -1219,8 +1195,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     else:
                         # --- a real collision between k and j at t
                         nres = 2
-                        if pipe and D > 1 and PAIRS and not NL:
-                            _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2], nc, D)
+                        if pf and D > 1 and PAIRS and not NL:
+                            _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2],
+                                            -1, 1, -1, 1, -1, 1, nc, D)
                         hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
                         # j to time t (written out: an inlined call costs compile time)
                         dta = t - P[j, PT]
@@ -1355,7 +1332,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             hi2 = o
 
             # --- new predictions for k (and j), in steps: a gather of a side's
-            # cells, then the rest for that side. Large systems (pipe) gather both
+            # cells, then the rest for that side. Large systems (pf) gather both
             # sides first (a collision's second gather requests its rows from
             # memory before the first scan waits on its own), small ones gather
             # each just before its scan (faster in cache). One step loop keeps a
@@ -1367,14 +1344,14 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if not cellscan:
                     side = step
                     gathering = False
-                elif pipe:
+                elif pf:
                     side = step % nres
                     gathering = step < nres
                 else:
                     side = step // 2
                     gathering = step % 2 == 0
                 p = k if side == 0 else j
-                base = side * GROOM if pipe else 0
+                base = side * GROOM if pf else 0
                 if gathering:
                     ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
                                        I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D, PER,
@@ -1447,7 +1424,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 EV[p, KEY] = key
                 if not predicting:
                     hsize, ohead = _q_insert(Q, HK, HI, BH, p, key, cur, nbk, iw, hsize, ohead)
-            if pipe and not predicting:
+            if pf and not predicting:
                 # the list of the next bucket is walked one particle an event (each
                 # step reads a row requested one event before), from when the current
                 # bucket went into the heap, so that moving it into the heap in turn
@@ -1463,19 +1440,20 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if pw >= 0:
                     _prefetch(Q, pw)
                     _prefetch(EV, pw)
-            if pipe and hsize > 0 and not predicting:
-                # the next event's particle: its rows were requested one event ago;
-                # now its cells and its partner's rows
-                kn = HI[0]
-                if D > 1 and PAIRS and not NL:
-                    _prefetch_block(cells, I[kn, C0], I[kn, C0 + 1], I[kn, C0 + 2], nc, D)
-                jn = I[kn, PART]
-                if jn >= 0:
-                    _prefetch(M, jn)
-                    _prefetch(P, jn)
-                    _prefetch(I, jn)
-                    _prefetch_at(I, jn, I_WIDTH - 1)
-                    _prefetch(Q, jn)
+                if hsize > 0:
+                    # the next event's particle: its rows were requested one event
+                    # ago; now its cells and its partner's rows
+                    kn = HI[0]
+                    if D > 1 and PAIRS and not NL:
+                        _prefetch_block(cells, I[kn, C0], I[kn, C0 + 1], I[kn, C0 + 2],
+                                        -1, 1, -1, 1, -1, 1, nc, D)
+                    jn = I[kn, PART]
+                    if jn >= 0:
+                        _prefetch(M, jn)
+                        _prefetch(P, jn)
+                        _prefetch(I, jn)
+                        _prefetch_at(I, jn, I_WIDTH - 1)
+                        _prefetch(Q, jn)
 
         IS[S_CUR] = cur
         IS[S_HSIZE] = hsize
