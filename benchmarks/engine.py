@@ -14,7 +14,8 @@ Not a test: it prints numbers. Run from the repository root:
 (c) 2D, N = 1000 disks, area fraction 0.2, walls;
 (d) 1D, N = 1000 rods, packing 0.5, walls;
 (e) speed-up over gaz_cli.reference on (c) at N = 200 and N = 1000;
-(f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3), beside the work
+(f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3; the sizes run in
+    turn, --repeat rounds, so that a slow spell of the host falls on all), beside the work
     per event (pair times, calendar steps: flat) and the latency of one cache miss over
     as many bytes as the engine holds (what makes the time per event grow);
 (g) JIT compile time from an empty cache, and process start to first event
@@ -175,31 +176,42 @@ def _latency_ns(nbytes: int, loads: int = 2_000_000) -> float:
 def fig_f(args):
     print("(f) cost per event against N: 3D periodic, packing 0.3, lattice start, "
           "about 3 10^6 queue events each (collisions, crossings, stale predictions)")
-    print("    ns/event: event loop only (the O(N) first predictions are set-up, given apart); work "
-          "per event: pair times computed, calendar buckets stepped; memory: ns per dependent load "
-          "at random over as many bytes as the engine's arrays hold (one cache miss at this size)")
+    print("    ns/event: event loop only (the O(N) first predictions are set-up, given apart), "
+          "the sizes run in turn --repeat times so that the machine's slow spells fall on all of "
+          "them (median, and the fastest run); work per event: pair times computed, calendar "
+          "buckets stepped; memory: ns per dependent load at random over as many bytes as the "
+          "engine's arrays hold (one cache miss at this size)")
     sizes = [1000, 10_000, 100_000, 1_000_000] if not args.quick else [1000, 10_000, 100_000]
-    first = None
+    scenes = {}
     for n in sizes:
-        duration = 3e6 / (n * 5.0) * args.scale
-        sc = unit_scene(3, n, 0.30, duration, boundary="periodic", placement="lattice")
+        sc = unit_scene(3, n, 0.30, 3e6 / (n * 5.0) * args.scale, boundary="periodic",
+                        placement="lattice")
         t0 = time.perf_counter()
-        st = initial_state(sc)
-        place_s = time.perf_counter() - t0
-        t, rs = timed(sc, st, 1 if n >= 100_000 else args.repeat)
-        ex = rs.extras
+        scenes[n] = (sc, initial_state(sc), time.perf_counter() - t0)
+    loop_ns = {n: [] for n in sizes}
+    last = {}
+    for _ in range(args.repeat):
+        for n in sizes:
+            sc, st, _ = scenes[n]
+            rs = engine.run(sc, st, Recorder())
+            loop_ns[n].append(1e9 * rs.extras["loop_s"] / rs.extras["queue_events"])
+            last[n] = rs
+    first = float(np.median(loop_ns[sizes[0]]))
+    for n in sizes:
+        rs, ex = last[n], last[n].extras
         q = ex["queue_events"]
-        loop_ns = 1e9 * t["loop"] / q
-        first = first or loop_ns
-        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        med = float(np.median(loop_ns[n]))
         lat = _latency_ns(n * ENGINE_BYTES_PER_PARTICLE)
-        print(f"  N = {n:>9,}: {loop_ns:6.0f} ns per queue event in the loop (x{loop_ns / first:.2f}), "
-              f"{1e9 * t['wall'] / q:6.0f} with set-up, {1e9 * t['cpu'] / rs.collisions:6.0f} ns CPU "
-              f"per collision; work per event: {ex['pair_tests'] / q:.2f} pair times, "
-              f"{ex['calendar_steps'] / q:.2f} buckets; memory latency {lat:5.1f} ns "
-              f"(event = {loop_ns / lat:.0f} latencies)")
-        print(f"               placement {place_s:.1f} s, set-up {ex['init_s']:.2f} s, restarts "
-              f"{ex['restarts']}; peak memory of this process {rss:,.0f} MB")
+        print(f"  N = {n:>9,}: {med:6.0f} ns per queue event in the loop (x{med / first:.2f}; "
+              f"fastest {min(loop_ns[n]):.0f}), {1e9 * rs.wall_time_s / q:6.0f} with set-up; "
+              f"work per event: {ex['pair_tests'] / q:.2f} pair times, "
+              f"{ex['calendar_steps'] / q:.2f} buckets; memory latency {lat:5.1f} ns")
+        print(f"               placement {scenes[n][2]:.1f} s, set-up {ex['init_s']:.2f} s, "
+              f"restarts {ex['restarts']}")
+    slope = math.log(np.median(loop_ns[sizes[-1]]) / first) / math.log(sizes[-1] / sizes[0])
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"    time per event ~ N^{slope:.3f} over this range (medians); peak memory of this "
+          f"process {rss:,.0f} MB")
 
 
 ENGINE_BYTES_PER_PARTICLE = 8 * K.P_WIDTH + 4 * K.I_WIDTH + 8 * K.EV_WIDTH + 4 * 4 + 8 + 2 * 56
