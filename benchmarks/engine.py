@@ -63,7 +63,7 @@ def unit_scene(dim, n, packing, duration, boundary="walls", placement="auto", se
 
 def timed(scene, state, repeat):
     """Median wall and CPU rates over ``repeat`` runs: dict of figures and the last RunStats."""
-    walls, cpus, loops = [], [], []
+    walls, cpus = [], []
     rs = None
     for _ in range(repeat):
         c0 = time.process_time()
@@ -71,9 +71,8 @@ def timed(scene, state, repeat):
         cpu = time.process_time() - c0 - rs.extras["compile_s"]
         walls.append(rs.wall_time_s)
         cpus.append(cpu)
-        loops.append(rs.extras["loop_s"])
     return {"wall": float(np.median(walls)), "cpu": float(np.median(cpus)),
-            "loop": float(np.median(loops)), "fastest": min(walls), "runs": repeat}, rs
+            "fastest": min(walls), "runs": repeat}, rs
 
 
 def show(label, t, rs):
@@ -198,19 +197,19 @@ def fig_f(args):
             rs = engine.run(sc, st, Recorder())
             loop_ns[n].append(1e9 * rs.extras["loop_s"] / rs.extras["queue_events"])
             last[n] = rs
-    first = float(np.median(loop_ns[sizes[0]]))
+    med = {n: float(np.median(loop_ns[n])) for n in sizes}
+    first = med[sizes[0]]
     for n in sizes:
         rs, ex = last[n], last[n].extras
         q = ex["queue_events"]
-        med = float(np.median(loop_ns[n]))
         lat = _latency_ns(n * ENGINE_BYTES_PER_PARTICLE)
-        print(f"  N = {n:>9,}: {med:6.0f} ns per queue event in the loop (x{med / first:.2f}; "
+        print(f"  N = {n:>9,}: {med[n]:6.0f} ns per queue event in the loop (x{med[n] / first:.2f}; "
               f"fastest {min(loop_ns[n]):.0f}), {1e9 * rs.wall_time_s / q:6.0f} with set-up; "
               f"work per event: {ex['pair_tests'] / q:.2f} pair times, "
               f"{ex['calendar_steps'] / q:.2f} buckets; memory latency {lat:5.1f} ns")
         print(f"               placement {scenes[n][2]:.1f} s, set-up {ex['init_s']:.2f} s, "
               f"restarts {ex['restarts']}")
-    slope = math.log(np.median(loop_ns[sizes[-1]]) / first) / math.log(sizes[-1] / sizes[0])
+    slope = math.log(med[sizes[-1]] / first) / math.log(sizes[-1] / sizes[0])
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"    time per event ~ N^{slope:.3f} over this range (medians); peak memory of this "
           f"process {rss:,.0f} MB")
