@@ -32,24 +32,30 @@ def _energy(scene, v):
     return 0.5 * float(np.sum(scene.masses() * np.sum(v * v, axis=1)))
 
 
-@pytest.mark.parametrize("dim, n, boundary, gravity, packing", [
-    (3, 400, "periodic", 0.0, 0.3),
-    (3, 400, "walls", 30.0, 0.3),
-    (2, 300, "walls", 0.0, 0.4),
-    (2, 300, "periodic", 0.0, 0.4),
-    (3, 20, "periodic", 0.0, 0.3),  # three cells an axis: scans carry the cells' images
+@pytest.mark.parametrize("dim, n, boundary, gravity, packing, search", [
+    (3, 400, "periodic", 0.0, 0.3, "cells"),
+    (3, 400, "walls", 30.0, 0.3, "cells"),
+    (2, 300, "walls", 0.0, 0.4, "cells"),
+    (2, 300, "periodic", 0.0, 0.4, "cells"),
+    (3, 20, "periodic", 0.0, 0.3, "cells"),  # three cells an axis: scans carry the cells' images
+    (3, 400, "periodic", 0.0, 0.4, "lists"),
+    (3, 400, "walls", 30.0, 0.4, "lists"),
+    (2, 300, "periodic", 0.0, 0.6, "lists"),
 ])
 def test_prefetching_and_gathering_ahead_change_no_event(make_scene, monkeypatch, dim, n,
-                                                          boundary, gravity, packing):
+                                                          boundary, gravity, packing, search):
     """Large systems prefetch, walk the calendar ahead and gather a collision's two scans before
-    either scans: forced on small systems of every kind, the run is bit for bit the same."""
+    either scans (cells), or request the rows of a list before its scan or rebuild (lists):
+    forced on small systems of every kind, the run is bit for bit the same."""
     scene = make_scene(dim=dim, n=n, packing=packing, duration=0.2 if n > 100 else 5.0, seed=3,
-                       boundary=boundary, gravity=gravity)
+                       boundary=boundary, gravity=gravity, extras={"neighbours": search})
     state = initial_state(scene)
     plain, cp, bp = _run(scene, state)
     monkeypatch.setattr(driver, "PREFETCH_FROM_N", 0)
     hinted, ch, bh = _run(scene, state)
     assert not plain.extras["prefetch"] and hinted.extras["prefetch"]
+    assert plain.extras["neighbour_lists"] == (search == "lists")
+    assert search == "cells" or plain.extras["list_rebuilds"] > 100
     assert plain.collisions > 1000
     assert plain.extras["overlapping_collisions"] == 0
     assert n > 100 or plain.extras["cells_per_axis"] == 3

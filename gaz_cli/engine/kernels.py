@@ -568,8 +568,15 @@ def _nl_exit(P, XN, k, h, g, D, GRAV):
 
 
 @_inline
-def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV):
-    """Earliest collision of k (its row at time t) with the particles of its neighbour list."""
+def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
+    """Earliest collision of k (its row at time t) with the particles of its neighbour list.
+
+    PF (large systems): the neighbours' rows are all requested from memory
+    before the first is read, so that their cache misses overlap.
+    """
+    if PF:
+        for s in range(NN[k]):
+            _prefetch(P, NB[k, s])
     xk0 = P[k, 0]
     vk0 = P[k, PV]
     xk1 = P[k, 1]
@@ -618,7 +625,30 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV):
 
 
 @_inline
-def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER):
+def _prefetch_block_rows(P, XN, NN, cells, c0, c1, c2, lo2, hi2, nc, D):
+    """Request the P, XN and NN rows of the particles in the 3^D cells around c (a hint)."""
+    for o0 in range(-1, 2):
+        n0 = c0 + o0
+        n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
+        for o1 in range(-1, 2):
+            n1 = c1 + o1
+            n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
+            for o2 in range(lo2, hi2 + 1):
+                if D > 2:
+                    n2 = c2 + o2
+                    n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
+                    cell = (n0 * nc + n1) * nc + n2
+                else:
+                    cell = n0 * nc + n1
+                for s in range(1, cells[cell, 0] + 1):
+                    m = cells[cell, s]
+                    _prefetch(XN, m)
+                    _prefetch(P, m)
+                    _prefetch(NN, m)
+
+
+@_inline
+def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER, PF):
     """Neighbours of a list centred at (x0, x1, x2) in cell (c0, c1, c2) into SCR.
 
     Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
@@ -631,6 +661,11 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
     cnt = 0
     lo2 = -1 if D > 2 else 0
     hi2 = 1 if D > 2 else 0
+    if PF:
+        # large systems: the cells, then the rows of their particles, are requested
+        # from memory before the test below reads them (a hint: wrapped even with walls)
+        _prefetch_block(cells, c0, c1, c2, -1, 1, -1, 1, lo2, hi2, nc, D)
+        _prefetch_block_rows(P, XN, NN, cells, c0, c1, c2, lo2, hi2, nc, D)
     for o0 in range(-1, 2):
         n0 = c0 + o0
         if n0 < 0 or n0 >= nc:
@@ -877,7 +912,7 @@ def _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, D, periodic):
         c2 = I[k, C0 + 2] if D > 2 else 0
         x2 = XN[k, 2] if D > 2 else 0.0
         cnt = _gather_nl(P, XN, cells, NN, SCR, k, XN[k, 0], XN[k, 1], x2,
-                         I[k, C0], I[k, C0 + 1], c2, nc, L, h, D, periodic)
+                         I[k, C0], I[k, C0 + 1], c2, nc, L, h, D, periodic, False)
         if cnt < 0:
             return NL_FULL
         for s in range(cnt):
@@ -1091,11 +1126,24 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         status = CELL_FULL
                         break
                     x2 = P[k, 2] if D > 2 else 0.0
+                    if pf:
+                        # k leaves the lists of its old neighbours below: their rows
+                        for s in range(NN[k]):
+                            m = NB[k, s]
+                            _prefetch(NN, m)
+                            _prefetch(NB, m)
+                            _prefetch_at(NB, m, min(16, NB.shape[1] - 1))
                     ng = _gather_nl(P, XN, cells, NN, SCR, k, P[k, 0], P[k, 1], x2,
-                                    nn0, nn1, nn2, nc, L, h, D, PER)
+                                    nn0, nn1, nn2, nc, L, h, D, PER, pf)
                     if ng < 0:
                         status = NL_FULL
                         break
+                    if pf:
+                        # and joins those of its new ones
+                        for s in range(ng):
+                            m = SCR[s]
+                            _prefetch(NB, m)
+                            _prefetch_at(NB, m, min(16, NB.shape[1] - 1))
                 if D > 1 and PAIRS and not NL and not is_col and (code & 1) == 0:
                     d = code >> 2
                     c = I[k, C0 + d] + (1 if (code & 2) else -1)
@@ -1122,6 +1170,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch_at(I, kn, I_WIDTH - 1)  # (a row may straddle two lines)
                         _prefetch(EV, kn)
                         _prefetch(Q, kn)
+                        if NL:
+                            _prefetch(NN, kn)
+                            _prefetch(NB, kn)
+                            _prefetch_at(NB, kn, min(16, NB.shape[1] - 1))
                 tnow = t
 
                 # what the event changes, then who must look for new events:
@@ -1198,6 +1250,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         if pf and D > 1 and PAIRS and not NL:
                             _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2],
                                             -1, 1, -1, 1, -1, 1, nc, D)
+                        if pf and NL:
+                            for s in range(NN[j]):
+                                _prefetch(P, NB[j, s])
                         hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
                         # j to time t (written out: an inlined call costs compile time)
                         dta = t - P[j, PT]
@@ -1375,7 +1430,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
                         n_pairs += 2
                     else:
-                        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV)
+                        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV, pf)
                         n_pairs += NN[p]
                     EV[p, TCOL] = best
                     I[p, PART] = bj
@@ -1447,6 +1502,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     if D > 1 and PAIRS and not NL:
                         _prefetch_block(cells, I[kn, C0], I[kn, C0 + 1], I[kn, C0 + 2],
                                         -1, 1, -1, 1, -1, 1, nc, D)
+                    if NL:
+                        for s in range(NN[kn]):
+                            _prefetch(P, NB[kn, s])
                     jn = I[kn, PART]
                     if jn >= 0:
                         _prefetch(M, jn)
@@ -1454,6 +1512,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch(I, jn)
                         _prefetch_at(I, jn, I_WIDTH - 1)
                         _prefetch(Q, jn)
+                        if NL:
+                            _prefetch(NN, jn)
+                            _prefetch(NB, jn)
+                            _prefetch_at(NB, jn, min(16, NB.shape[1] - 1))
 
         IS[S_CUR] = cur
         IS[S_HSIZE] = hsize
