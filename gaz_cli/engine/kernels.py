@@ -32,8 +32,11 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
   events (the top of the heap) when an event starts, their cells and
   partners' rows when it ends, the next calendar bucket's list one particle
   an event, a scan's cells and particles before it reads them, and a
-  collision gathers both partners' cells before either scans. Hints only:
-  the events are the same with or without them (tested).
+  collision gathers both partners' cells before either scans. With
+  neighbour lists: a list's particles before its scan, the next event's list
+  when an event ends, and before a rebuild its cells, their particles and the
+  lists it edits. Hints only: the events are the same with or without them
+  (tested).
 * Numerical safety (Bannerman et al., Comput. Part. Mech. 1, 191, 2014): the
   pair time is max(0, c / (-b + sqrt(b^2 - a c))) and only for b < 0, so an
   overlapping pair that approaches collides at once and one that separates
