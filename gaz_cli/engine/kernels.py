@@ -207,21 +207,39 @@ def _prefetch_at(typingctx, arr, i, j):
 
 
 @_inline
+def _wrapped(c, o, nc):
+    """Cell coordinate c + o wrapped into 0..nc-1 (o in -1..1)."""
+    n = c + o
+    return n + nc if n < 0 else (n - nc if n >= nc else n)
+
+
+@_inline
 def _prefetch_block(cells, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc, D):
     """Request the rows of the cells c + (lo..hi) on each axis (wrapped; a hint only)."""
     for o0 in range(lo0, hi0 + 1):
-        n0 = c0 + o0
-        n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
+        n0 = _wrapped(c0, o0, nc)
         for o1 in range(lo1, hi1 + 1):
-            n1 = c1 + o1
-            n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
+            n1 = _wrapped(c1, o1, nc)
             if D > 2:
                 for o2 in range(lo2, hi2 + 1):
-                    n2 = c2 + o2
-                    n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
-                    _prefetch(cells, (n0 * nc + n1) * nc + n2)
+                    _prefetch(cells, (n0 * nc + n1) * nc + _wrapped(c2, o2, nc))
             else:
                 _prefetch(cells, n0 * nc + n1)
+
+
+@_inline
+def _prefetch_list(NN, NB, m):
+    """Request particle m's neighbour list: its count and the first two lines of its row."""
+    _prefetch(NN, m)
+    _prefetch(NB, m)
+    _prefetch_at(NB, m, min(16, NB.shape[1] - 1))
+
+
+@_inline
+def _prefetch_listed(P, NB, NN, k):
+    """Request the P rows of the particles on k's neighbour list."""
+    for s in range(NN[k]):
+        _prefetch(P, NB[k, s])
 
 
 @_inline
@@ -578,8 +596,7 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
     before the first is read, so that their cache misses overlap.
     """
     if PF:
-        for s in range(NN[k]):
-            _prefetch(P, NB[k, s])
+        _prefetch_listed(P, NB, NN, k)
     xk0 = P[k, 0]
     vk0 = P[k, PV]
     xk1 = P[k, 1]
@@ -631,16 +648,12 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
 def _prefetch_block_rows(P, XN, NN, cells, c0, c1, c2, lo2, hi2, nc, D):
     """Request the P, XN and NN rows of the particles in the 3^D cells around c (a hint)."""
     for o0 in range(-1, 2):
-        n0 = c0 + o0
-        n0 = n0 + nc if n0 < 0 else (n0 - nc if n0 >= nc else n0)
+        n0 = _wrapped(c0, o0, nc)
         for o1 in range(-1, 2):
-            n1 = c1 + o1
-            n1 = n1 + nc if n1 < 0 else (n1 - nc if n1 >= nc else n1)
+            n1 = _wrapped(c1, o1, nc)
             for o2 in range(lo2, hi2 + 1):
                 if D > 2:
-                    n2 = c2 + o2
-                    n2 = n2 + nc if n2 < 0 else (n2 - nc if n2 >= nc else n2)
-                    cell = (n0 * nc + n1) * nc + n2
+                    cell = (n0 * nc + n1) * nc + _wrapped(c2, o2, nc)
                 else:
                     cell = n0 * nc + n1
                 for s in range(1, cells[cell, 0] + 1):
@@ -1132,10 +1145,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     if pf:
                         # k leaves the lists of its old neighbours below: their rows
                         for s in range(NN[k]):
-                            m = NB[k, s]
-                            _prefetch(NN, m)
-                            _prefetch(NB, m)
-                            _prefetch_at(NB, m, min(16, NB.shape[1] - 1))
+                            _prefetch_list(NN, NB, NB[k, s])
                     ng = _gather_nl(P, XN, cells, NN, SCR, k, P[k, 0], P[k, 1], x2,
                                     nn0, nn1, nn2, nc, L, h, D, PER, pf)
                     if ng < 0:
@@ -1144,9 +1154,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     if pf:
                         # and joins those of its new ones
                         for s in range(ng):
-                            m = SCR[s]
-                            _prefetch(NB, m)
-                            _prefetch_at(NB, m, min(16, NB.shape[1] - 1))
+                            _prefetch_list(NN, NB, SCR[s])
                 if D > 1 and PAIRS and not NL and not is_col and (code & 1) == 0:
                     d = code >> 2
                     c = I[k, C0 + d] + (1 if (code & 2) else -1)
@@ -1174,9 +1182,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch(EV, kn)
                         _prefetch(Q, kn)
                         if NL:
-                            _prefetch(NN, kn)
-                            _prefetch(NB, kn)
-                            _prefetch_at(NB, kn, min(16, NB.shape[1] - 1))
+                            _prefetch_list(NN, NB, kn)
                 tnow = t
 
                 # what the event changes, then who must look for new events:
@@ -1254,8 +1260,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2],
                                             -1, 1, -1, 1, -1, 1, nc, D)
                         if pf and NL:
-                            for s in range(NN[j]):
-                                _prefetch(P, NB[j, s])
+                            _prefetch_listed(P, NB, NN, j)
                         hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
                         # j to time t (written out: an inlined call costs compile time)
                         dta = t - P[j, PT]
@@ -1506,8 +1511,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch_block(cells, I[kn, C0], I[kn, C0 + 1], I[kn, C0 + 2],
                                         -1, 1, -1, 1, -1, 1, nc, D)
                     if NL:
-                        for s in range(NN[kn]):
-                            _prefetch(P, NB[kn, s])
+                        _prefetch_listed(P, NB, NN, kn)
                     jn = I[kn, PART]
                     if jn >= 0:
                         _prefetch(M, jn)
@@ -1516,9 +1520,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         _prefetch_at(I, jn, I_WIDTH - 1)
                         _prefetch(Q, jn)
                         if NL:
-                            _prefetch(NN, jn)
-                            _prefetch(NB, jn)
-                            _prefetch_at(NB, jn, min(16, NB.shape[1] - 1))
+                            _prefetch_list(NN, NB, jn)
 
         IS[S_CUR] = cur
         IS[S_HSIZE] = hsize
