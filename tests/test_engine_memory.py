@@ -176,13 +176,13 @@ from gaz_cli.species import Species
 sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
            temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")
 engine.run(sc, initial_state(sc), Recorder())
-print(int("scipy.linalg" in sys.modules), int("sqlalchemy" in sys.modules))
+print(int("sqlalchemy" in sys.modules), int("pandas" in sys.modules))
 """
 
 
 def test_a_warm_start_loads_no_more_than_the_engine_needs():
-    """With the kernels cached, a run imports neither scipy.linalg (Numba's linear algebra
-    registry, 0.2 s) nor the database layer. The first call may compile (cold cache)."""
+    """A run of the engine imports neither the database layer nor pandas (the engine knows
+    nothing of the store). The first call may compile (cold cache)."""
     env = dict(os.environ)
     out = ""
     for _ in range(2):

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import engine, reference
+from gaz_cli import engine, reference, theory
 from gaz_cli.constants import K_B
 from gaz_cli.recording import MemoryRecorder, Recorder
 from gaz_cli.scene import Scene, State, initial_state
@@ -55,33 +55,67 @@ def assert_inside(scene: Scene, x: np.ndarray) -> None:
         assert (x >= 0).all() and (x < scene.length).all()
 
 
-@pytest.mark.parametrize("dim, n, radius, same, exact", [
-    (1, 20, 0.01, 300, 300),
-    (2, 30, 0.02, 200, 100),
-    (3, 30, 0.04, 300, 200),
-])
-def test_same_events_as_the_exam(dim, n, radius, same, exact):
-    """The fast engine and the exam's algorithm, from one initial state, give the same events.
+ROUNDING = float(np.finfo(float).eps)
+"""One rounding of a double, relative (2^-52)."""
+ROUNDING_SAFETY = 64.0
+"""Roundings per event in the time-error model of :func:`time_tolerances` (each event time
+takes a handful of operations in either code; measured ratios error/tolerance stay below 1e-2)."""
+HORIZON = 1e-6
+"""The cross-check stops where the model allows a relative time error of 1e-6: beyond, two
+events a millionth apart may legitimately come out in either order."""
 
-    The first ``same`` events are the same (same particles, same walls, same order) and
-    the first ``exact`` happen at times equal to 1e-9 relative. The two codes round
-    differently (the exam shifts every relative time after each event, Q33), and each
-    collision amplifies a difference by about (mean free path / sigma), up to 1/angle
-    for grazing ones: in a 2D gas 1e-16 becomes 1e-9 after about a hundred events, in 1D
-    (no chaos) never. Beyond, both are valid trajectories of the same gas.
+
+def time_tolerances(scene: Scene, events) -> np.ndarray:
+    """Relative error allowed on each event's time: ROUNDING_SAFETY * eps * (k + 1) * A**depth.
+
+    The error model. Both codes round each event time at the level of eps; the exam's code
+    also shifts every relative time after each event (Q33), so errors add up with the event
+    index k. A collision turns a position error d into an angle error d/sigma, which a free
+    flight of one mean free path l turns into a position error d*l/sigma: errors are amplified
+    by A = l/sigma per collision along the chain of collisions that led to the event (its
+    *depth*: one more than the larger depth of the two colliders; a wall bounce keeps the
+    particle's depth). In 1D equal rods exchange their velocities and nothing is amplified
+    (A = 1). This is chaos seen from one machine: the depths and amplifications are those of
+    the trajectory, the same everywhere; only the first roundings differ between CPUs and
+    library versions, so the margin measured here holds on any machine.
     """
-    scene = unit_scene(dim, n, radius, duration=6.0, seed=3)
+    if scene.dim == 1:
+        amplification = 1.0
+    else:
+        sigma = 2.0 * float(scene.radii().max())
+        density = scene.n / scene.volume
+        amplification = max(2.0, theory.mean_free_path(scene.dim, density, sigma) / sigma)
+    depth = np.zeros(scene.n, dtype=np.int64)
+    out = np.empty(len(events))
+    for k, (_, kind, a, b) in enumerate(events):
+        if kind == 1:
+            depth[a] = depth[b] = max(depth[a], depth[b]) + 1
+        out[k] = ROUNDING_SAFETY * ROUNDING * (k + 1) * amplification ** float(depth[a])
+    return out
+
+
+@pytest.mark.parametrize("dim, n, radius", [(1, 20, 0.01), (2, 30, 0.02), (3, 30, 0.04)])
+@pytest.mark.parametrize("seed", [3, 4])
+def test_same_events_as_the_exam(dim, n, radius, seed):
+    """The fast engine and the exam's algorithm, from one initial state, give the same events
+    (same particles, same walls, same order) at the same times, within the error model of
+    :func:`time_tolerances`, up to the horizon where that model allows 1e-6 (beyond, both
+    are valid trajectories of the same gas: chaos has taken the two codes apart)."""
+    scene = unit_scene(dim, n, radius, duration=6.0, seed=seed)
     state = initial_state(scene)
     ref, fast = MemoryRecorder(collisions=True), MemoryRecorder(collisions=True)
     reference.run(scene, state, ref)
     engine.run(scene, state, fast)
-    a, b = event_sequence(ref)[:same], event_sequence(fast)[:same]
-    assert len(a) == same and sum(r[1] for r in a) >= 8, "scene too quiet for a cross-check"
+    a, b = event_sequence(ref), event_sequence(fast)
+    tol = time_tolerances(scene, b)
+    horizon = int(np.searchsorted(np.maximum.accumulate(tol), HORIZON))
+    a, b, tol = a[:horizon], b[:horizon], tol[:horizon]
+    assert len(a) == horizon and horizon >= 50 and sum(r[1] for r in b) >= 8, \
+        "scene too quiet for a cross-check"
     assert [r[1:] for r in a] == [r[1:] for r in b]
     ta, tb = np.array([r[0] for r in a]), np.array([r[0] for r in b])
     rel = np.abs(ta - tb) / ta
-    assert rel[:exact].max() < 1e-9
-    assert rel.max() < 1e-2
+    assert np.all(rel <= tol), f"event {int(np.argmax(rel / tol))}: {rel.max():.2e} > model"
 
 
 @pytest.mark.parametrize("dim, boundary, packing", [

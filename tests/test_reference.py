@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -374,7 +373,8 @@ def test_q7_case_succeeds_thanks_to_q9():
 
 
 def test_impossible_and_hopeless_placements_end_with_an_error():
-    start = time.perf_counter()
+    """Each ends in an error after a bounded number of attempts (a hang would meet the
+    suite's per-test timeout, set in pyproject.toml)."""
     with pytest.raises(PlacementError, match="no placement exists"):
         ref.placement1D(6, 0.5, 5.0)
     with pytest.raises(PlacementError, match="no placement exists"):
@@ -386,7 +386,6 @@ def test_impossible_and_hopeless_placements_end_with_an_error():
         ref.placement1D(20, 0.5, 21.0, rng=np.random.default_rng(0))
     with pytest.raises(PlacementError, match="restarts"):
         ref.placement(2, 60, 0.05, 1.0, rng=np.random.default_rng(0), max_restarts=300)
-    assert time.perf_counter() - start < 20.0   # bounded effort, not a hang
 
 
 def _one_rod_each(place, N, repeats, rng):
