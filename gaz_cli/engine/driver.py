@@ -78,13 +78,34 @@ CHUNK = 1 << 22
 
 STALL_CHUNKS = 3
 STALL_RATE = 1e7
-"""Inelastic collapse guard: STALL_CHUNKS calls in a row whose event rate (events per
-simulated second) exceeds STALL_RATE times the rate of the first call, or during which
-simulated time does not move, end the run with an EngineError instead of a hang."""
+"""Runaway guard, checked every chunk of events whatever ended the kernel call (a full record
+buffer, a snapshot, the chunk's budget): STALL_CHUNKS chunks in a row whose event rate (events
+per simulated second) exceeds STALL_RATE times the reference rate (that of the first chunk
+during which simulated time moved), or during which simulated time does not move at all,
+end the run with an EngineError instead of a hang."""
+
+SLOW_RATE = 100.0
+MAX_PROJECTED_EVENTS = 2e9
+"""Slow-down guard for inelastic scenes: once the event rate exceeds SLOW_RATE times the
+reference rate and, at that rate, the simulated time left would take more than
+MAX_PROJECTED_EVENTS events (20-40 minutes of this engine at 1-2 million events per second),
+the run ends with an EngineError naming the simulated time reached. A granular bed that
+has settled under gravity does this: the TC model keeps it from collapsing, but each
+particle still collides every contact time. Elastic scenes are left alone (their rate can
+grow, by compression under gravity, but stays bounded)."""
+
+REBASE_EVENTS_PER_PARTICLE = 1 << 20
+"""The kernels count time from an origin moved to 'now' every this many events a particle
+(and from the run's start time, which may be large): event times stay resolved to about
+1e-16 times 10^6 flight times instead of losing a digit every tenfold of the clock."""
 
 
-def run(scene: Scene, state: State, recorder: Recorder | None = None) -> RunStats:
+def run(scene: Scene, state: State, recorder: Recorder | None = None,
+        start_time: float = 0.0) -> RunStats:
     """Simulate ``scene`` from ``state`` exactly, event by event; see the module docstring.
+
+    The clock starts at ``start_time`` s (a continued run) and stops at ``start_time +
+    scene.duration``; recorded times are on that clock.
 
     ``state`` positions (N, D) m and velocities (N, D) m/s are copied, never
     modified. Wall bounces go to ``recorder.add_bounces`` (if it wants them),
@@ -98,8 +119,11 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None) -> RunStat
     'skin' (neighbour-list skin in largest diameters) for benchmarks.
     """
     recorder = recorder if recorder is not None else Recorder()
+    start_time = float(start_time)
+    if not (math.isfinite(start_time) and start_time >= 0.0):
+        raise SceneError(f"start time {start_time} must be a finite number >= 0")
     sim = _Simulation(scene, state, recorder)
-    return sim.run()
+    return sim.run(start_time)
 
 
 def _alloc(shape, dtype=np.float64, fill=None) -> np.ndarray:
@@ -246,6 +270,7 @@ class _Simulation:
         self.cap = 0
         self.nb_width = 24 if D == 3 else 12
         self.restarts = 0
+        self.rebases = 0
         self.cell_growths = 0
 
         # internal numbering in space order; ident[k] = caller's number of row k
@@ -444,16 +469,33 @@ class _Simulation:
         self._start(t)
         self.restarts += 1
 
+    def _rebase(self) -> None:
+        """Move the kernels' time origin to now: everybody advanced to now, every prediction
+        made afresh from there (as a restart does), so that event times keep their digits."""
+        self._flush()  # the buffered rows carry times on the old origin
+        t = float(self.FS[K.F_TNOW])
+        x, v = self._state_internal(t)
+        if self.periodic:
+            x = self._wrap(x)
+        if self.inelastic:
+            self.TL -= t
+        self.origin += t
+        self._stall_t -= t
+        self._load(x, v, 0.0)
+        self._start(0.0)
+        self._rebased_at = int(self.IS[K.S_EVENTS])
+        self.rebases += 1
+
     def _flush(self) -> None:
         IS = self.IS
         nb = int(IS[K.S_NBB])
         if nb:
-            self.rec.add_bounces(self.bt[:nb].copy(), self.bp[:nb].copy(), self.bw[:nb].copy(),
+            self.rec.add_bounces(self.bt[:nb] + self.origin, self.bp[:nb].copy(), self.bw[:nb].copy(),
                                  self.bs[:nb].copy(), self.bv[:nb].copy())
             IS[K.S_NBB] = 0
         nc = int(IS[K.S_NCB])
         if nc:
-            self.rec.add_collisions(self.ct[:nc].copy(), self.ci[:nc].copy(),
+            self.rec.add_collisions(self.ct[:nc] + self.origin, self.ci[:nc].copy(),
                                     self.cj[:nc].copy(), self.cimp[:nc].copy())
             IS[K.S_NCB] = 0
 
@@ -491,7 +533,7 @@ class _Simulation:
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(positions, velocities) (N, D) at time t in the caller's order, wrapped if periodic."""
-        xi, vi = self._state_internal(t)
+        xi, vi = self._state_internal(t - self.origin)
         x = np.empty_like(xi)
         v = np.empty_like(vi)
         x[self.ident] = xi
@@ -501,13 +543,15 @@ class _Simulation:
         return x, v
 
     def _run_to(self, t_stop: float) -> None:
+        """Run the event loop up to the absolute time t_stop (s)."""
         IS = self.IS
         while True:
-            chunk = CHUNK if self._tuned else FIRST_CHUNK
+            budget = max(1, min(self._check_at, self._rebased_at + self.rebase_every)
+                         - int(IS[K.S_EVENTS]))
             if self.restart_every:
-                chunk = min(chunk, max(1, self._since_restart + self.restart_every
-                                       - int(IS[K.S_EVENTS])))
-            status = self._loop(t_stop, chunk)
+                budget = min(budget, max(1, self._since_restart + self.restart_every
+                                         - int(IS[K.S_EVENTS])))
+            status = self._loop(t_stop - self.origin, budget)
             if status == K.DONE:
                 return
             if status == K.BUFFER_FULL:
@@ -518,10 +562,15 @@ class _Simulation:
             elif status == K.NL_FULL:
                 self._grow_lists()
             elif status == K.PAUSE:
-                self._check_stall()
+                if int(IS[K.S_EVENTS]) >= self._check_at:
+                    self._check_stall()
+                    self._check_at = int(IS[K.S_EVENTS]) + CHUNK
                 if self.restart_every and (int(IS[K.S_EVENTS]) - self._since_restart
                                            >= self.restart_every):
                     self._restart()
+                    continue
+                if int(IS[K.S_EVENTS]) - self._rebased_at >= self.rebase_every:
+                    self._rebase()
                     continue
                 t_now = float(self.FS[K.F_TNOW])
                 w, nbk = self._calendar_size(t_now)
@@ -530,34 +579,66 @@ class _Simulation:
                 self._tuned = True
             else:
                 raise EngineError(f"event kernel returned unknown status {status}")
+            if int(IS[K.S_EVENTS]) >= self._check_at:  # a chunk's worth, whatever ended the call
+                self._check_stall()
+                self._check_at = int(IS[K.S_EVENTS]) + CHUNK
 
     def _check_stall(self) -> None:
-        """Raise EngineError when the event rate runs away (inelastic collapse), instead of hanging."""
+        """Raise EngineError when simulated time stops, when the event rate runs away
+        (inelastic collapse) or when an inelastic run slows down beyond any sensible length,
+        instead of hanging; called once a chunk of events (see STALL_RATE, SLOW_RATE)."""
         t = float(self.FS[K.F_TNOW])
         events = int(self.IS[K.S_EVENTS])
         dt = t - self._stall_t
-        rate = (events - self._stall_n) / dt if dt > 1e-12 * max(abs(t), self.duration) else math.inf
+        moved = dt > 1e-12 * max(abs(t), self.duration)
+        rate = (events - self._stall_n) / dt if moved else math.inf
         self._stall_t, self._stall_n = t, events
-        if self._rate0 is None:
-            self._rate0 = rate
-            return
-        if rate > STALL_RATE * self._rate0:
+        t_abs = t + self.origin
+        if not moved:
             self._stalled += 1
-            if self._stalled >= STALL_CHUNKS:
-                raise EngineError(
-                    f"the event rate ran away at t = {t:.6g} s ({events} events, {rate:.3g} per "
-                    f"simulated second, {rate / self._rate0:.3g} times the rate at the start): "
-                    "inelastic collapse, particles colliding ever faster; give a contact time "
-                    "--tc (TC model) or raise --restitution")
+        elif self._rate0 is None:
+            self._rate0 = rate
+            self._stalled = 0
+        elif rate > STALL_RATE * self._rate0:
+            self._stalled += 1
         else:
             self._stalled = 0
+        if self._stalled >= STALL_CHUNKS:
+            if not moved:
+                raise EngineError(
+                    f"simulated time stopped at t = {t_abs:.6g} s: {events} events, the last "
+                    f"{events - self._moved_n} of them at one instant (particles jammed: "
+                    "rods filling the box, a particle at rest on the floor, or an inelastic "
+                    "collapse); loosen the packing, give the particles speed, or give --tc")
+            raise EngineError(
+                f"the event rate ran away at t = {t_abs:.6g} s ({events} events, {rate:.3g} per "
+                f"simulated second, {rate / self._rate0:.3g} times the rate at the start): "
+                "inelastic collapse, particles colliding ever faster; give a contact time "
+                "--tc (TC model) or raise --restitution")
+        if moved:
+            self._moved_n = events
+        left = self.t_end - t_abs
+        if (self.inelastic and moved and self._rate0 is not None
+                and rate > SLOW_RATE * self._rate0 and rate * left > MAX_PROJECTED_EVENTS):
+            raise EngineError(
+                f"the run slowed down at t = {t_abs:.6g} s of {self.t_end:.6g} s: {rate:.3g} "
+                f"events per simulated second ({rate / self._rate0:.3g} times the rate at the "
+                f"start), so the {left:.3g} s left would take about {rate * left:.2g} events "
+                "(the inelastic particles have settled into a bed, colliding every contact "
+                "time); shorten --duration, raise --restitution or --tc")
 
-    def run(self) -> RunStats:
+    def run(self, start_time: float = 0.0) -> RunStats:
         compile_s = self._warm_up()
         t0 = time.perf_counter()
+        self.origin = start_time  # the kernels' clock reads t - origin (see _rebase)
+        self.t_end = start_time + self.duration
+        self.rebase_every = REBASE_EVENTS_PER_PARTICLE * self.n
+        self._rebased_at = 0
         self._tuned = False
+        self._check_at = FIRST_CHUNK
         self._stall_t = 0.0
         self._stall_n = 0
+        self._moved_n = 0
         self._stalled = 0
         self._rate0 = None
         self._start(0.0)
@@ -571,12 +652,12 @@ class _Simulation:
         if not stops or stops[-1][0] < self.duration:
             stops.append((self.duration, False))
         for t_stop, snap in stops:
-            self._run_to(t_stop)
+            self._run_to(start_time + t_stop)
             self._flush()
             if snap:
-                x, v = self.state_at(t_stop)
-                self.rec.add_snapshot(t_stop, x, v)
-        x, v = self.state_at(self.duration)
+                x, v = self.state_at(start_time + t_stop)
+                self.rec.add_snapshot(start_time + t_stop, x, v)
+        x, v = self.state_at(self.t_end)
         t_end = time.perf_counter()
 
         IS = self.IS
@@ -593,6 +674,7 @@ class _Simulation:
             "neighbour_lists": self.use_nl,
             "list_rebuilds": int(IS[K.S_REBUILD]),
             "restarts": self.restarts,
+            "rebases": self.rebases,
             "cell_growths": self.cell_growths,
             "prefetch": bool(IS[K.S_PF]),
             "bucket_width_s": float(self.FS[K.F_W]),
