@@ -15,7 +15,7 @@ import sys
 import click
 
 from gaz_cli import __version__
-from gaz_cli.errors import GazError
+from gaz_cli.errors import GazError, interrupted
 
 FORMATS = ("table", "csv", "json")
 
@@ -303,6 +303,9 @@ def main(argv=None) -> None:
     except BrokenPipeError:
         sys.exit(0)
     except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
+        if interrupted(exc):  # Ctrl-C raised while a Numba kernel's result was boxed
+            click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
+            sys.exit(130)
         if os.environ.get("GAZ_DEBUG"):
             raise
         click.echo(f"{prog}: internal error: {type(exc).__name__}: {exc} "

@@ -41,7 +41,7 @@ import time
 import numba
 import numpy as np
 
-from gaz_cli.errors import EngineError, SceneError
+from gaz_cli.errors import EngineError, SceneError, interrupted
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 from gaz_cli.stepper import kernels as _k
@@ -61,7 +61,23 @@ MAX_PASSES = 100
 FLUSH_AT = 65536
 """Events kept in the kernel's buffers before they are handed to the recorder."""
 
+SLICE_S = 0.1
+"""Wall-clock seconds a kernel call runs before it hands control back to Python, where Ctrl-C
+(KeyboardInterrupt) is seen; a step is never cut, so a call lasts at least one step."""
+
+MAX_STEPS_PER_CALL = None
+"""Optional cap on the steps of one kernel call (None: the SLICE_S deadline only). On a
+platform without CLOCK_MONOTONIC the deadline is off and this cap is what bounds a call;
+tests set it to cut a run into many calls."""
+
 _CLOCK = getattr(time, "CLOCK_MONOTONIC", -1)
+_NO_CLOCK_STEP_WORK = 1 << 22
+"""Without a clock: particle-steps per kernel call (steps = this / N)."""
+
+
+def _deadline() -> float:
+    """End of the next kernel call's slice on the kernel's clock, s (inf without a clock)."""
+    return time.clock_gettime(_CLOCK) + SLICE_S if _CLOCK >= 0 else math.inf
 
 
 def forces(scene: Scene) -> tuple[str, ...]:
@@ -216,19 +232,29 @@ class _Stepper:
     def _advance(self, nsteps: int) -> None:
         """Run ``nsteps`` steps (fewer if the buffers ask for a flush, then continue)."""
         sc = self.scene
+        cap = MAX_STEPS_PER_CALL
+        if cap is None and _CLOCK < 0:
+            cap = max(1, _NO_CLOCK_STEP_WORK // max(1, self.pos.shape[0]))
         while nsteps > 0:
             if self.step < self.n_full:
-                count, dt = min(nsteps, self.n_full - self.step), self.dt
+                # step k ends at (k + 1) dt: t0 = 0 and k0 = k, whatever the calls' lengths
+                count, t0, k0, dt = min(nsteps, self.n_full - self.step), 0.0, self.step, self.dt
             else:
-                count, dt = 1, self.dt_last
-            t0 = self.time_at(self.step)
-            (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc) = _k._advance(
-                count, t0, dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
-                self.tlast, self.planes, float(sc.length), float(sc.gravity), float(sc.drag),
-                float(sc.pair_gravity), float(sc.softening) ** 2, float(sc.restitution),
-                float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
-                self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
-                FLUSH_AT, self.counters, self.clocks, self.virial, _CLOCK, self.nthreads)
+                count, t0, k0, dt = 1, self.time_at(self.step), 0, self.dt_last
+            if cap is not None:
+                count = min(count, int(cap))
+            try:
+                (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc) = _k._advance(
+                    count, t0, k0, dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
+                    self.tlast, self.planes, float(sc.length), float(sc.gravity), float(sc.drag),
+                    float(sc.pair_gravity), float(sc.softening) ** 2, float(sc.restitution),
+                    float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
+                    self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
+                    FLUSH_AT, self.counters, self.clocks, self.virial, _CLOCK, self.nthreads, _deadline())
+            except SystemError as err:
+                if interrupted(err):  # Ctrl-C seen as the kernel returned
+                    raise KeyboardInterrupt from None
+                raise
             self.step += done
             nsteps -= done
             if status == _k.FLUSH:
@@ -287,11 +313,11 @@ class _Stepper:
     def run(self) -> RunStats:
         sc = self.scene
         # compile (or load from the cache) before the clock starts
-        _k._advance(0, 0.0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
+        _k._advance(0, 0.0, 0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1), _CLOCK,
-                    self.nthreads)
+                    self.nthreads, math.inf)
         if sc.pair_gravity > 0 and sc.print_every:
             energies(sc, self.pos[:2], self.vel[:2])  # compile the pair potential
         start = time.perf_counter()

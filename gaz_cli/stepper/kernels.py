@@ -59,6 +59,9 @@ DONE = 0
 """All requested steps were run."""
 FLUSH = 1
 """Stopped early: the event buffers are full enough to be handed to the recorder."""
+PAUSE = 2
+"""Stopped early: the call's wall-clock deadline passed (control goes back to Python, so that
+Ctrl-C is seen within a slice)."""
 
 # counters (int64 array) of _advance
 C_BOUNCES, C_COLLISIONS, C_PASSES, C_PASS_LIMIT, C_PLANE, C_MAX_PASSES, C_PAIR_EVALS, C_STEPS = range(8)
@@ -611,11 +614,15 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
 
 # --- one block of steps ------------------------------------------------------------
 @njit
-def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
+def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
              length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
              want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
-             counters, clocks, virial, clock_id, nthreads):
-    """Run up to ``nsteps`` steps of dt s from time t0 s (see the module docstring).
+             counters, clocks, virial, clock_id, nthreads, deadline):
+    """Run up to ``nsteps`` steps of dt s (see the module docstring).
+
+    Step s of the call ends at t0 + (k0 + s + 1) dt s: with t0 = 0 and k0 the index of the
+    call's first step, every step's end time is the same whatever the calls' lengths, so a
+    run cut into calls gives the same numbers bit for bit.
 
     pos, vel, acc (N, D) float64 are updated in place (acc holds the pair
     accelerations at the current positions); age, tlast (N,) scratch and TC
@@ -653,7 +660,7 @@ def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
         if nb >= flush_at or ncoll >= flush_at:
             status = FLUSH
             break
-        t_end = t0 + (s + 1) * dt
+        t_end = t0 + (k0 + s + 1) * dt
         # --- push: half kick, drift
         c0 = _now(clock_id, tbuf)
         if has_kick:
@@ -766,6 +773,9 @@ def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
             _kick(vel, acc, has_pair, g, gamma, h)
         clocks[T_PUSH] += _now(clock_id, tbuf) - c3
         steps += 1
+        if clock_id >= 0 and steps < nsteps and _now(clock_id, tbuf) >= deadline:
+            status = PAUSE
+            break
     counters[C_STEPS] += steps
     return status, steps, bf, bi, nb, cf, ci, ncoll
 
