@@ -9,6 +9,10 @@ class GazError(Exception):
     """Base class of every error the library reports to a user."""
 
 
+class GazWarning(UserWarning):
+    """A run that completes but whose numbers deserve doubt (the CLI prints it as one line)."""
+
+
 class SceneError(GazError, ValueError):
     """A scene that cannot be simulated: bad size, unknown species, impossible packing."""
 

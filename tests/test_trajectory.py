@@ -151,20 +151,25 @@ def tiny_disk(tmp_path):
 
 @pytest.mark.parametrize("name", ["run.h5", "run.pvd"])
 def test_a_full_disk_is_one_line_and_exit_1(tiny_disk, tmp_path, name):
-    """500 disks, 1001 snapshots of 16 kB each, on a 1 MiB disk: the writer meets ENOSPC.
+    """500 disks, 1001 snapshots of 16 kB each, on a 1 MiB disk.
 
-    HDF5 used to crash the interpreter at exit (SIGSEGV, exit 139) trying to flush the chunks
-    it could not write; now the run stops with one line, exit 1, the file removed and the
-    database untouched. A subprocess, since the failure was a crash of the process.
+    Without --force the door refuses it (the size against the free space); with --force the
+    writer meets ENOSPC. HDF5 used to crash the interpreter at exit there (SIGSEGV, exit 139)
+    trying to flush the chunks it could not write; now the run stops with one line, exit 1,
+    the file removed and the database untouched. A subprocess, since the failure was a crash
+    of the process.
     """
     import subprocess
     import sys
 
     db = tmp_path / "gaz.db"
-    done = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", "--dim", "2", "--n", "500",
-                           "--length", "1e-6", "--duration", "1e-9", "--seed", "1", "--db", str(db),
-                           "--trajectory", str(tiny_disk / name), "--every", "1e-12"],
-                          capture_output=True, text=True, timeout=300)
+    args = [sys.executable, "-m", "gaz_cli", "simulate", "--dim", "2", "--n", "500", "--length", "1e-6",
+            "--duration", "1e-9", "--seed", "1", "--db", str(db), "--trajectory", str(tiny_disk / name),
+            "--every", "1e-12"]
+    refused = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 1 and "free" in refused.stderr and len(refused.stderr.splitlines()) == 1, \
+        refused.stderr
+    done = subprocess.run(args + ["--force"], capture_output=True, text=True, timeout=300)
     assert done.returncode == 1, (done.returncode, done.stderr[-2000:])
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "No space left on device" in lines[0], done.stderr

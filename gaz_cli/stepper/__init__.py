@@ -37,11 +37,12 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 
 import numba
 import numpy as np
 
-from gaz_cli.errors import EngineError, SceneError, interrupted
+from gaz_cli.errors import EngineError, GazWarning, SceneError, interrupted
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 from gaz_cli.stepper import kernels as _k
@@ -153,7 +154,12 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     The caller's arrays are not modified. RunStats.extras holds 'steps',
     'passes', 'max_passes_per_step', 'pass_limit_hits', 'plane_bounces',
     'pair_force_evaluations', 'phase_times' (s: push, collisions, walls,
-    output), 'forces', 'detection', 'dt'.
+    output), 'forces', 'detection', 'dt', and the overlaps the steps left:
+    'overlap_steps' (steps that ended with a pair closer than (1 -
+    kernels.OVERLAP_TOL) sigma), 'overlapping_pairs_max' (most such pairs at
+    one step end), 'closest_pair' (smallest |dr| / sigma at a step end),
+    'dt_without_overlaps' (s, or None). The first step that leaves such a
+    pair raises a GazWarning (once a run) naming a dt that avoids them.
     """
     check(scene)
     if detection not in DETECTIONS:
@@ -194,6 +200,8 @@ class _Stepper:
         self.counters = np.zeros(_k.N_COUNTERS, dtype=np.int64)
         self.clocks = np.zeros(_k.N_TIMERS)
         self.virial = np.zeros(1)
+        self.overlap = np.array([1.0, np.nan])  # kernels.G_CLOSEST, G_FIRST_TIME
+        self.warned = False
         self.output_time = 0.0
         # the schedule: n_full steps of dt, then one shorter step to land on the duration
         dt = float(scene.dt)
@@ -250,7 +258,8 @@ class _Stepper:
                     float(sc.pair_gravity), float(sc.softening) ** 2, float(sc.restitution),
                     float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
                     self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
-                    FLUSH_AT, self.counters, self.clocks, self.virial, _CLOCK, self.nthreads, _deadline())
+                    FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
+                    _deadline())
             except SystemError as err:
                 if interrupted(err):  # Ctrl-C seen as the kernel returned
                     raise KeyboardInterrupt from None
@@ -259,6 +268,34 @@ class _Stepper:
             nsteps -= done
             if status == _k.FLUSH:
                 self._flush()
+            if not self.warned and self.counters[_k.C_OVERLAP_STEPS] > 0:
+                self._warn_overlaps()
+
+    def dt_without_overlaps(self) -> float:
+        """A time step, s, that should leave no pair overlapping by more than OVERLAP_TOL.
+
+        Depths grow at least linearly with dt (grazing misses as dt^2, pass-throughs as dt),
+        so dt x OVERLAP_TOL / (deepest overlap seen, in sigma) is on the safe side; halved,
+        since the rare grazing misses just beyond the tolerance need a shorter step too.
+        Measured (2D, 1000 disks, area fraction 0.5, seed 1, tau the Enskog mean free
+        time): overlaps left in 50 of 50 steps at dt = 5 tau (up to 334 pairs, the closest
+        0.005 sigma apart; suggested 0.025 tau), 50 of 50 at 1 tau (suggested 0.010 tau), 46
+        of 667 at 0.3 tau (suggested 0.022 tau); none at 0.1, 0.05, 0.03, 0.01 tau.
+        """
+        depth = max(1.0 - float(self.overlap[_k.G_CLOSEST]), _k.OVERLAP_TOL)
+        return 0.5 * self.dt * _k.OVERLAP_TOL / depth
+
+    def _warn_overlaps(self) -> None:
+        """Warn (once a run) that a step ended with pairs overlapping, and suggest a dt."""
+        self.warned = True
+        c = self.counters
+        warnings.warn(GazWarning(
+            f"the step engine left {int(c[_k.C_OVERLAP_MAX])} pair(s) overlapping by more than "
+            f"{_k.OVERLAP_TOL:.0%} of their contact distance at the end of a step (first at "
+            f"t = {self.overlap[_k.G_FIRST_TIME]:.3g} s, the closest {self.overlap[_k.G_CLOSEST]:.3g} sigma "
+            f"apart): --dt {self.dt:.3g} s is too long for this scene; --dt "
+            f"{self.dt_without_overlaps():.2g} s or shorter should avoid them (or use --engine event)"),
+            stacklevel=1)
 
     def _flush(self) -> None:
         t0 = time.perf_counter()
@@ -316,8 +353,8 @@ class _Stepper:
         _k._advance(0, 0.0, 0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
-                    np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1), _CLOCK,
-                    self.nthreads, math.inf)
+                    np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
+                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf)
         if sc.pair_gravity > 0 and sc.print_every:
             energies(sc, self.pos[:2], self.vel[:2])  # compile the pair potential
         start = time.perf_counter()
@@ -367,6 +404,10 @@ class _Stepper:
             "pass_limit_hits": int(c[_k.C_PASS_LIMIT]),
             "plane_bounces": int(c[_k.C_PLANE]),
             "pair_force_evaluations": int(c[_k.C_PAIR_EVALS]),
+            "overlap_steps": int(c[_k.C_OVERLAP_STEPS]),
+            "overlapping_pairs_max": int(c[_k.C_OVERLAP_MAX]),
+            "closest_pair": float(self.overlap[_k.G_CLOSEST]),
+            "dt_without_overlaps": self.dt_without_overlaps() if c[_k.C_OVERLAP_STEPS] else None,
             "phase_times": {
                 "push": float(self.clocks[_k.T_PUSH]),
                 "collisions": float(self.clocks[_k.T_COLLISIONS]),
