@@ -214,9 +214,10 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
-                   "(event engine), steps x particles (step), events x particles 1e10 (reference), "
-                   "1e6 snapshots, or a trajectory larger than its disk's free space. The refusal "
-                   "prints the estimate. Memory and double-precision ranges are never overridden.")
+                   "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
+                   "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
+                   "space. The refusal prints the estimate. Memory and double-precision ranges are "
+                   "never overridden.")
 def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 

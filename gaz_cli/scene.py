@@ -537,9 +537,10 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     if scene.engine == "reference":
         raise SceneError("--engine reference (the exam's algorithm) writes no trajectory; "
                          "use --engine event with --trajectory")
-    if every is None or not (math.isfinite(every) and every > 0):
-        raise SceneError("--trajectory needs --every DT, the simulated time between snapshots "
-                         f"(a positive number of seconds, got {every})")
+    if every is None:
+        raise SceneError("--trajectory needs --every DT, the simulated time between snapshots (s)")
+    if not (math.isfinite(every) and every > 0):
+        raise SceneError(f"--every must be a positive number of simulated seconds, got {every}")
     snapshots = math.floor(scene.duration / every) + 1
     if scene.force:
         return
