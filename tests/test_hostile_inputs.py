@@ -1,5 +1,5 @@
 """Hostile inputs at the door: each bad command line ends in one line on stderr, a non-zero
-exit, no traceback, and the database untouched (byte for byte).
+exit, no traceback, the database untouched (byte for byte) and no file written.
 
 Each case runs ``gaz`` in-process (click's CliRunner, through the real entry point ``main``)
 with ``--db`` on a copy of a database that already holds one simulation; the copy's SHA-256
@@ -123,10 +123,11 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]
-    before = _digest(db)
+    before, files = _digest(db), set(tmp_path.rglob("*"))
     res = invoke(argv)
     return {"exit": res.exit_code, "stderr": res.stderr, "lines": [ln for ln in res.stderr.splitlines() if ln],
-            "stdout": res.stdout, "db_unchanged": _digest(db) == before, "argv": argv}
+            "stdout": res.stdout, "db_unchanged": _digest(db) == before, "argv": argv,
+            "new_files": sorted(str(p) for p in set(tmp_path.rglob("*")) - files)}
 
 
 @pytest.mark.parametrize("what, args, code, fragment", CASES, ids=[c[0] for c in CASES])
@@ -138,6 +139,7 @@ def test_a_hostile_input_is_one_line_and_leaves_the_database(populated_db, tmp_p
     assert fragment in out["lines"][0], out["lines"][0]
     assert out["stdout"] == ""
     assert out["db_unchanged"]
+    assert out["new_files"] == []  # no empty trajectory, no image, no journal left behind
 
 
 # --- the table of docs/stability.md -------------------------------------------------------------
