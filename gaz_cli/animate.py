@@ -15,10 +15,21 @@ import os
 
 import numpy as np
 
-from gaz_cli.errors import SceneError
+from gaz_cli.errors import OutputError, SceneError
 
 MAX_FRAMES = 400
 """At most this many frames: longer trajectories are subsampled evenly."""
+
+FORMATS = (".gif",)
+"""Extensions of the animations written (matplotlib's PillowWriter, animated GIF)."""
+
+
+def check_output(gif_path) -> None:
+    """Raise OutputError unless ``gif_path`` names a format :func:`render_gif` writes."""
+    suffix = os.path.splitext(str(gif_path))[1].lower()
+    if suffix not in FORMATS:
+        raise OutputError(f"-o {str(gif_path)!r}: gaz animate writes {', '.join(FORMATS)} files only; "
+                          f"name the output like run.gif")
 
 
 def _frames(count: int, max_frames: int) -> np.ndarray:
@@ -69,13 +80,14 @@ def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, 
     past frames drawn as a line behind each particle (0: none; meant for a
     few bodies). frame_png: also save the last frame as a PNG. Returns the
     number of frames written. Raises SceneError for a file that is not a
-    trajectory or has no snapshot.
+    trajectory or has no snapshot, OutputError for an output that is not a .gif.
     """
     from matplotlib.animation import FuncAnimation, PillowWriter
     from matplotlib.collections import EllipseCollection
 
     from gaz_cli.trajectory import read_h5md
 
+    check_output(gif_path)
     if str(trajectory_path).lower().endswith((".pvd", ".vtu")):
         raise SceneError("gaz animate reads HDF5 trajectories (.h5); write one with --trajectory run.h5")
     data = read_h5md(trajectory_path)

@@ -11,11 +11,12 @@ import json
 import math
 import os
 import sys
+import warnings
 
 import click
 
 from gaz_cli import __version__
-from gaz_cli.errors import GazError
+from gaz_cli.errors import GazError, GazWarning, interrupted
 
 FORMATS = ("table", "csv", "json")
 
@@ -44,6 +45,20 @@ def positive(name):
             raise click.BadParameter(f"{value} must be > 0", param_hint=name)
         return value
     return check
+
+
+def image_file(ctx, param, value):
+    """A click callback accepting a file name whose extension matplotlib can save (png, svg, pdf...)."""
+    if value is None:
+        return value
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    kinds = sorted(FigureCanvasBase.get_supported_filetypes())
+    suffix = os.path.splitext(value)[1].lower().lstrip(".")
+    if suffix not in kinds:
+        raise click.BadParameter(f"{value!r} is not an image format matplotlib writes; end the name "
+                                 f"with one of .{', .'.join(kinds)}", param_hint=param.opts[0])
+    return value
 
 
 # --- output helpers -----------------------------------------------------------
@@ -116,7 +131,8 @@ def cli():
               help="Q12 study: repeat the placement K times and histogram the centres along x.")
 @click.option("--bins", type=click.IntRange(1), default=50, show_default=True, help="Histogram bins (with --repeat).")
 @click.option("--histogram", type=click.Path(dir_okay=False, writable=True), default=None,
-              help="With --repeat: also plot the histogram to this PNG file.")
+              callback=image_file,
+              help="With --repeat: also plot the histogram to this image file (.png, .svg, .pdf...).")
 def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
     """Place N non-overlapping particles at random in [0, L]^D; print the centres as CSV.
 
@@ -126,7 +142,9 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
       gaz place --dim 1 --n 2 --radius 1 --length 10 --repeat 20000 --bins 40 --histogram q12.png
     """
     from gaz_cli import analysis
+    from gaz_cli.scene import check_placement
 
+    check_placement(dim, n, radius, length)
     if repeat is None:
         if histogram:
             raise click.UsageError("--histogram needs --repeat K")
@@ -194,6 +212,12 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+@click.option("--force", is_flag=True,
+              help="Run even when the estimated work is beyond its bound: more than 1e11 events "
+                   "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
+                   "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
+                   "space. The refusal prints the estimate. Memory and double-precision ranges are "
+                   "never overridden.")
 def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
@@ -256,7 +280,7 @@ def analyse(db, sim, fmt, plot):
 @cli.command()
 @click.argument("trajectory", type=click.Path(exists=True, dir_okay=False))
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default=None,
-              help="GIF file to write (default: the trajectory's name with .gif).")
+              help="GIF file to write, FILE.gif (default: the trajectory's name with .gif).")
 @click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
 def animate(trajectory, output, fps):
     """Render a 1D or 2D trajectory (FILE.h5 from --trajectory) to an animated GIF.
@@ -269,16 +293,31 @@ def animate(trajectory, output, fps):
     from gaz_cli import animate as anim
 
     output = output or os.path.splitext(trajectory)[0] + ".gif"
+    anim.check_output(output)
     anim.render_gif(trajectory, output, fps=fps)
     click.echo(f"animation written to {output}", err=True)
 
 
 # --- entry point --------------------------------------------------------------
+_default_showwarning = warnings.showwarning
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    """The library's warnings (GazWarning) as one line on stderr; others as Python shows them."""
+    if issubclass(category, GazWarning):
+        click.echo(f"gaz: warning: {message}", err=True)
+    else:
+        _default_showwarning(message, category, filename, lineno, file, line)
+
+
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
     try:
-        cli.main(args=argv, prog_name=prog, standalone_mode=False)
+        with warnings.catch_warnings():  # restores the filters and showwarning on the way out
+            warnings.simplefilter("always", GazWarning)
+            warnings.showwarning = _show_warning
+            cli.main(args=argv, prog_name=prog, standalone_mode=False)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.Abort:
@@ -303,6 +342,9 @@ def main(argv=None) -> None:
     except BrokenPipeError:
         sys.exit(0)
     except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
+        if interrupted(exc):  # Ctrl-C raised while a Numba kernel's result was boxed
+            click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
+            sys.exit(130)
         if os.environ.get("GAZ_DEBUG"):
             raise
         click.echo(f"{prog}: internal error: {type(exc).__name__}: {exc} "

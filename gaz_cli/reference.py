@@ -673,6 +673,9 @@ def run(scene, state: State, recorder: Recorder | None = None) -> RunStats:
     _check_scene(scene)
     if recorder is None:
         recorder = Recorder()
+    if recorder.snapshot_every:
+        raise SceneError("--engine reference (the exam's algorithm) writes no trajectory; "
+                         "use --engine event with --trajectory")
     x = np.array(state.positions, dtype=float, copy=True)
     v = np.array(state.velocities, dtype=float, copy=True)
     n = scene.n

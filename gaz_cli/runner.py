@@ -18,7 +18,7 @@ import numpy as np
 
 from gaz_cli.errors import SceneError
 from gaz_cli.recording import Recorder, RunStats
-from gaz_cli.scene import Scene, State, fresh_seed, initial_state, validate
+from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
 ENGINES = {
     "event": "gaz_cli.engine",
@@ -124,8 +124,7 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     run = engine_run(scene.engine)
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
-    if trajectory and not (every and every > 0):
-        raise SceneError("--trajectory needs --every DT, the simulated time between snapshots")
+    check_outputs(scene, trajectory, every)
     if state is None:
         state = initial_state(scene)
     masses = scene.masses()

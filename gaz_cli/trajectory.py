@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gaz_cli.errors import SceneError
+from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene
 
@@ -100,6 +100,13 @@ class TrajectoryWriter(Recorder):
         self.close()
 
 
+def _reason(err: OSError) -> str:
+    """One line for an OS error: its strerror ("No space left on device"), not HDF5's report."""
+    if getattr(err, "errno", None):
+        return os.strerror(err.errno)
+    return " ".join(str(err).split())
+
+
 def _scene_attributes(scene: Scene) -> dict:
     """Scalar scene parameters as HDF5/XML friendly values."""
     out = {
@@ -125,9 +132,12 @@ class H5MDWriter(TrajectoryWriter):
         from gaz_cli import __version__
 
         try:
-            self.file = h5py.File(self.path, "w")
+            # no raw-data chunk cache: each snapshot goes to the file as it is written, so a full
+            # disk is met at that write, not at close with a cache of dirty chunks HDF5 cannot
+            # flush (it then crashed the interpreter at exit: exit 139)
+            self.file = h5py.File(self.path, "w", rdcc_nbytes=0)
         except OSError as err:
-            raise SceneError(f"cannot write --trajectory {str(self.path)!r}: {err}") from None
+            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {_reason(err)}") from None
         f = self.file
         h5md = f.create_group("h5md")
         h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
@@ -162,20 +172,54 @@ class H5MDWriter(TrajectoryWriter):
         params.attrs["snapshot_every"] = every
 
     def _write(self, t, positions, velocities):
+        if self.file is None:
+            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
         k = self.count
-        for name, data in (("position", positions), ("velocity", velocities)):
-            value, time, step = self._elements[name]
-            value.resize(k + 1, axis=0)
-            time.resize(k + 1, axis=0)
-            step.resize(k + 1, axis=0)
-            value[k] = data
-            time[k] = t
-            step[k] = k
+        try:
+            for name, data in (("position", positions), ("velocity", velocities)):
+                value, time, step = self._elements[name]
+                value.resize(k + 1, axis=0)
+                time.resize(k + 1, axis=0)
+                step.resize(k + 1, axis=0)
+                value[k] = data
+                time[k] = t
+                step[k] = k
+        except OSError as err:
+            self._discard()
+            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {k}): "
+                             f"{_reason(err)}; the file was removed") from None
 
     def close(self):
         if self.file is not None:
-            self.file.close()
-            self.file = None
+            try:
+                self.file.close()
+                self.file = None
+            except OSError as err:
+                self._discard()
+                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {_reason(err)}; "
+                                 "the file was removed") from None
+
+    def _discard(self) -> None:
+        """Close and delete a file that could not be written (a full disk, mostly).
+
+        HDF5 keeps what it could not write and tries again at close and at exit, where a
+        failure crashed the interpreter; emptying the file first gives those writes room.
+        """
+        f, self.file = self.file, None
+        if f is None:
+            return
+        try:
+            os.ftruncate(f.id.get_vfd_handle(), 0)
+        except (OSError, ValueError, AttributeError):
+            pass
+        try:
+            f.close()
+        except OSError:
+            pass
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
 
 
 class VTKWriter(TrajectoryWriter):
@@ -205,11 +249,13 @@ class VTKWriter(TrajectoryWriter):
         name = f"{self.stem.name}_{self.count:05d}.vtu"
         mesh = meshio.Mesh(pts, self._cells,
                            point_data={"velocity": vel, "species": self._species, "radius": self._radius})
+        self.entries.append((t, name))
         try:
             meshio.write(self.stem.parent / name, mesh, file_format="vtu")
         except OSError as err:
-            raise SceneError(f"cannot write --trajectory {str(self.stem.parent / name)!r}: {err}") from None
-        self.entries.append((t, name))
+            self._discard()
+            raise OutputError(f"cannot write --trajectory {str(self.stem.parent / name)!r}: {_reason(err)}; "
+                             "the snapshots written were removed") from None
 
     def close(self):
         if self._closed:
@@ -224,7 +270,19 @@ class VTKWriter(TrajectoryWriter):
         try:
             self.pvd.write_text("\n".join(lines), encoding="utf-8")
         except OSError as err:
-            raise SceneError(f"cannot write --trajectory {str(self.pvd)!r}: {err}") from None
+            self._discard()
+            raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {_reason(err)}; "
+                             "the snapshots written were removed") from None
+
+    def _discard(self) -> None:
+        """Delete the snapshot files and the collection after a failed write (a full disk)."""
+        self._closed = True
+        for path in [self.stem.parent / name for _, name in self.entries] + [self.pvd]:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+        self.entries = []
 
 
 def read_h5md(path: str | os.PathLike) -> dict:

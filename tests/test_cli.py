@@ -156,3 +156,14 @@ def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
     code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8",
                              "--duration", "1e-12", "--seed", "1", "--no-db", "--json"])
     assert code == 0 and json.loads(out)["overlapping_collisions"] >= 1
+
+
+def test_a_step_too_long_is_one_warning_line_and_the_run_completes(db):
+    """Argon disks at packing 0.13, dt about 3 mean free times: the run completes (exit 0) and says once,
+    in one line, that its steps left overlapping pairs and which dt would avoid them."""
+    res = invoke(["simulate", "--dim", "2", "--n", "500", "--length", "2e-8", "--duration", "2e-10",
+                  "--engine", "step", "--dt", "1e-11", "--seed", "1", "--db", db])
+    assert res.exit_code == 0, res.output
+    warnings = [line for line in res.stderr.splitlines() if line.startswith("gaz: warning:")]
+    assert len(warnings) == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert "overlapping" in warnings[0] and "--dt" in warnings[0]

@@ -1,5 +1,7 @@
 """Scene validation, species, initial state."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -94,3 +96,81 @@ def test_overlap_checker_finds_a_planted_overlap(rng):
     assert first_overlap(x, np.full(1000, 0.02), 1.0) == -1
     x[7] = x[500] + np.array([0.039, 0.0, 0.0])
     assert first_overlap(x, np.full(1000, 0.02), 1.0) in (7, 500)
+
+
+# --- the door: magnitudes, memory, work ----------------------------------------------------------
+def _custom(mass, radius=1e-10, **kw):
+    from gaz_cli.scene import Scene
+    from gaz_cli.species import Species
+
+    base = dict(dim=2, length=1e-7, duration=1e-10, components=((Species("custom", mass, radius), 10),), seed=1)
+    base.update(kw)
+    return Scene(**base)
+
+
+def test_mass_range_is_where_the_reduced_mass_stays_a_normal_double():
+    """At the ends of mass_range() m_i m_j / (m_i + m_j) is finite and normal for any pair; the scene
+    is accepted there and refused a factor 10 outside (where m_i m_j leaves the headroom)."""
+    import sys
+
+    from gaz_cli.scene import mass_range
+
+    lo, hi = mass_range()
+    for mi in (lo, hi):
+        for mj in (lo, hi):
+            mu = mi * mj / (mi + mj)
+            assert sys.float_info.min < mu < sys.float_info.max
+    for m in (lo * 1.0001, hi / 1.0001):
+        validate(_custom(m, temperature=300.0 if m < 1 else 1e200, force=True))
+    for m, side in ((lo / 10, "below"), (hi * 10, "above")):
+        with pytest.raises(SceneError, match=f"mass of custom .* is {side} the range"):
+            validate(_custom(m, force=True))
+
+
+@pytest.mark.parametrize("length", [1e-7, 1e60])
+def test_the_speed_and_box_ranges_keep_the_pair_time_discriminant_finite(length):
+    """At the top of the temperature range the fastest speed considered (SPEED_TAIL sqrt(kT/m)) times
+    the box keeps b^2 = (dr.dv)^2 finite; at the bottom (sigma v)^2 stays normal."""
+    import re
+    import sys
+
+    from gaz_cli.scene import HUGE, SPEED_TAIL, TINY
+
+    sc = _custom(6.6e-26, length=length, force=True)
+    with pytest.raises(SceneError) as err:
+        validate(_custom(6.6e-26, length=length, temperature=1e300, force=True))
+    lo, hi = (float(x) for x in re.search(r"range \[(\S+), (\S+)\] K", str(err.value)).groups())
+    v_top = SPEED_TAIL * math.sqrt(K_B * hi / sc.masses()[0])
+    assert (sc.length * v_top) ** 2 <= HUGE * 1.01 and v_top ** 2 <= HUGE * 1.01  # HUGE: DBL_MAX / 1e16
+    v_bottom = math.sqrt(K_B * lo / sc.masses()[0])
+    assert (2 * sc.radii()[0] * v_bottom) ** 2 >= TINY / 1.01 and v_bottom ** 2 >= TINY / 1.01
+    assert HUGE < sys.float_info.max / 1e15 and TINY > sys.float_info.min * 1e15
+    validate(_custom(6.6e-26, length=length, temperature=hi / 1.001, force=True))
+    validate(_custom(6.6e-26, length=length, temperature=lo * 1.001, force=True))
+
+
+def test_memory_is_refused_before_allocation_with_need_and_have(monkeypatch):
+    from gaz_cli import scene as scene_mod
+
+    monkeypatch.setattr(scene_mod, "physical_memory", lambda: 10 ** 9)
+    big = _custom(6.6e-26, length=1e-3, force=True)
+    big = big.__class__(**{**big.__dict__, "components": ((big.species[0], 10 ** 7),)})
+    with pytest.raises(SceneError, match=r"N = 1e\+07 needs about 4.8 GB .*this machine has 1 GB"):
+        validate(big)
+
+
+def test_work_estimate_follows_the_event_engine_and_force_lifts_the_bound(make_scene):
+    """The estimate (Enskog collisions + wall hits) against the events the engine counts, 2D walls,
+    packing 0.3: within a factor 1.5 (Enskog is good to a few percent here; wall hits are the
+    dilute flux, the contact density at the wall is higher: measured ratios 0.83-0.99 without gravity)."""
+    from gaz_cli import runner
+    from gaz_cli.scene import MAX_EVENTS, work_estimate
+
+    sc = make_scene(dim=2, n=300, packing=0.3, duration=0.5, record="none")
+    est = work_estimate(sc)["events"]
+    events = runner.simulate(sc, db=None)["events"]
+    assert 1 / 1.5 < est / events < 1.5, (est, events)
+    long_run = sc.__class__(**{**sc.__dict__, "duration": 2 * MAX_EVENTS / work_estimate(sc)["events_per_s"]})
+    with pytest.raises(SceneError, match=r"about 2e\+11 events .*--force"):
+        validate(long_run)
+    validate(long_run.__class__(**{**long_run.__dict__, "force": True}))

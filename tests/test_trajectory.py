@@ -129,3 +129,52 @@ def test_render_gif(tmp_path, dim):
     (tmp_path / "bad.h5").write_bytes(b"not hdf5")
     with pytest.raises(SceneError, match="cannot read"):
         render_gif(tmp_path / "bad.h5", tmp_path / "x.gif")
+
+
+# --- a full disk ------------------------------------------------------------------------
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 1 MiB tmpfs mounted under tmp_path (root only; skipped where mounting is not permitted)."""
+    import subprocess
+
+    mount = tmp_path / "full"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], capture_output=True)
+
+
+@pytest.mark.parametrize("name", ["run.h5", "run.pvd"])
+def test_a_full_disk_is_one_line_and_exit_1(tiny_disk, tmp_path, name):
+    """500 disks, 1001 snapshots of 16 kB each, on a 1 MiB disk.
+
+    Without --force the door refuses it (the size against the free space); with --force the
+    writer meets ENOSPC. HDF5 used to crash the interpreter at exit there (SIGSEGV, exit 139)
+    trying to flush the chunks it could not write; now the run stops with one line, exit 1,
+    the file removed and the database untouched. A subprocess, since the failure was a crash
+    of the process.
+    """
+    import subprocess
+    import sys
+
+    db = tmp_path / "gaz.db"
+    args = [sys.executable, "-m", "gaz_cli", "simulate", "--dim", "2", "--n", "500", "--length", "1e-6",
+            "--duration", "1e-9", "--seed", "1", "--db", str(db), "--trajectory", str(tiny_disk / name),
+            "--every", "1e-12"]
+    refused = subprocess.run(args, capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 1 and "free" in refused.stderr and len(refused.stderr.splitlines()) == 1, \
+        refused.stderr
+    done = subprocess.run(args + ["--force"], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, (done.returncode, done.stderr[-2000:])
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "No space left on device" in lines[0], done.stderr
+    assert list(tiny_disk.iterdir()) == []
+    if db.exists():
+        import sqlite3
+
+        assert sqlite3.connect(db).execute("SELECT COUNT(*) FROM SIMULATION").fetchone()[0] == 0

@@ -59,10 +59,28 @@ DONE = 0
 """All requested steps were run."""
 FLUSH = 1
 """Stopped early: the event buffers are full enough to be handed to the recorder."""
+PAUSE = 2
+"""Stopped early: the call's wall-clock deadline passed (control goes back to Python, so that
+Ctrl-C is seen within a slice)."""
 
 # counters (int64 array) of _advance
 C_BOUNCES, C_COLLISIONS, C_PASSES, C_PASS_LIMIT, C_PLANE, C_MAX_PASSES, C_PAIR_EVALS, C_STEPS = range(8)
-N_COUNTERS = 8
+C_OVERLAP_STEPS, C_OVERLAP_PAIRS, C_OVERLAP_MAX = range(8, 11)
+"""Steps that ended with overlapping pairs, such pairs summed over the steps, the most at one
+step end."""
+N_COUNTERS = 11
+G_CLOSEST, G_FIRST_TIME = range(2)
+"""The float overlap record (2,): smallest |dr| / sigma at a step end, time of the first step
+end with an overlapping pair (s; initialise with 1.0 and nan)."""
+OVERLAP_TOL = 0.01
+"""A pair counts as left overlapping when, at the first contact pass of a step (all particles
+drifted), it is closer than (1 - OVERLAP_TOL) sigma and the contact rule leaves it alone
+(overlapping and separating): it stays so at the step's end unless a later pass moves one of
+the two. Contacts
+found are resolved to round-off, but the overlap rule misses grazing ones that enter and leave
+the contact distance within one step, whatever dt: with a relative displacement l = |dv| dt per
+step they end at most l^2 / (8 sigma) deep (a chord of length l), so a 1% overlap means the
+particles move about 0.3 sigma relative to each other in a step: dt is too long."""
 # phase clocks (float64 array, seconds)
 T_PUSH, T_COLLISIONS, T_WALLS = range(3)
 N_TIMERS = 3
@@ -471,7 +489,8 @@ def _bin(pos, length, nc, cell_of, start, order):
 
 @njit
 def _contact_tau(pos, vel, i, j, sigma, age_max, swept):
-    """How far back (s, >= 0) pair (i, j) touched within age_max, or -1 for no contact.
+    """(tau, c): how far back (s, >= 0) pair (i, j) touched within age_max, or -1 for no contact;
+    c = |dr|^2 - sigma^2 at the step end, m^2 (< 0: overlapping).
 
     See the module docstring for the rule; always the cancellation-free root.
     """
@@ -487,22 +506,27 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept):
         c += dr * dr
     if b < 0.0:
         if c >= 0.0:
-            return -1.0  # approaching but apart: a future contact
+            return -1.0, c  # approaching but apart: a future contact
         tau = -c / (math.sqrt(b * b - a * c) - b)
-        return tau if tau < age_max else age_max
+        return tau if tau < age_max else age_max, c
     if not swept or a <= 0.0:
-        return -1.0
+        return -1.0, c
     disc = b * b - a * c
     if disc < 0.0:
-        return -1.0
+        return -1.0, c
     tau = (b + math.sqrt(disc)) / a
-    return tau if tau <= age_max else -1.0
+    return tau if tau <= age_max else -1.0, c
 
 
 @njit
 def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, dt, length, nc,
-            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau):
+            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau, left):
     """Write the pairs in contact with at least one active particle from row k; returns the new count.
+
+    With ``all_active`` (a step's first pass) also tallies in ``left`` (2,) the pairs the
+    contact rule leaves alone although closer than (1 - OVERLAP_TOL) sigma (overlapping and
+    separating: a contact missed in this step or before): left[0] their number, left[1] the
+    smallest |dr| / sigma among them (the caller sets 0 and 1.0 first).
 
     Each pair is reported once; rows beyond the arrays' size are counted,
     not written (the caller grows the arrays and calls again). Search
@@ -519,6 +543,7 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
     """
     n, dim = pos.shape
     side = length / nc
+    shrink = (1.0 - OVERLAP_TOL) * (1.0 - OVERLAP_TOL) - 1.0
     for i in range(n):
         if not active[i]:
             continue
@@ -554,8 +579,14 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
                         elif j < i:
                             continue
                     amax = age[i] if age[i] < age[j] else age[j]
-                    tau = _contact_tau(pos, vel, i, j, radius[i] + radius[j], amax, swept)
+                    sigma = radius[i] + radius[j]
+                    tau, c = _contact_tau(pos, vel, i, j, sigma, amax, swept)
                     if tau < 0.0:
+                        if all_active and c < shrink * sigma * sigma:
+                            left[0] += 1.0
+                            ratio = math.sqrt(c / (sigma * sigma) + 1.0)
+                            if ratio < left[1]:
+                                left[1] = ratio
                         continue
                     if k < cand_i.shape[0]:
                         cand_i[k] = i
@@ -611,18 +642,25 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
 
 # --- one block of steps ------------------------------------------------------------
 @njit
-def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
+def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
              length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
              want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
-             counters, clocks, virial, clock_id, nthreads):
-    """Run up to ``nsteps`` steps of dt s from time t0 s (see the module docstring).
+             counters, clocks, virial, overlap, clock_id, nthreads, deadline):
+    """Run up to ``nsteps`` steps of dt s (see the module docstring).
+
+    Step s of the call ends at t0 + (k0 + s + 1) dt s: with t0 = 0 and k0 the index of the
+    call's first step, every step's end time is the same whatever the calls' lengths, so a
+    run cut into calls gives the same numbers bit for bit.
 
     pos, vel, acc (N, D) float64 are updated in place (acc holds the pair
     accelerations at the current positions); age, tlast (N,) scratch and TC
     times. Bounces go to bf (k, 3: t, |v|, |v_perp|) / bi (k, 2: particle,
     RE_DIR) from row nb, collisions to cf (k, 2: t, |J|) / ci (k, 2: i, j)
     from row ncoll; buffers grow as needed. counters (int64), clocks
-    (float64, s) and virial (1,) accumulate. clock_id: the clock_gettime
+    (float64, s) and virial (1,) accumulate. The pairs each step leaves overlapping (closer
+    than (1 - OVERLAP_TOL) sigma and not resolved: see :func:`_detect`) are counted in the
+    C_OVERLAP_* counters; overlap (2,) keeps the smallest |dr| / sigma seen and the time of
+    the first step with one. clock_id: the clock_gettime
     clock (-1: no phase timing); nthreads: threads for the pair forces. Stops early (status FLUSH) once
     either buffer holds ``flush_at`` rows.
 
@@ -647,13 +685,14 @@ def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
     cand_i = np.empty(64, np.int64)
     cand_j = np.empty(64, np.int64)
     cand_tau = np.empty(64, np.float64)
+    left = np.zeros(2)
     steps = 0
     status = DONE
     for s in range(nsteps):
         if nb >= flush_at or ncoll >= flush_at:
             status = FLUSH
             break
-        t_end = t0 + (s + 1) * dt
+        t_end = t0 + (k0 + s + 1) * dt
         # --- push: half kick, drift
         c0 = _now(clock_id, tbuf)
         if has_kick:
@@ -693,12 +732,25 @@ def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
                 nc = nc_max
             _bin(pos, length, nc, cell_of, start, order)
             kw = k
+            left[0] = 0.0
+            left[1] = 1.0
             k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length, nc,
-                        cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau)
+                        cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, kw, k)
+                left[0] = 0.0
+                left[1] = 1.0
                 k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length,
-                            nc, cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau)
+                            nc, cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left)
+            if passes == 1 and left[0] > 0.0:
+                if counters[C_OVERLAP_STEPS] == 0:
+                    overlap[G_FIRST_TIME] = t_end
+                counters[C_OVERLAP_STEPS] += 1
+                counters[C_OVERLAP_PAIRS] += int(left[0])
+                if left[0] > counters[C_OVERLAP_MAX]:
+                    counters[C_OVERLAP_MAX] = int(left[0])
+                if left[1] < overlap[G_CLOSEST]:
+                    overlap[G_CLOSEST] = left[1]
             for i in range(n):
                 done[i] = 0
             applied = 0
@@ -766,6 +818,9 @@ def _advance(nsteps, t0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
             _kick(vel, acc, has_pair, g, gamma, h)
         clocks[T_PUSH] += _now(clock_id, tbuf) - c3
         steps += 1
+        if clock_id >= 0 and steps < nsteps and _now(clock_id, tbuf) >= deadline:
+            status = PAUSE
+            break
     counters[C_STEPS] += steps
     return status, steps, bf, bi, nb, cf, ci, ncoll
 
@@ -789,4 +844,4 @@ def _overlaps_approaching(pos, vel, radius, length):
     cj = np.empty(16, np.int64)
     ct = np.empty(16, np.float64)
     return _detect(pos, vel, radius, age, active, True, np.zeros(n), 0.0, 2.0 * rmax, 0.0, length, nc, cell_of, start,
-                   order, False, 0, ci, cj, ct)
+                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]))

@@ -1,0 +1,205 @@
+"""Hostile inputs at the door: each bad command line ends in one line on stderr, a non-zero
+exit, no traceback, the database untouched (byte for byte) and no file written.
+
+Each case runs ``gaz`` in-process (click's CliRunner, through the real entry point ``main``)
+with ``--db`` on a copy of a database that already holds one simulation; the copy's SHA-256
+is compared before and after. The same cases make the table of docs/stability.md::
+
+    GAZ_WRITE_STABILITY=1 python -m pytest tests/test_hostile_inputs.py -k table
+
+writes it between the markers ``<!-- hostile-inputs:begin -->`` and ``<!-- hostile-inputs:end -->``
+(the file is created with a heading and that section if absent). Two faults need a real
+process and have their own tests: a full disk under a trajectory (tests/test_trajectory.py)
+and Ctrl-C in the step engine (tests/test_stepper.py).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import invoke
+
+SIM = ["simulate", "--duration", "1e-10", "--seed", "1"]
+"""A simulate command's common part; every case adds --db."""
+
+CASES = [
+    # (what is wrong, arguments, expected exit code, a fragment of the message)
+    ("N = 10^12 particles", [*SIM, "--dim", "3", "--n", "1000000000000", "--length", "1e-3"], 1, "memory"),
+    ("N = 10^20 (beyond int64)", [*SIM, "--dim", "3", "--n", "100000000000000000000", "--length", "1e-3"], 1,
+     "2^63 - 1"),
+    ("box side 1e300 m in 3D", [*SIM, "--dim", "3", "--n", "10", "--length", "1e300"], 1, "range"),
+    ("box side 1e-200 m", [*SIM, "--dim", "2", "--n", "1", "--radius", "1e-210", "--mass", "1e-26",
+                            "--length", "1e-200"], 1, "range"),
+    ("mass 1e-170 kg", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--radius", "1e-10",
+                        "--mass", "1e-170"], 1, "reduced mass"),
+    ("mass 1e300 kg", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--radius", "1e-10",
+                       "--mass", "1e300"], 1, "reduced mass"),
+    ("radius 1e-200 m", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--radius", "1e-200",
+                         "--mass", "1e-26"], 1, "range"),
+    ("temperature 1e300 K", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--temperature", "1e300"], 1,
+     "range"),
+    ("temperature 1e-300 K", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--temperature", "1e-300"],
+     1, "range"),
+    ("temperature 1e100 K (10^49 events)", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                            "--temperature", "1e100"], 1, "--force"),
+    ("gravity 1e300 m/s^2", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--gravity", "1e300"], 1,
+     "range"),
+    ("gravity 1e200 m/s^2 (10^188 bounces)", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                              "--gravity", "1e200"], 1, "--force"),
+    ("5.6e11 events (1 s of 1000 argon atoms)", ["simulate", "--dim", "2", "--n", "1000", "--length", "1e-6",
+                                                 "--duration", "1", "--seed", "1"], 1, "--force"),
+    ("step engine, 10^20 steps", [*SIM, "--dim", "2", "--n", "100", "--length", "1e-7", "--engine", "step",
+                                  "--dt", "1e-30"], 1, "--force"),
+    ("reference engine, N = 10^5", [*SIM, "--dim", "3", "--n", "100000", "--length", "1e-3",
+                                    "--engine", "reference"], 1, "--engine event"),
+    ("10^15 snapshots (--every 1e-25)", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                         "--trajectory", "{tmp}/t.h5", "--every", "1e-25"], 1, "snapshots"),
+    ("reference engine with --trajectory", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                            "--engine", "reference", "--trajectory", "{tmp}/t.h5",
+                                            "--every", "1e-12"], 1, "no trajectory"),
+    ("trajectory format .txt", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                "--trajectory", "{tmp}/t.txt", "--every", "1e-12"], 1, ".h5"),
+    ("trajectory in a missing folder", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                        "--trajectory", "{tmp}/nowhere/t.h5", "--every", "1e-12"], 1,
+     "does not exist"),
+    ("--trajectory without --every", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                      "--trajectory", "{tmp}/t.h5"], 1, "--every"),
+    ("--every -1", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--trajectory", "{tmp}/t.h5",
+                    "--every", "-1"], 1, "--every"),
+    ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
+    ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
+    ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
+    ("duration inf", ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "inf"], 1,
+     "--duration"),
+    ("N = 0", [*SIM, "--dim", "2", "--n", "0", "--length", "1e-7"], 1, "--n"),
+    ("packing above close packing", [*SIM, "--dim", "3", "--n", "1000", "--length", "1e-9"], 1, "packing"),
+    ("restitution 2", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--restitution", "2"], 1,
+     "restitution"),
+    ("unknown species", [*SIM, "--dim", "2", "--species", "Zz:5", "--length", "1e-7"], 1, "species"),
+    ("gravity in a periodic box", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--gravity", "9.8",
+                                   "--boundary", "periodic"], 1, "walls"),
+    ("step engine without --dt", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--engine", "step"], 1,
+     "--dt"),
+    ("negative --dt", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--engine", "step",
+                       "--dt", "-1"], 1, "--dt"),
+    ("--dim not a number", [*SIM, "--dim", "three", "--n", "10", "--length", "1e-7"], 2, "--dim"),
+    ("place: N = 10^12", ["place", "--dim", "3", "--n", "1000000000000", "--radius", "1e-10",
+                          "--length", "1e-3"], 1, "memory"),
+    ("place: N = 10^20", ["place", "--dim", "3", "--n", "100000000000000000000", "--radius", "1e-10",
+                          "--length", "1e-3"], 1, "2^63 - 1"),
+    ("place: box side 1e300 m in 3D", ["place", "--dim", "3", "--n", "10", "--radius", "1",
+                                       "--length", "1e300"], 1, "range"),
+    ("place: histogram h.txt", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
+                                "--repeat", "3", "--histogram", "{tmp}/h.txt"], 2, ".png"),
+    ("place: radius 0", ["place", "--dim", "2", "--n", "5", "--radius", "0", "--length", "1"], 2, "--radius"),
+    ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
+    ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
+]
+
+
+@pytest.fixture(scope="module")
+def populated_db(tmp_path_factory):
+    """A database holding one small simulation: what the hostile inputs must leave untouched."""
+    path = tmp_path_factory.mktemp("db") / "gaz.db"
+    res = invoke(["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-11",
+                  "--seed", "1", "--db", str(path)])
+    assert res.exit_code == 0, res.output
+    return path
+
+
+def _digest(path: Path) -> str | None:
+    return hashlib.sha256(path.read_bytes()).hexdigest() if path.exists() else None
+
+
+def run_case(args, tmp_path: Path, db_source: Path) -> dict:
+    """Run one bad command line; returns exit code, stderr lines, stdout, the db before/after."""
+    db = tmp_path / "gaz.db"
+    shutil.copyfile(db_source, db)
+    (tmp_path / "run.h5").write_bytes(b"not an HDF5 file\n")
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    if argv[0] == "simulate":
+        argv += ["--db", str(db)]
+    before, files = _digest(db), set(tmp_path.rglob("*"))
+    res = invoke(argv)
+    return {"exit": res.exit_code, "stderr": res.stderr, "lines": [ln for ln in res.stderr.splitlines() if ln],
+            "stdout": res.stdout, "db_unchanged": _digest(db) == before, "argv": argv,
+            "new_files": sorted(str(p) for p in set(tmp_path.rglob("*")) - files)}
+
+
+@pytest.mark.parametrize("what, args, code, fragment", CASES, ids=[c[0] for c in CASES])
+def test_a_hostile_input_is_one_line_and_leaves_the_database(populated_db, tmp_path, what, args, code, fragment):
+    out = run_case(args, tmp_path, populated_db)
+    assert "Traceback" not in out["stderr"] and "internal error" not in out["stderr"], out["stderr"]
+    assert len(out["lines"]) == 1, out["stderr"]
+    assert out["exit"] == code, (out["exit"], out["stderr"])
+    assert fragment in out["lines"][0], out["lines"][0]
+    assert out["stdout"] == ""
+    assert out["db_unchanged"]
+    assert out["new_files"] == []  # no empty trajectory, no image, no journal left behind
+
+
+# --- the table of docs/stability.md -------------------------------------------------------------
+BEGIN, END = "<!-- hostile-inputs:begin -->", "<!-- hostile-inputs:end -->"
+DOC = Path(__file__).resolve().parent.parent / "docs" / "stability.md"
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def table(rows) -> str:
+    lines = [BEGIN, "## Hostile inputs", "",
+             "Generated by `GAZ_WRITE_STABILITY=1 python -m pytest tests/test_hostile_inputs.py -k table`: each "
+             "bad command line run through `gaz`'s entry point with `--db` on a copy of a database holding one "
+             "simulation (paths shortened to `TMP`). Every row: one line on stderr, no traceback, the database "
+             "byte-identical (SHA-256). A full disk under a trajectory and Ctrl-C in the step engine need a real "
+             "process: `tests/test_trajectory.py::test_a_full_disk_is_one_line_and_exit_1` (a 1 MiB tmpfs: "
+             "refused at the door, and with `--force` ENOSPC gives exit 1, was SIGSEGV, exit 139) and "
+             "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130).", "",
+             "| bad input | command | exit | message | database |", "| --- | --- | --- | --- | --- |"]
+    for what, out, tmp in rows:
+        command = " ".join(["gaz", *out["argv"]]).replace(str(tmp), "TMP")
+        message = out["lines"][0].replace(str(tmp), "TMP") if out["lines"] else out["stderr"]
+        db = ("unchanged" if out["db_unchanged"] else "CHANGED") if out["argv"][0] == "simulate" else "(not used)"
+        lines.append(f"| {_cell(what)} | `{_cell(command)}` | {out['exit']} | {_cell(message)} | {db} |")
+    lines.append(END)
+    return "\n".join(lines) + "\n"
+
+
+def write_table(text: str, path: Path = DOC) -> None:
+    """Put ``text`` between the markers of ``path`` (created with a heading if absent)."""
+    old = path.read_text(encoding="utf-8") if path.exists() else "# Numerical stability and hostile inputs\n\n"
+    if BEGIN in old and END in old:
+        head, rest = old.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1].lstrip("\n")
+        new = head + text + tail
+    else:
+        new = old.rstrip("\n") + "\n\n" + text
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(new, encoding="utf-8")
+
+
+@pytest.mark.skipif(not os.environ.get("GAZ_WRITE_STABILITY"), reason="set GAZ_WRITE_STABILITY=1 to write the table")
+def test_write_the_table(populated_db, tmp_path):
+    rows = []
+    for k, (what, args, code, fragment) in enumerate(CASES):
+        tmp = tmp_path / f"c{k}"
+        tmp.mkdir()
+        out = run_case(args, tmp, populated_db)
+        assert len(out["lines"]) == 1 and out["exit"] == code and out["db_unchanged"], (what, out)
+        rows.append((what, out, tmp))
+    write_table(table(rows))
+
+
+def test_write_table_keeps_the_other_sections(tmp_path):
+    doc = tmp_path / "stability.md"
+    write_table(f"{BEGIN}\nfirst\n{END}\n", doc)
+    assert doc.read_text().startswith("# Numerical stability")
+    doc.write_text(doc.read_text() + "\n<!-- stress:begin -->\nstress rows\n<!-- stress:end -->\n")
+    write_table(f"{BEGIN}\nsecond\n{END}\n", doc)
+    text = doc.read_text()
+    assert "second" in text and "first" not in text and "stress rows" in text and text.count(BEGIN) == 1
