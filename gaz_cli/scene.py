@@ -8,6 +8,7 @@ velocities; it depends on the scene and its seed only, never on the engine.
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import sys
@@ -438,8 +439,9 @@ def from_options(*, dim=None, n=None, length=None, duration=None, species=None, 
     """Build and validate a Scene from command-line options; returns (scene, state or None).
 
     With ``preset`` the scene and its initial state come from
-    :mod:`gaz_cli.stepper.presets`; the options given override the preset's duration, dt,
-    seed, print_every and force only. ``force``: run even when the estimated work is beyond
+    :mod:`gaz_cli.stepper.presets`, made with the given seed (and count, for presets that take
+    one); duration, dt, print_every and force override the preset's; options that a preset
+    fixes (dimension, box, species) are refused, never silently ignored. ``force``: run even when the estimated work is beyond
     its bound (see :func:`check_work`).
     """
     from gaz_cli.species import DEFAULT_SPECIES, Species, lookup, parse_mixture
@@ -449,8 +451,19 @@ def from_options(*, dim=None, n=None, length=None, duration=None, species=None, 
 
         if preset not in PRESETS:
             raise SceneError(f"--preset {preset!r} is not one of {', '.join(PRESETS)}")
-        scene, state = PRESETS[preset]()
-        changes = {k: v for k, v in (("duration", duration), ("dt", dt), ("seed", seed)) if v is not None}
+        fixed = [flag for flag, value in (("--dim", dim), ("--length", length), ("--species", species),
+                                          ("--radius", radius), ("--mass", mass)) if value is not None]
+        factory = PRESETS[preset]
+        takes = inspect.signature(factory).parameters
+        if n is not None and "n" not in takes:
+            fixed.insert(0, "--n")
+        if fixed:
+            raise SceneError(f"--preset {preset} sets {', '.join(fixed)} itself; drop "
+                             f"{'it' if len(fixed) == 1 else 'them'}, or describe the scene "
+                             "with options instead of a preset")
+        made = {k: v for k, v in (("n", n), ("seed", seed)) if v is not None}
+        scene, state = factory(**made)  # placed with the seed the database records
+        changes = {k: v for k, v in (("duration", duration), ("dt", dt)) if v is not None}
         changes["force"] = bool(force)
         if print_every:
             changes["print_every"] = print_every

@@ -488,3 +488,24 @@ def test_a_step_too_long_for_the_scene_warns_once_with_a_dt_that_avoids_the_over
     assert not [w for w in caught if issubclass(w.category, GazWarning)]
     assert rs.extras["overlap_steps"] == 0 and rs.extras["dt_without_overlaps"] is None
     assert rs.collisions > 1000
+
+
+def test_a_preset_is_placed_with_the_seed_given_and_refuses_what_it_fixes():
+    """--preset marbles --seed 5 places the marbles with seed 5 (the seed the database
+    records), so the stored scene repeats the run; --n sets the number of marbles; flags a
+    preset fixes are refused in one line instead of being silently ignored."""
+    from gaz_cli.errors import SceneError
+    from gaz_cli.scene import from_options
+
+    scene, state = from_options(preset="marbles", seed=5, n=40)
+    again, same = PRESETS["marbles"](n=40, seed=5)
+    default_scene, default_state = from_options(preset="marbles", n=40)
+    assert scene.seed == 5 and scene.n == 40
+    assert np.array_equal(state.positions, same.positions)
+    assert np.array_equal(state.velocities, same.velocities)
+    assert not np.array_equal(state.positions, default_state.positions)
+    for flags in ({"dim": 2}, {"length": 1.0}, {"species": "Ar"}):
+        with pytest.raises(SceneError, match="--preset marbles sets --"):
+            from_options(preset="marbles", **flags)
+    with pytest.raises(SceneError, match="--preset comet sets --n"):
+        from_options(preset="comet", n=10)
