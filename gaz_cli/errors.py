@@ -23,3 +23,20 @@ class StoreError(GazError, RuntimeError):
 
 class EngineError(GazError, RuntimeError):
     """An engine reported a state it cannot continue from (queue overflow, invalid state)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by SIGINT or SIGTERM after rolling back.
+
+    ``signum`` is the signal (the exit code is 128 + signum); ``left`` says
+    what the run left on disk, for the one-line message.
+    """
+
+    def __init__(self, signum: int = 2, left: str = "nothing was written for the interrupted run"):
+        super().__init__(left)
+        self.signum = signum
+        self.left = left
+
+
+class QueryError(GazError, ValueError):
+    """``gaz query``: an unknown query name, or a parameter missing, unknown or malformed."""
