@@ -12,12 +12,11 @@ import math
 import os
 import signal
 import sys
-import threading
 
 import click
 
 from gaz_cli import __version__
-from gaz_cli.errors import GazError, Interrupted
+from gaz_cli.errors import GazError
 
 FORMATS = ("table", "csv", "json")
 
@@ -323,16 +322,9 @@ def animate(trajectory, output, fps):
 
 
 # --- entry point --------------------------------------------------------------
-def _terminated(signum, _frame):
-    raise Interrupted(signum)
-
-
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
-    main_thread = threading.current_thread() is threading.main_thread()
-    if main_thread:
-        previous = signal.signal(signal.SIGTERM, _terminated)  # SIGTERM rolls back as SIGINT does
     try:
         cli.main(args=argv, prog_name=prog, standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -366,8 +358,6 @@ def main(argv=None) -> None:
                    "(set GAZ_DEBUG=1 for a traceback; please report it)", err=True)
         sys.exit(3)
     finally:
-        if main_thread:
-            signal.signal(signal.SIGTERM, previous)
         # the objects left (Numba's compiler state, mostly) live until exit: a last garbage
         # collection over them cost ~0.05 s of every run's exit (measured)
         gc.freeze()

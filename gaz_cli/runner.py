@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State, fresh_seed, initial_state, validate
@@ -53,21 +54,25 @@ class Tee(Recorder):
         self.snapshot_every = min(everies) if everies else None
 
     def add_bounces(self, *arrays):
+        interrupts.check()
         for r in self.recorders:
             if r.want_bounces:
                 r.add_bounces(*arrays)
 
     def add_collisions(self, *arrays):
+        interrupts.check()
         for r in self.recorders:
             if r.want_collisions:
                 r.add_collisions(*arrays)
 
     def add_snapshot(self, t, positions, velocities):
+        interrupts.check()
         for r in self.recorders:
             if r.snapshot_every:
                 r.add_snapshot(t, positions, velocities)
 
     def diagnostic(self, values):
+        interrupts.check()
         for r in self.recorders:
             r.diagnostic(values)
 
@@ -144,6 +149,7 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     state_written = False
     try:
         with contextlib.ExitStack() as stack:
+            stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
             if db is not None:
                 from gaz_cli.store import Store
                 store = stack.enter_context(Store(db))
@@ -177,8 +183,10 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
 
 
 def _remove(path: str) -> None:
+    """Delete the state file of a failed run: a regular file only (never /dev/full and the like)."""
     with contextlib.suppress(OSError):
-        Path(path).unlink()
+        if Path(path).is_file():
+            Path(path).unlink()
 
 
 def _left_on_disk(store, writer, traj) -> str:

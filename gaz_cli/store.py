@@ -51,9 +51,7 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import re
-import signal
 import sqlite3
-import threading
 from importlib import resources
 from pathlib import Path
 
@@ -62,7 +60,7 @@ import pandas as pd
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
-from gaz_cli import __version__, staging
+from gaz_cli import __version__, interrupts, staging
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene
@@ -223,7 +221,7 @@ class Store:
         self.shown = shown(db)
         url = url_for(db)
         self.is_sqlite = url.get_backend_name() == "sqlite"
-        self.path = Path(url.database) if self.is_sqlite and url.database else None
+        self.path = _sqlite_path(url) if self.is_sqlite else None
         if self.is_sqlite and not create and not (self.path and self.path.is_file()):
             raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
         self.engine = None
@@ -300,13 +298,13 @@ class Store:
         """Check the schema; create or migrate it; nothing is written to a refused database."""
         if self.is_sqlite:
             with self.engine.connect() as conn:
-                version = self._schema_state(conn)  # read only: refusals leave the file as it was
+                self._schema_state(conn)  # read only: refusals leave the file as it was
                 wal = conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
-                if version == SCHEMA_VERSION and wal:
-                    return
                 conn.rollback()
                 if not wal:  # outside any transaction, on the driver's connection
                     conn.connection.driver_connection.execute("PRAGMA journal_mode = WAL")
+            # also when there is nothing to create: a read-only or locked file fails here,
+            # before the run, not at its commit
             with _write_transaction(self.engine) as conn:
                 self._create_or_migrate(conn, self._schema_state(conn))
             return
@@ -320,7 +318,8 @@ class Store:
         or newer layout."""
         insp = sa.inspect(conn)
         names = {n.lower() for n in insp.get_table_names()}
-        for table in metadata.sorted_tables:
+        tables = [metadata.tables[t] for t in EXAM_TABLES]
+        for table in tables + [t for t in metadata.sorted_tables if t not in tables]:
             if table.name not in names:
                 continue
             found = [c["name"].lower() for c in insp.get_columns(table.name)]
@@ -371,7 +370,7 @@ class Store:
         """
         started = started or _dt.datetime.now().replace(microsecond=0)
         with self._errors():
-            run = (_StagedRun if self.is_sqlite else _DirectRun)(self, scene, started)
+            run = (_StagedRun if self.path is not None else _DirectRun)(self, scene, started)
         try:
             yield run
             if not run.finished:
@@ -434,6 +433,14 @@ MIGRATIONS = {1: _v1_to_v2}
 
 
 # --- connections ----------------------------------------------------------------
+def _sqlite_path(url: sa.URL) -> Path | None:
+    """The file of a SQLite URL (``file:PATH?...`` with ``uri=true`` too); None in memory."""
+    name = url.database or ""
+    if url.query.get("uri") in ("true", "1") and name.startswith("file:"):
+        name = name[len("file:"):].split("?", 1)[0]
+    return Path(name) if name and name != ":memory:" else None
+
+
 def _make_engine(url: sa.URL, display: str) -> sa.Engine:
     backend = url.get_backend_name()
     connect_args = {}
@@ -479,24 +486,6 @@ def _write_transaction(engine: sa.Engine):
         conn = conn.execution_options(gaz_write=True)
         with conn.begin():
             yield conn
-
-
-@contextlib.contextmanager
-def _signals_held():
-    """Hold SIGINT and SIGTERM for the duration of the block (a commit), then deliver them."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught = []
-    previous = {s: signal.signal(s, lambda signum, _frame: caught.append(signum))
-                for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-    for signum in caught[:1]:
-        signal.raise_signal(signum)
 
 
 # --- one simulation's rows --------------------------------------------------------
@@ -607,7 +596,7 @@ class _StagedRun(_Run):
             raw = conn.connection.driver_connection  # ATTACH and DETACH outside any transaction
             raw.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
             try:
-                with _signals_held():
+                with interrupts.held():
                     with conn.execution_options(gaz_write=True).begin():
                         si_num, nums = _write_simulation_rows(conn, self.scene, self.started)
                         self._move_in(conn, rebond, si_num, pa_nums=nums)
@@ -704,7 +693,7 @@ class _DirectRun(_Run):
             self.conn.execute(table.insert(), [dict(zip(names, r)) for r in rows])
 
     def commit(self) -> None:
-        with _signals_held():
+        with interrupts.held():
             self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
             self.trans.commit()
             self.si_num = self._si
