@@ -467,8 +467,7 @@ def _sqlite_connect(dbapi_conn, _record) -> None:
     # handling would not let a writer ask for BEGIN IMMEDIATE
     dbapi_conn.isolation_level = None
     cur = dbapi_conn.cursor()
-    cur.execute("PRAGMA foreign_keys = ON")
-    cur.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+    cur.execute("PRAGMA foreign_keys = ON")  # (the busy timeout is the driver's timeout argument)
     cur.close()
 
 

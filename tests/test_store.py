@@ -6,6 +6,7 @@ import shutil
 import sqlite3
 import subprocess
 import sys
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -168,6 +169,28 @@ def test_same_rows_on_both_backends(backend, argon_scene, rng, tmp_path):
     store.close()
 
 
+def test_readers_read_while_a_writer_writes(tmp_path, argon_scene, rng, monkeypatch):
+    """WAL: a reader is not blocked by a writer, even one whose transaction has spilled to
+    the file (in the rollback journal mode, that writer holds an exclusive lock)."""
+    db = tmp_path / "a.db"
+    store = st.Store(str(db))
+    write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng)
+    store.close()
+    writer = sqlite3.connect(db, isolation_level=None)
+    writer.execute("PRAGMA cache_size = 1")
+    writer.execute("BEGIN IMMEDIATE")
+    writer.executemany("INSERT INTO rebond VALUES (1, ?, 1, 0.0, 1, 1.0, 1.0)",
+                       [(k,) for k in range(10_000, 60_000)])
+    monkeypatch.setattr(st, "BUSY_TIMEOUT_S", 0.1)
+    try:
+        reader = st.Store(str(db), create=False)
+        assert len(reader.table(st.rebond)) == 5000  # the committed rows, not the writer's
+        reader.close()
+    finally:
+        writer.execute("ROLLBACK")
+        writer.close()
+
+
 # --- schema versions ----------------------------------------------------------------
 def _version_1(db: str) -> None:
     """A database as gaz wrote it before schema versions: the same tables but SCHEMA_VERSION,
@@ -255,8 +278,11 @@ def test_foreign_postgres_schema_is_refused_and_untouched(postgres_db):
 def test_concurrent_first_opens_create_one_schema(backend):
     """Processes opening the same new database at once all succeed, and the database
     gets one schema: one version row, the built-in species once."""
-    code = "import sys; from gaz_cli.store import Store; Store(sys.argv[1]).close()"
-    procs = [subprocess.Popen([sys.executable, "-c", code, backend], stderr=subprocess.PIPE, text=True)
+    # each process imports first, then all open at the same instant
+    code = ("import sys, time; from gaz_cli.store import Store; "
+            "time.sleep(max(0.0, float(sys.argv[2]) - time.time())); Store(sys.argv[1]).close()")
+    start = str(time.time() + 4.0)
+    procs = [subprocess.Popen([sys.executable, "-c", code, backend, start], stderr=subprocess.PIPE, text=True)
              for _ in range(4)]
     errors = [p.communicate(timeout=120)[1] for p in procs]
     assert [p.returncode for p in procs] == [0] * 4, errors

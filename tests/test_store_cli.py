@@ -58,7 +58,9 @@ def test_eight_writers_one_file_and_a_reader(tmp_path):
     all their rows; ``gaz analyse`` reads the file while they write."""
     db = tmp_path / "gaz.db"
     assert invoke([*QUICK, "--seed", "100", "--db", str(db)]).exit_code == 0
-    procs = [gaz(*QUICK, "--seed", str(seed), "--db", str(db), "--json") for seed in range(8)]
+    # runs of ~18 000 bounces each: the commits (moving rows in) take long enough to collide
+    runs = ["simulate", "--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "1e-9"]
+    procs = [gaz(*runs, "--seed", str(seed), "--db", str(db), "--json") for seed in range(8)]
     reads = []
     while any(p.poll() is None for p in procs) or not reads:
         res = invoke(["analyse", "--db", str(db), "--format", "json"])
@@ -229,12 +231,14 @@ def test_locked_database_is_one_line_before_the_run(tmp_path, monkeypatch):
     monkeypatch.setattr(st, "BUSY_TIMEOUT_S", 0.2)
     holder = sqlite3.connect(db, isolation_level=None)
     holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
+    traj = tmp_path / "run.h5"
     try:
-        res = invoke([*QUICK, "--seed", "2", "--db", str(db)])
+        res = invoke([*QUICK, "--seed", "2", "--db", str(db), "--trajectory", str(traj), "--every", "1e-11"])
     finally:
         holder.execute("ROLLBACK")
         holder.close()
     assert res.exit_code == 1
+    assert not traj.exists()  # refused before the run began
     assert res.stderr == f"gaz: error: database '{db}' is locked by another process (waited 0.2 s); " \
                          "try again when it has finished\n"
     assert check_consistent(db) == [1]
