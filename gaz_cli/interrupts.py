@@ -83,3 +83,16 @@ def held():
         if installed is not None:
             _pending.clear()
         raise Interrupted(signum)
+
+
+def signal_of(exc: BaseException) -> int | None:
+    """The signal behind ``exc``: a KeyboardInterrupt (Interrupted included) anywhere in its
+    chain of causes, else None. A Ctrl-C landing while a Numba function boxes its result
+    reaches Python as a SystemError whose cause is the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return getattr(exc, "signum", signal.SIGINT)
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

@@ -7,11 +7,11 @@ velocities (:func:`gaz_cli.scene.initial_state`, independent of the
 engine); let the engine stream its events into the run's writer (staged or
 in an open transaction, see :mod:`gaz_cli.store`); then everything that can
 still fail -- the trajectory's last write, the final state file, the
-summary -- and only then the commit. A failure or an interrupt (SIGINT, or
-SIGTERM turned into one by the CLI) at any point before the commit leaves
-nothing in the database and removes the state file; the trajectory keeps
-the snapshots written so far, and the :class:`~gaz_cli.errors.Interrupted`
-raised says so.
+summary -- and only then the commit. A failure or an interrupt (SIGINT or
+SIGTERM, see :mod:`gaz_cli.interrupts`) at any point before the commit
+leaves nothing in the database and removes the state file; the trajectory
+keeps the snapshots written so far, and the
+:class:`~gaz_cli.errors.Interrupted` raised says so.
 """
 
 from __future__ import annotations
@@ -140,10 +140,7 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     _check_writable(trajectory, "--trajectory")
     if trajectory and not (every and every > 0):
         raise SceneError("--trajectory needs --every DT, the simulated time between snapshots")
-    if state is None:
-        state = initial_state(scene)
     masses = scene.masses()
-    ke_start = state.kinetic_energy(masses)
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
     state_written = False
@@ -152,8 +149,11 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
             if db is not None:
                 from gaz_cli.store import Store
-                store = stack.enter_context(Store(db))
+                store = stack.enter_context(Store(db))  # refused or failing: before placing
                 writer = stack.enter_context(store.simulation(scene))
+            if state is None:
+                state = initial_state(scene)
+            ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.trajectory import open_trajectory
                 traj = stack.enter_context(open_trajectory(trajectory, every, scene))
@@ -170,13 +170,12 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
                           None if tally is None else tally.momentum)
             if writer is not None:
                 writer.finish(stats, ke_start, ke_end)
-    except KeyboardInterrupt as exc:
+    except BaseException as exc:
         if state_written and (writer is None or writer.si_num is None):
             _remove(save_state)
-        raise Interrupted(getattr(exc, "signum", 2), _left_on_disk(store, writer, traj)) from None
-    except BaseException:
-        if state_written:
-            _remove(save_state)
+        signum = interrupts.signal_of(exc)
+        if signum is not None:
+            raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
         raise
     out["si_num"] = None if writer is None else writer.si_num
     return out

@@ -225,16 +225,20 @@ class Store:
         if self.is_sqlite and not create and not (self.path and self.path.is_file()):
             raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
         self.engine = None
-        with self._errors():
-            self.engine = _make_engine(url, self.shown)
-            if create:
-                self._prepare()
-            else:
-                with self.engine.connect() as conn:
-                    version = self._schema_state(conn)
-                if version == 0:
-                    raise StoreError(f"{self.shown!r} is not a gaz database (no table SIMULATION); "
-                                     "point --db at a file written by 'gaz simulate'")
+        try:
+            with self._errors():
+                self.engine = _make_engine(url, self.shown)
+                if create:
+                    self._prepare()
+                else:
+                    with self.engine.connect() as conn:
+                        version = self._schema_state(conn)
+                    if version == 0:
+                        raise StoreError(f"{self.shown!r} is not a gaz database (no table SIMULATION); "
+                                         "point --db at a file written by 'gaz simulate'")
+        except BaseException:
+            self.close()
+            raise
 
     def close(self) -> None:
         """Release every connection; idempotent."""
