@@ -614,14 +614,14 @@ class _StagedRun(_Run):
         if not self._n[table.name]:
             return
         staged = sa.table(table.name, *[sa.column(c.name) for c in table.columns], schema="stage")
+        columns = list(table.columns)  # (SQLAlchemy 2.0.0's column collections take no slices)
         values = [sa.literal(si_num, sa.Integer).label("si_num")]
-        for c in table.columns[1:]:
+        for c in columns[1:]:
             col = staged.c[c.name]
             values.append(sa.case({k: n for k, n in enumerate(pa_nums)}, value=col).label(c.name)
                           if c.name == "pa_num" else col)
-        key = table.columns[1].name
         conn.execute(table.insert().from_select(
-            [c.name for c in table.columns], sa.select(*values).order_by(staged.c[key])))
+            [c.name for c in columns], sa.select(*values).order_by(staged.c[columns[1].name])))
 
     def abort(self) -> None:
         self.stage.discard()
