@@ -10,13 +10,14 @@ import gc
 import json
 import math
 import os
+import signal
 import sys
 import warnings
 
 import click
 
 from gaz_cli import __version__
-from gaz_cli.errors import GazError, GazWarning, interrupted
+from gaz_cli.errors import GazError, GazWarning
 
 FORMATS = ("table", "csv", "json")
 
@@ -276,6 +277,53 @@ def analyse(db, sim, fmt, plot):
     emit_frames(frames, fmt)
 
 
+# --- query --------------------------------------------------------------------
+@cli.command()
+@click.argument("name", required=False)
+@db_option()
+@click.option("--param", "params", multiple=True, metavar="KEY=VALUE",
+              help="A parameter of the query, e.g. --param si_num=1. Repeatable.")
+@format_option
+@click.option("--list", "list_only", is_flag=True, help="Name the packaged queries, with what each returns.")
+def query(name, db, params, fmt, list_only):
+    """Run a packaged SQL query (Q34, Q35, Q36, pressure, ...) by NAME on the database.
+
+    The queries are plain SQL files shipped with gaz (valid in SQLite and
+    PostgreSQL); --list names them with their parameters. csv output is one
+    table that pandas.read_csv reads as is.
+
+    \b
+    Examples:
+      gaz query --list
+      gaz query q34 --db gaz.db
+      gaz query q36 --param si_num=1 --db gaz.db --format csv
+    """
+    from gaz_cli import queries
+
+    if list_only:
+        import pandas as pd
+
+        catalogue = queries.catalogue()
+        if fmt == "table":
+            width = max(len(q.name) for q in catalogue)
+            for q in catalogue:
+                params = " ".join(f"--param {p}=..." for p in q.parameters)
+                click.echo(f"{q.name:<{width}}  {q.description}" + (f" [{params}]" if params else ""))
+            return
+        frame = pd.DataFrame([{"NAME": q.name, "PARAMETERS": " ".join(q.parameters),
+                               "FILE": q.file, "DESCRIPTION": q.description} for q in catalogue])
+        name = "queries"
+    elif name is None:
+        raise click.UsageError("give a query NAME, or --list to see them")
+    else:
+        found, frame = queries.run(db, name, params)
+        name = found.name
+    if fmt == "csv":
+        click.echo(frame.to_csv(index=False), nl=False)
+    else:
+        emit_frames({name: frame}, fmt)
+
+
 # --- animate ------------------------------------------------------------------
 @cli.command()
 @click.argument("trajectory", type=click.Path(exists=True, dir_okay=False))
@@ -320,9 +368,13 @@ def main(argv=None) -> None:
             cli.main(args=argv, prog_name=prog, standalone_mode=False)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
-    except click.Abort:
-        click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
-        sys.exit(130)
+    except (click.Abort, KeyboardInterrupt) as exc:
+        # click turns a KeyboardInterrupt into Abort; the run's Interrupted is its cause
+        cause = exc if isinstance(exc, KeyboardInterrupt) else exc.__cause__
+        signum = getattr(cause, "signum", signal.SIGINT)
+        left = getattr(cause, "left", "nothing was written for the interrupted run")
+        click.echo(f"{prog}: interrupted by {signal.Signals(signum).name}; {left}", err=True)
+        sys.exit(128 + signum)
     except click.exceptions.NoArgsIsHelpError as exc:
         click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
         sys.exit(0)
@@ -336,15 +388,16 @@ def main(argv=None) -> None:
     except GazError as exc:
         click.echo(f"{prog}: error: {exc}", err=True)
         sys.exit(1)
-    except KeyboardInterrupt:
-        click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
-        sys.exit(130)
     except BrokenPipeError:
         sys.exit(0)
     except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
-        if interrupted(exc):  # Ctrl-C raised while a Numba kernel's result was boxed
-            click.echo(f"{prog}: interrupted; nothing was written for the interrupted run", err=True)
-            sys.exit(130)
+        from gaz_cli.interrupts import signal_of
+
+        signum = signal_of(exc)
+        if signum is not None:  # Ctrl-C raised while a Numba kernel's result was boxed
+            click.echo(f"{prog}: interrupted by {signal.Signals(signum).name}; nothing was "
+                       "written for the interrupted run", err=True)
+            sys.exit(128 + signum)
         if os.environ.get("GAZ_DEBUG"):
             raise
         click.echo(f"{prog}: internal error: {type(exc).__name__}: {exc} "

@@ -33,17 +33,18 @@ class EngineError(GazError, RuntimeError):
     """An engine reported a state it cannot continue from (queue overflow, invalid state)."""
 
 
-def interrupted(exc: BaseException) -> bool:
-    """True when ``exc`` is, or was caused by, a KeyboardInterrupt (Ctrl-C).
+class Interrupted(KeyboardInterrupt):
+    """A run stopped by SIGINT or SIGTERM after rolling back.
 
-    A Ctrl-C that arrives while a Numba kernel runs is raised when the kernel's result is
-    boxed, inside a helper Numba calls; Python then reports a SystemError ("returned a result
-    with an exception set") whose cause is the KeyboardInterrupt.
+    ``signum`` is the signal (the exit code is 128 + signum); ``left`` says
+    what the run left on disk, for the one-line message.
     """
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
+
+    def __init__(self, signum: int = 2, left: str = "nothing was written for the interrupted run"):
+        super().__init__(left)
+        self.signum = signum
+        self.left = left
+
+
+class QueryError(GazError, ValueError):
+    """``gaz query``: an unknown query name, or a parameter missing, unknown or malformed."""

@@ -1,10 +1,17 @@
 """One simulation from scene to database: the driver behind ``gaz simulate``.
 
-Order of operations: validate the scene and fix its seed; place the particles
-and draw their velocities (:func:`gaz_cli.scene.initial_state`, independent of
-the engine); open the simulation's transaction in the store; let the engine
-stream its events into it; write the results row and commit; write the final
-state if asked; return the summary.
+Order of operations: validate the scene and fix its seed; open the store
+(its schema checked, created or migrated: a database that cannot take the
+run fails here, before any simulation); place the particles and draw their
+velocities (:func:`gaz_cli.scene.initial_state`, independent of the
+engine); let the engine stream its events into the run's writer (staged or
+in an open transaction, see :mod:`gaz_cli.store`); then everything that can
+still fail -- the trajectory's last write, the final state file, the
+summary -- and only then the commit. A failure or an interrupt (SIGINT or
+SIGTERM, see :mod:`gaz_cli.interrupts`) at any point before the commit
+leaves nothing in the database and removes the state file; the trajectory
+keeps the snapshots written so far, and the
+:class:`~gaz_cli.errors.Interrupted` raised says so.
 """
 
 from __future__ import annotations
@@ -16,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gaz_cli.errors import SceneError
+from gaz_cli import interrupts
+from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
@@ -46,21 +54,25 @@ class Tee(Recorder):
         self.snapshot_every = min(everies) if everies else None
 
     def add_bounces(self, *arrays):
+        interrupts.check()
         for r in self.recorders:
             if r.want_bounces:
                 r.add_bounces(*arrays)
 
     def add_collisions(self, *arrays):
+        interrupts.check()
         for r in self.recorders:
             if r.want_collisions:
                 r.add_collisions(*arrays)
 
     def add_snapshot(self, t, positions, velocities):
+        interrupts.check()
         for r in self.recorders:
             if r.snapshot_every:
                 r.add_snapshot(t, positions, velocities)
 
     def diagnostic(self, values):
+        interrupts.check()
         for r in self.recorders:
             r.diagnostic(values)
 
@@ -118,39 +130,74 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     database. ``state``: an explicit initial state (presets), else one is
     drawn from the scene and its seed. ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
-    engine's periodic diagnostics (a dict).
+    engine's periodic diagnostics (a dict). Raises
+    :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
+    interrupted, saying what was left on disk.
     """
     scene = prepare(scene)
     run = engine_run(scene.engine)
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
     check_outputs(scene, trajectory, every)
-    if state is None:
-        state = initial_state(scene)
     masses = scene.masses()
-    ke_start = state.kinetic_energy(masses)
-    si_num = None
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
-    with contextlib.ExitStack() as stack:
-        writer = None
-        if db is not None:
-            from gaz_cli.store import Store
-            writer = stack.enter_context(Store(db).simulation(scene))
-            si_num = writer.si_num
-        traj = None
-        if trajectory:
-            from gaz_cli.trajectory import open_trajectory
-            traj = stack.enter_context(open_trajectory(trajectory, every, scene))
-        diag = Diagnostics(diagnostics) if diagnostics else None
-        recorder = Tee(writer, tally, traj, diag)
-        stats: RunStats = run(scene, state, recorder)
-        ke_end = stats.final.kinetic_energy(masses)
-        if writer is not None:
-            writer.finish(stats, ke_start, ke_end)
-    if save_state:
-        write_state(save_state, scene, stats.final)
-    wall_momentum = None if tally is None else tally.momentum
-    return summary(scene, stats, si_num, ke_start, ke_end, wall_momentum)
+    store = writer = traj = None
+    state_written = False
+    try:
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
+            if db is not None:
+                from gaz_cli.store import Store
+                store = stack.enter_context(Store(db))  # refused or failing: before placing
+                writer = stack.enter_context(store.simulation(scene))
+            if state is None:
+                state = initial_state(scene)
+            ke_start = state.kinetic_energy(masses)
+            if trajectory:
+                from gaz_cli.trajectory import open_trajectory
+                traj = stack.enter_context(open_trajectory(trajectory, every, scene))
+            diag = Diagnostics(diagnostics) if diagnostics else None
+            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag))
+            ke_end = stats.final.kinetic_energy(masses)
+            # everything that can fail comes before the commit (the end of this block)
+            if traj is not None:
+                traj.close()
+            if save_state:
+                state_written = True
+                write_state(save_state, scene, stats.final)
+            out = summary(scene, stats, None, ke_start, ke_end,
+                          None if tally is None else tally.momentum)
+            if writer is not None:
+                writer.finish(stats, ke_start, ke_end)
+    except BaseException as exc:
+        if state_written and (writer is None or writer.si_num is None):
+            _remove(save_state)
+        signum = interrupts.signal_of(exc)
+        if signum is not None:
+            raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
+        raise
+    out["si_num"] = None if writer is None else writer.si_num
+    return out
+
+
+def _remove(path: str) -> None:
+    """Delete the state file of a failed run: a regular file only (never /dev/full and the like)."""
+    with contextlib.suppress(OSError):
+        if Path(path).is_file():
+            Path(path).unlink()
+
+
+def _left_on_disk(store, writer, traj) -> str:
+    """What an interrupted run left behind, for the interrupt's one-line message."""
+    if writer is not None and writer.si_num is not None:
+        said = [f"simulation {writer.si_num} was stored in {store.shown!r} before the interrupt took effect"]
+    elif store is not None:
+        said = [f"nothing was written to {store.shown!r}"]
+    else:
+        said = ["no database was written"]
+    if traj is not None:
+        said.append(f"trajectory {str(traj.path)!r} keeps the {traj.count} snapshots written before it")
+    return "; ".join(said)
 
 
 def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: float,

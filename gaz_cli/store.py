@@ -15,20 +15,43 @@ and extra tables keyed by SI_NUM for everything else:
   wall time, events per second.
 - CHOC(SI_NUM, CH_NUM, CH_T, CH_I, CH_J, CH_J_IMP): particle-particle
   collisions, written only with ``--record all``.
+- SCHEMA_VERSION(SV_VERSION): one row, the version of this layout
+  (:data:`SCHEMA_VERSION`); a database without it is version 1.
 
 Table and column names are created in lower case, so that the SQL files,
 written in upper case as in the exam, run unchanged on SQLite and on
 PostgreSQL (which folds unquoted names to lower case).
 
-A simulation is written in one transaction: rows are streamed in chunks into
-it and committed together at the end; a run that fails or is interrupted
-leaves nothing behind.
+Opening a database for writing checks it before writing anything: tables
+with gaz's names but other columns are refused (a foreign database), a newer
+schema version is refused, an older one is migrated forward
+(:data:`MIGRATIONS`), a new one is created. Creation is safe when several
+processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
+``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
+transaction).
+
+A simulation is committed whole or not at all, in one short transaction at
+its end (:meth:`Store.simulation`):
+
+- SQLite (WAL mode, a busy timeout): the run's rows wait in a scratch file
+  (:mod:`gaz_cli.staging`) while the engine runs, and move in by one
+  ``INSERT ... SELECT``; the database's write lock is held for that only, so
+  several runs write one file at once and readers read while they do.
+- PostgreSQL (psycopg 3): rows stream by ``COPY`` into the run's open
+  transaction; concurrent runs need no lock.
+
+SIGINT and SIGTERM arriving during the commit itself are held until it ends
+(the run is then stored, and the interrupt takes effect just after). Every
+database or file-system failure becomes one :class:`StoreError` line, with
+any password hidden.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import re
+import sqlite3
 from importlib import resources
 from pathlib import Path
 
@@ -37,7 +60,7 @@ import pandas as pd
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
-from gaz_cli import __version__
+from gaz_cli import __version__, interrupts, staging
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene
@@ -123,16 +146,54 @@ choc = sa.Table(
     sa.Column("ch_imp", sa.Float, nullable=False),
 )
 
+
+schema_version = sa.Table(
+    "schema_version", metadata,
+    sa.Column("sv_version", sa.Integer, nullable=False),
+)
+
 EXAM_TABLES = ("simulation", "particule", "rebond")
 
+SCHEMA_VERSION = 2
+"""Version of the layout this gaz writes. 1: the tables above but SCHEMA_VERSION
+(rollback journal, PostgreSQL's PARTICULE sequence left at 1 by seeding); 2: adds
+SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows."""
 
-def url_for(db: str) -> str:
-    """A SQLAlchemy URL from ``--db``: a URL is kept, anything else is a SQLite file path."""
-    if "://" in db:
+BUSY_TIMEOUT_S = 60.0
+"""How long a SQLite writer waits for another one's commit before giving up, s."""
+
+CONNECT_TIMEOUT_S = 10
+"""How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
+
+_PG_SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
+
+
+# --- URLs -----------------------------------------------------------------------
+def url_for(db: str) -> sa.URL:
+    """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://`` uses psycopg 3),
+    anything else is a SQLite file path. Raises StoreError for a malformed URL."""
+    if "://" not in db:
+        return sa.URL.create("sqlite", database=str(Path(db).expanduser()))
+    try:
+        url = sa.make_url(db)
+    except (sa_exc.ArgumentError, ValueError) as err:
+        raise StoreError(f"--db {shown(db)!r} is not a valid path or SQLAlchemy URL ({err})") from None
+    if url.drivername == "postgresql":
+        url = url.set(drivername="postgresql+psycopg")
+    return url
+
+
+def shown(db: str) -> str:
+    """``db`` as it may be printed: a URL's password replaced by ***."""
+    if "://" not in db:
         return db
-    return f"sqlite:///{Path(db).expanduser()}"
+    try:
+        return sa.make_url(db).render_as_string(hide_password=True)
+    except (sa_exc.ArgumentError, ValueError):
+        return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", db)
 
 
+# --- packaged SQL ---------------------------------------------------------------
 def query_text(name: str) -> str:
     """The text of the packaged SQL file ``name`` (with or without '.sql')."""
     if not name.endswith(".sql"):
@@ -146,81 +207,188 @@ def query_names() -> list[str]:
                   if p.name.endswith(".sql"))
 
 
+# --- the store ------------------------------------------------------------------
 class Store:
-    """A results database. ``create=False`` refuses to make a new one (for ``analyse``)."""
+    """A results database. ``create=False`` refuses to make a new one (for readers).
+
+    Opening checks (and for a writer creates or migrates) the schema; see the
+    module docstring. Every failure is a :class:`StoreError`. ``close()``
+    releases the connections (SQLite then removes its WAL file).
+    """
 
     def __init__(self, db: str, create: bool = True):
         self.db = db
+        self.shown = shown(db)
         url = url_for(db)
-        if url.startswith("sqlite:///") and not create:
-            path = Path(url[len("sqlite:///"):])
-            if not path.is_file():
-                raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
+        self.is_sqlite = url.get_backend_name() == "sqlite"
+        self.path = _sqlite_path(url) if self.is_sqlite else None
+        if self.is_sqlite and not create and not (self.path and self.path.is_file()):
+            raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
+        self.engine = None
         try:
-            self.engine = sa.create_engine(url)
-            if url.startswith("sqlite"):
-                sa.event.listen(self.engine, "connect", _sqlite_pragmas)
-            if create:
-                metadata.create_all(self.engine)
-                self._seed_particules()
-            else:
-                names = set(sa.inspect(self.engine).get_table_names())
-                missing = [t for t in EXAM_TABLES if t not in names]
-                if missing:
-                    raise StoreError(f"{db!r} is not a gaz database (no table {missing[0].upper()}); "
-                                     "point --db at a file written by 'gaz simulate'")
-        except sa_exc.ArgumentError as err:
-            raise StoreError(f"--db {db!r} is not a valid path or SQLAlchemy URL ({err})") from None
+            with self._errors():
+                self.engine = _make_engine(url, self.shown)
+                if create:
+                    self._prepare()
+                else:
+                    with self.engine.connect() as conn:
+                        version = self._schema_state(conn)
+                    if version == 0:
+                        raise StoreError(f"{self.shown!r} is not a gaz database (no table SIMULATION); "
+                                         "point --db at a file written by 'gaz simulate'")
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        """Release every connection; idempotent."""
+        if self.engine is not None:
+            self.engine.dispose()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # --- errors -----------------------------------------------------------------
+    @contextlib.contextmanager
+    def _errors(self):
+        """Turn database and file-system failures into one StoreError line."""
+        try:
+            yield
+        except StoreError:
+            raise
         except sa_exc.NoSuchModuleError as err:
-            raise StoreError(f"--db {db!r}: database driver not installed ({err})") from None
-        except sa_exc.DatabaseError as err:
-            msg = str(err.orig).splitlines()[0] if err.orig is not None else str(err)
-            raise StoreError(f"cannot use database {db!r}: {msg}") from None
+            raise StoreError(f"--db {self.shown!r}: no SQLAlchemy dialect for it ({err}); "
+                             "use a file path or a postgresql:// URL") from None
+        except sa_exc.ArgumentError as err:
+            raise StoreError(f"--db {self.shown!r} is not a valid path or SQLAlchemy URL ({err})") from None
+        except sa_exc.DBAPIError as err:
+            raise StoreError(self._explain(err.orig if err.orig is not None else err)) from None
+        except (sqlite3.Error, OSError) as err:
+            raise StoreError(self._explain(err)) from None
+        except Exception as err:
+            if type(err).__module__.startswith("psycopg"):
+                raise StoreError(self._explain(err)) from None
+            raise
 
-    # --- species --------------------------------------------------------------
-    def _seed_particules(self) -> None:
+    def _explain(self, err: BaseException) -> str:
+        """One line for a driver or OS error, naming the database and the fix."""
+        if isinstance(err, OSError) and not isinstance(err, sqlite3.Error):
+            text = err.strerror or str(err)
+        else:
+            text = " ".join(str(err).split())
+        text = text.replace(self.db, self.shown)
+        low = text.lower()
+        where = f"database {self.shown!r}"
+        if "locked" in low:
+            return (f"{where} is locked by another process (waited {BUSY_TIMEOUT_S:g} s); "
+                    "try again when it has finished")
+        if "readonly" in low or "read-only" in low:
+            return f"{where} is read-only ({text}); make it and its folder writable, or choose another --db"
+        if "disk is full" in low or "no space" in low or "disk full" in low:
+            return f"no space left for {where} ({text}); free some space or choose another --db"
+        if "not a database" in low:
+            return f"{where} is not a database ({text}); point --db at a gaz database or a new file"
+        if "unable to open" in low or "permission denied" in low:
+            return (f"cannot open {where} ({text}); check that its folder exists and is writable")
+        if "connection" in low and ("failed" in low or "refused" in low or "timeout" in low):
+            return f"cannot connect to {where}: {text}"
+        return f"{where}: {text}"
+
+    # --- schema -----------------------------------------------------------------
+    def _prepare(self) -> None:
+        """Check the schema; create or migrate it; nothing is written to a refused database."""
+        if self.is_sqlite:
+            with self.engine.connect() as conn:
+                self._schema_state(conn)  # read only: refusals leave the file as it was
+                wal = conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+                conn.rollback()
+                if not wal:  # outside any transaction, on the driver's connection
+                    conn.connection.driver_connection.execute("PRAGMA journal_mode = WAL")
+            # also when there is nothing to create: a read-only or locked file fails here,
+            # before the run, not at its commit
+            with _write_transaction(self.engine) as conn:
+                self._create_or_migrate(conn, self._schema_state(conn))
+            return
         with self.engine.begin() as conn:
-            if conn.execute(sa.select(sa.func.count()).select_from(particule)).scalar():
-                return
-            conn.execute(particule.insert(), [
-                {"pa_num": k + 1, "pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius}
-                for k, s in enumerate(BUILTIN.values())])
+            if self.engine.dialect.name == "postgresql":
+                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
+            self._create_or_migrate(conn, self._schema_state(conn))
 
-    def _pa_num(self, conn, sp: Species) -> int:
-        """PA_NUM of a species; custom species get a row of their own on first use."""
-        rows = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
-                            .where(particule.c.pa_nom == sp.name)).all()
-        for num, m_g, r in rows:
-            if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
-                return int(num)
-        res = conn.execute(particule.insert().values(pa_nom=sp.name, pa_m=sp.mass_g, pa_r=sp.radius))
-        return int(res.inserted_primary_key[0])
+    def _schema_state(self, conn) -> int:
+        """The schema version found: 0 for none of gaz's tables; StoreError for a foreign
+        or newer layout."""
+        insp = sa.inspect(conn)
+        names = {n.lower() for n in insp.get_table_names()}
+        tables = [metadata.tables[t] for t in EXAM_TABLES]
+        for table in tables + [t for t in metadata.sorted_tables if t not in tables]:
+            if table.name not in names:
+                continue
+            found = [c["name"].lower() for c in insp.get_columns(table.name)]
+            if set(found) != {c.name for c in table.columns}:
+                raise StoreError(
+                    f"{self.shown!r} is not a gaz database: its table {table.name.upper()} has columns "
+                    f"({', '.join(c.upper() for c in found)}), not gaz's "
+                    f"({', '.join(c.name.upper() for c in table.columns)}); nothing was written; "
+                    "point --db at a new file or a gaz database")
+        present = [t for t in EXAM_TABLES if t in names]
+        if not present:
+            return 0
+        if len(present) < len(EXAM_TABLES):
+            missing = next(t for t in EXAM_TABLES if t not in names)
+            raise StoreError(f"{self.shown!r} is not a gaz database: it has table {present[0].upper()} "
+                             f"but no {missing.upper()}; point --db at a new file or a gaz database")
+        if schema_version.name not in names:
+            return 1
+        version = conn.execute(sa.select(sa.func.max(schema_version.c.sv_version))).scalar() or 1
+        if version > SCHEMA_VERSION:
+            raise StoreError(f"{self.shown!r} has schema version {version}, newer than this gaz "
+                             f"({__version__}, schema {SCHEMA_VERSION}) knows; upgrade gaz to use it")
+        return int(version)
+
+    def _create_or_migrate(self, conn, version: int) -> None:
+        if version == SCHEMA_VERSION:
+            return
+        if version == 0:
+            metadata.create_all(conn)  # checkfirst: IF NOT EXISTS
+            if not conn.execute(sa.select(sa.func.count()).select_from(particule)).scalar():
+                # no explicit ids: the database numbers them, so its sequence stays in step
+                conn.execute(particule.insert(), [
+                    {"pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius} for s in BUILTIN.values()])
+            conn.execute(schema_version.insert().values(sv_version=SCHEMA_VERSION))
+            return
+        for step in range(version, SCHEMA_VERSION):
+            MIGRATIONS[step](conn)
+        conn.execute(schema_version.update().values(sv_version=SCHEMA_VERSION))
 
     # --- writing ------------------------------------------------------------
     @contextlib.contextmanager
     def simulation(self, scene: Scene, started: _dt.datetime | None = None):
-        """Open one simulation's transaction; yields a :class:`SimulationWriter`.
+        """One simulation's writer (a :class:`~gaz_cli.recording.Recorder`), committed at the end.
 
-        Everything is committed when the block ends normally and rolled back
-        if it raises (KeyboardInterrupt included).
+        Call ``finish(stats, ke_start, ke_end)`` inside the block; the block's
+        normal end commits in one short transaction and sets ``si_num``; an
+        exception (KeyboardInterrupt included) discards everything.
         """
         started = started or _dt.datetime.now().replace(microsecond=0)
-        with self.engine.connect() as conn:
-            trans = conn.begin()
-            try:
-                writer = SimulationWriter(self, conn, scene, started)
-                yield writer
-                if not writer.finished:
-                    raise RuntimeError("SimulationWriter.finish() was not called")
-                trans.commit()
-            except BaseException:
-                trans.rollback()
-                raise
+        with self._errors():
+            run = (_StagedRun if self.path is not None else _DirectRun)(self, scene, started)
+        try:
+            yield run
+            if not run.finished:
+                raise RuntimeError("the simulation's finish() was not called")
+            with self._errors():
+                run.commit()
+        except BaseException:
+            run.abort()
+            raise
 
     # --- reading ------------------------------------------------------------
     def read_sql(self, sql: str, **params) -> pd.DataFrame:
         """Run one SQL statement (text with :named parameters) into a DataFrame."""
-        with self.engine.connect() as conn:
+        with self._errors(), self.engine.connect() as conn:
             frame = pd.read_sql_query(sa.text(sql), conn, params=params or None)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
@@ -230,7 +398,7 @@ class Store:
         return self.read_sql(query_text(name), **params)
 
     def simulation_numbers(self) -> list[int]:
-        with self.engine.connect() as conn:
+        with self._errors(), self.engine.connect() as conn:
             return [int(r[0]) for r in conn.execute(sa.select(simulation.c.si_num).order_by(simulation.c.si_num))]
 
     def table(self, table: sa.Table, si_num: int | None = None) -> pd.DataFrame:
@@ -238,93 +406,305 @@ class Store:
         stmt = sa.select(table)
         if si_num is not None and "si_num" in table.c:
             stmt = stmt.where(table.c.si_num == si_num)
-        with self.engine.connect() as conn:
+        with self._errors(), self.engine.connect() as conn:
             frame = pd.read_sql_query(stmt, conn)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
 
+    def schema_version(self) -> int:
+        """The database's schema version (1 for a database written before versions existed)."""
+        with self._errors(), self.engine.connect() as conn:
+            return self._schema_state(conn)
 
-def _sqlite_pragmas(dbapi_conn, _record) -> None:
+
+# --- migrations -----------------------------------------------------------------
+def _v1_to_v2(conn) -> None:
+    """1 -> 2: the SCHEMA_VERSION table (and any extra table the database lacks); on
+    PostgreSQL, the id sequences moved past the rows seeded with explicit ids (version 1
+    left PARTICULE's at 1, so the first custom species collided with PA_NUM 1). SQLite's
+    WAL mode is switched on before, outside the transaction."""
+    metadata.create_all(conn)
+    conn.execute(schema_version.insert().values(sv_version=2))
+    if conn.dialect.name == "postgresql":
+        for table, column in ((particule, particule.c.pa_num), (simulation, simulation.c.si_num)):
+            top = conn.execute(sa.select(sa.func.max(column))).scalar()
+            seq = sa.func.pg_get_serial_sequence(table.name, column.name)
+            conn.execute(sa.select(sa.func.setval(seq, top or 1, top is not None)))
+
+
+MIGRATIONS = {1: _v1_to_v2}
+"""Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
+
+
+# --- connections ----------------------------------------------------------------
+def _sqlite_path(url: sa.URL) -> Path | None:
+    """The file of a SQLite URL (``file:PATH?...`` with ``uri=true`` too); None in memory."""
+    name = url.database or ""
+    if url.query.get("uri") in ("true", "1") and name.startswith("file:"):
+        name = name[len("file:"):].split("?", 1)[0]
+    return Path(name) if name and name != ":memory:" else None
+
+
+def _make_engine(url: sa.URL, display: str) -> sa.Engine:
+    backend = url.get_backend_name()
+    connect_args = {}
+    if backend == "sqlite":
+        connect_args["timeout"] = BUSY_TIMEOUT_S
+    elif backend == "postgresql" and "connect_timeout" not in url.query:
+        connect_args["connect_timeout"] = CONNECT_TIMEOUT_S
+    try:
+        engine = sa.create_engine(url, connect_args=connect_args)
+    except ImportError as err:
+        if backend == "postgresql":
+            raise StoreError(f"--db {display!r}: PostgreSQL needs the psycopg driver; "
+                             "pip install 'gaz[postgres]' (or pip install 'psycopg[binary]')") from None
+        raise StoreError(f"--db {display!r}: its database driver is not installed "
+                         f"(no module {getattr(err, 'name', None) or err}); install it with pip") from None
+    if backend == "sqlite":
+        sa.event.listen(engine, "connect", _sqlite_connect)
+        sa.event.listen(engine, "begin", _sqlite_begin)
+    return engine
+
+
+def _sqlite_connect(dbapi_conn, _record) -> None:
+    # SQLAlchemy emits BEGIN itself (_sqlite_begin): the driver's own transaction
+    # handling would not let a writer ask for BEGIN IMMEDIATE
+    dbapi_conn.isolation_level = None
     cur = dbapi_conn.cursor()
-    cur.execute("PRAGMA foreign_keys = ON")
+    cur.execute("PRAGMA foreign_keys = ON")  # (the busy timeout is the driver's timeout argument)
     cur.close()
 
 
-class SimulationWriter(Recorder):
-    """Writes one simulation inside an open transaction; a :class:`Recorder` for engines."""
+def _sqlite_begin(conn) -> None:
+    # a writer takes the write lock at BEGIN (waiting up to the busy timeout), never in
+    # the middle of its transaction, where SQLite cannot wait and fails at once
+    immediate = conn.get_execution_options().get("gaz_write", False)
+    conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
 
-    def __init__(self, store: Store, conn, scene: Scene, started: _dt.datetime):
-        self.conn = conn
+
+@contextlib.contextmanager
+def _write_transaction(engine: sa.Engine):
+    """A connection in a write transaction (SQLite: BEGIN IMMEDIATE), committed at the end."""
+    with engine.connect() as conn:
+        conn = conn.execution_options(gaz_write=True)
+        with conn.begin():
+            yield conn
+
+
+# --- one simulation's rows --------------------------------------------------------
+def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime) -> tuple[int, list[int]]:
+    """SIMULATION, COMPOSITION and SCENE rows of one run; returns SI_NUM and each species' PA_NUM."""
+    res = conn.execute(simulation.insert().values(
+        si_deb=started, si_dur=float(scene.duration), si_dim=int(scene.dim),
+        si_n=int(scene.n), si_l=float(scene.length)))
+    si_num = int(res.inserted_primary_key[0])
+    nums = [_pa_num(conn, sp) for sp in scene.species]
+    conn.execute(composition.insert(), [
+        {"si_num": si_num, "pa_num": num, "co_n": int(k)}
+        for num, (_, k) in zip(nums, scene.components)])
+    conn.execute(scene_table.insert().values(
+        si_num=si_num, sc_seed=int(scene.seed), sc_temperature=float(scene.temperature),
+        sc_engine=scene.engine, sc_boundary=scene.boundary, sc_gravity=float(scene.gravity),
+        sc_restitution=float(scene.restitution), sc_tc=float(scene.tc),
+        sc_wall_restitution=float(scene.wall_restitution),
+        sc_dt=None if scene.dt is None else float(scene.dt), sc_drag=float(scene.drag),
+        sc_pair_gravity=float(scene.pair_gravity), sc_placement=scene.placement,
+        sc_record=scene.record, sc_version=__version__))
+    return si_num, nums
+
+
+def _pa_num(conn, sp: Species) -> int:
+    """PA_NUM of a species; custom species get a row of their own on first use."""
+    rows = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
+                        .where(particule.c.pa_nom == sp.name).order_by(particule.c.pa_num)).all()
+    for num, m_g, r in rows:
+        if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
+            return int(num)
+    res = conn.execute(particule.insert().values(pa_nom=sp.name, pa_m=sp.mass_g, pa_r=sp.radius))
+    return int(res.inserted_primary_key[0])
+
+
+def _result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> dict:
+    return dict(si_num=si_num, rs_events=int(stats.events), rs_bounces=int(stats.wall_bounces),
+                rs_collisions=int(stats.collisions), rs_ke_start=float(ke_start),
+                rs_ke_end=float(ke_end), rs_virial=float(stats.virial),
+                rs_wall_time=float(stats.wall_time_s))
+
+
+class _Run(Recorder):
+    """What both writers share: the recorder's flags, row numbering, the results row.
+
+    ``si_num`` is None until the commit has succeeded.
+    """
+
+    def __init__(self, store: Store, scene: Scene, started: _dt.datetime):
+        self.store = store
         self.scene = scene
+        self.started = started
         self.want_bounces = scene.record in ("bounces", "all")
         self.want_collisions = scene.record == "all"
         self.finished = False
-        self._n_bounces = 0
-        self._n_collisions = 0
-        res = conn.execute(simulation.insert().values(
-            si_deb=started, si_dur=float(scene.duration), si_dim=int(scene.dim),
-            si_n=int(scene.n), si_l=float(scene.length)))
-        self.si_num = int(res.inserted_primary_key[0])
-        nums = [store._pa_num(conn, sp) for sp in scene.species]
-        self._pa_of_kind = np.array(nums, dtype=np.int64)
-        self._pa_of_particle = self._pa_of_kind[scene.kinds()]
-        conn.execute(composition.insert(), [
-            {"si_num": self.si_num, "pa_num": num, "co_n": int(k)}
-            for num, (_, k) in zip(nums, scene.components)])
-        conn.execute(scene_table.insert().values(
-            si_num=self.si_num, sc_seed=int(scene.seed), sc_temperature=float(scene.temperature),
-            sc_engine=scene.engine, sc_boundary=scene.boundary, sc_gravity=float(scene.gravity),
-            sc_restitution=float(scene.restitution), sc_tc=float(scene.tc),
-            sc_wall_restitution=float(scene.wall_restitution),
-            sc_dt=None if scene.dt is None else float(scene.dt), sc_drag=float(scene.drag),
-            sc_pair_gravity=float(scene.pair_gravity), sc_placement=scene.placement,
-            sc_record=scene.record, sc_version=__version__))
+        self.si_num = None
+        self._n = {"rebond": 0, "choc": 0}
+        self._result = None
 
-    def _insert_many(self, table: sa.Table, columns: list) -> None:
-        """executemany of column arrays: positional tuples straight to the driver when its
-        parameter style allows (SQLite: ~10x faster than dicts through Core), else dicts."""
-        rows = list(zip(*[np.asarray(c).tolist() for c in columns]))
-        if self.conn.dialect.paramstyle in ("qmark", "format", "numeric"):
-            marks = {"qmark": "?", "format": "%s"}.get(self.conn.dialect.paramstyle)
-            names = [c.name for c in table.columns]
-            if marks is None:
-                marks_list = [f":{k + 1}" for k in range(len(names))]
-            else:
-                marks_list = [marks] * len(names)
-            sql = f"INSERT INTO {table.name} ({', '.join(names)}) VALUES ({', '.join(marks_list)})"
-            self.conn.exec_driver_sql(sql, rows)
-        else:
-            keys = [c.name for c in table.columns]
-            self.conn.execute(table.insert(), [dict(zip(keys, r)) for r in rows])
+    def _rows(self, table: sa.Table, k: int):
+        start = self._n[table.name] + 1
+        self._n[table.name] += k
+        return np.arange(start, start + k)
 
     def add_bounces(self, t, particle, wall, speed, vperp):
         k = len(t)
-        if k == 0:
-            return
-        start = self._n_bounces + 1
-        self._insert_many(rebond, [
-            np.full(k, self.si_num), np.arange(start, start + k),
-            self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
-            np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
-            np.asarray(vperp, dtype=float)])
-        self._n_bounces += k
+        if k:
+            with self.store._errors():
+                self._add(rebond, [np.full(k, self._si), self._rows(rebond, k),
+                                   self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
+                                   np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
+                                   np.asarray(vperp, dtype=float)])
 
     def add_collisions(self, t, i, j, impulse):
         k = len(t)
-        if k == 0:
-            return
-        start = self._n_collisions + 1
-        self._insert_many(choc, [
-            np.full(k, self.si_num), np.arange(start, start + k), np.asarray(t, dtype=float),
-            np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64),
-            np.asarray(impulse, dtype=float)])
-        self._n_collisions += k
+        if k:
+            with self.store._errors():
+                self._add(choc, [np.full(k, self._si), self._rows(choc, k), np.asarray(t, dtype=float),
+                                 np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64),
+                                 np.asarray(impulse, dtype=float)])
 
     def finish(self, stats: RunStats, ke_start: float, ke_end: float) -> None:
-        """Write the run's results; the transaction commits when the block ends."""
-        self.conn.execute(resultat.insert().values(
-            si_num=self.si_num, rs_events=int(stats.events), rs_bounces=int(stats.wall_bounces),
-            rs_collisions=int(stats.collisions), rs_ke_start=float(ke_start),
-            rs_ke_end=float(ke_end), rs_virial=float(stats.virial),
-            rs_wall_time=float(stats.wall_time_s)))
+        """Keep the run's results for the commit."""
+        self._result = (stats, ke_start, ke_end)
         self.finished = True
+
+
+class _StagedRun(_Run):
+    """SQLite: rows wait in a scratch file; the commit moves them in in one transaction.
+
+    While staged, REBOND.PA_NUM holds the species index (0..) and SI_NUM 0;
+    both become the real numbers on the way in.
+    """
+
+    def __init__(self, store, scene, started):
+        super().__init__(store, scene, started)
+        self._si = 0
+        self._pa_of_particle = scene.kinds()
+        staging.remove_stale(store.path)
+        self.stage = staging.Stage(store.path, [rebond, choc])
+
+    def _add(self, table, columns):
+        self.stage.add(table.name, columns)
+
+    def commit(self) -> None:
+        self.stage.seal()
+        with self.store.engine.connect() as conn:
+            raw = conn.connection.driver_connection  # ATTACH and DETACH outside any transaction
+            raw.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
+            try:
+                with interrupts.held():
+                    with conn.execution_options(gaz_write=True).begin():
+                        si_num, nums = _write_simulation_rows(conn, self.scene, self.started)
+                        self._move_in(conn, rebond, si_num, pa_nums=nums)
+                        self._move_in(conn, choc, si_num)
+                        conn.execute(resultat.insert().values(_result_row(si_num, *self._result)))
+                    self.si_num = si_num
+            finally:
+                raw.execute("DETACH DATABASE stage")
+        self.stage.discard()
+
+    def _move_in(self, conn, table: sa.Table, si_num: int, pa_nums=None) -> None:
+        if not self._n[table.name]:
+            return
+        staged = sa.table(table.name, *[sa.column(c.name) for c in table.columns], schema="stage")
+        columns = list(table.columns)  # (SQLAlchemy 2.0.0's column collections take no slices)
+        values = [sa.literal(si_num, sa.Integer).label("si_num")]
+        for c in columns[1:]:
+            col = staged.c[c.name]
+            values.append(sa.case({k: n for k, n in enumerate(pa_nums)}, value=col).label(c.name)
+                          if c.name == "pa_num" else col)
+        conn.execute(table.insert().from_select(
+            [c.name for c in columns], sa.select(*values).order_by(staged.c[columns[1].name])))
+
+    def abort(self) -> None:
+        self.stage.discard()
+
+
+def _pg_type(column_type) -> str:
+    """PostgreSQL's name of a column's type, for binary COPY (which needs them exact)."""
+    if isinstance(column_type, sa.BigInteger):
+        return "int8"
+    if isinstance(column_type, sa.Integer):
+        return "int4"
+    if isinstance(column_type, sa.Float):
+        return "float8"
+    raise TypeError(f"no COPY type for {column_type!r}")
+
+
+def _may_skip_key_triggers(conn) -> bool:
+    """Whether this PostgreSQL role may set session_replication_role (a superuser, or
+    since PostgreSQL 15 a role granted SET ON PARAMETER session_replication_role).
+
+    With it, COPY runs without the foreign-key triggers, which check each REBOND row
+    with a query of their own (23-33 thousand rows/s against ~200 thousand without,
+    benchmarks/store.py); the writer gives the same guarantee by construction: the
+    PA_NUM it writes are the species rows it has locked, SI_NUM is its own row.
+    """
+    if conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on":
+        return True
+    if (conn.dialect.server_version_info or (0,)) < (15,):
+        return False
+    return bool(conn.exec_driver_sql(
+        "SELECT has_parameter_privilege('session_replication_role', 'SET')").scalar())
+
+
+class _DirectRun(_Run):
+    """PostgreSQL (and other servers): rows go straight into the run's open transaction,
+    by COPY with psycopg, executemany otherwise; the commit adds the results row."""
+
+    def __init__(self, store, scene, started):
+        super().__init__(store, scene, started)
+        self.conn = store.engine.connect()
+        try:
+            self.trans = self.conn.begin()
+            self._si, nums = _write_simulation_rows(self.conn, scene, started)
+        except BaseException:
+            self.conn.close()
+            raise
+        self._pa_of_particle = np.array(nums, dtype=np.int64)[scene.kinds()]
+        self._copy = self.conn.dialect.driver == "psycopg"
+        self._keys_by_hand = self._copy and _may_skip_key_triggers(self.conn)
+        if self._keys_by_hand:
+            # what the key triggers would do row by row, once: lock the species rows
+            # against deletion (our SIMULATION row is not visible to anyone else yet)
+            self.conn.execute(sa.select(particule.c.pa_num).where(particule.c.pa_num.in_(nums))
+                              .with_for_update(key_share=True))
+
+    def _add(self, table, columns):
+        names = [c.name for c in table.columns]
+        rows = zip(*[np.asarray(c).tolist() for c in columns])
+        if self._copy:  # binary COPY: ~3x text COPY, 20x executemany (benchmarks/store.py)
+            raw = self.conn.connection.driver_connection
+            sql = f"COPY {table.name} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
+            with raw.cursor() as cur:
+                if self._keys_by_hand:
+                    cur.execute("SET LOCAL session_replication_role = replica")
+                with cur.copy(sql) as copy:
+                    copy.set_types([_pg_type(c.type) for c in table.columns])
+                    for row in rows:
+                        copy.write_row(row)
+                if self._keys_by_hand:
+                    cur.execute("SET LOCAL session_replication_role = origin")
+        else:
+            self.conn.execute(table.insert(), [dict(zip(names, r)) for r in rows])
+
+    def commit(self) -> None:
+        with interrupts.held():
+            self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
+            self.trans.commit()
+            self.si_num = self._si
+        self.conn.close()
+
+    def abort(self) -> None:
+        try:
+            if self.trans.is_active:
+                self.trans.rollback()
+        finally:
+            self.conn.close()

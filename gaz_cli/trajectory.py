@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gaz_cli import interrupts
 from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene
@@ -84,8 +85,9 @@ class TrajectoryWriter(Recorder):
         if t < self._last_t:
             raise SceneError(f"snapshot at t = {t} s after one at {self._last_t} s: snapshots must come in time order")
         self._last_t = float(t)
-        self._write(float(t), positions, velocities)
-        self.count += 1
+        with interrupts.held():  # a snapshot is in the file whole, and counted, or not at all
+            self._write(float(t), positions, velocities)
+            self.count += 1
 
     def _write(self, t: float, positions: np.ndarray, velocities: np.ndarray) -> None:
         raise NotImplementedError

@@ -1,18 +1,26 @@
-"""The store: schema of the exam, bulk writes, atomic simulations, packaged SQL."""
+"""The store: schema of the exam, bulk writes, atomic simulations, packaged SQL,
+schema versions, foreign databases and one-line errors -- on SQLite and on a real
+PostgreSQL server (see backends.py)."""
 
 import shutil
 import sqlite3
 import subprocess
+import sys
+import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import sqlalchemy as sa
 
+from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from gaz_cli import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats
 from gaz_cli.scene import initial_state
 from gaz_cli.species import BUILTIN, Species
+
+both = pytest.mark.parametrize("backend", BACKENDS, indirect=True)
 
 
 def fake_bounces(rng, n_particles, dim, k, duration):
@@ -35,8 +43,9 @@ def write_fake(store, scene, rng, k=5000, chunks=3):
     return w.si_num, arrays
 
 
-def test_exam_tables_exactly(tmp_path):
-    store = st.Store(str(tmp_path / "a.db"))
+@both
+def test_exam_tables_exactly(backend):
+    store = st.Store(backend)
     insp = sa.inspect(store.engine)
     cols = {t: [c["name"].upper() for c in insp.get_columns(t)] for t in st.EXAM_TABLES}
     assert cols["simulation"] == ["SI_NUM", "SI_DEB", "SI_DUR", "SI_DIM", "SI_N", "SI_L"]
@@ -51,8 +60,9 @@ def test_exam_tables_exactly(tmp_path):
     assert ar.PA_M == pytest.approx(6.6338e-23, rel=1e-4, abs=0)  # grams
 
 
-def test_rows_written_and_q36_matches_python(tmp_path, argon_scene, rng):
-    store = st.Store(str(tmp_path / "a.db"))
+@both
+def test_rows_written_and_q36_matches_python(backend, argon_scene, rng):
+    store = st.Store(backend)
     scene = argon_scene(dim=3, n=50)
     si, (t, particle, wall, speed, vperp) = write_fake(store, scene, rng)
     rows = store.table(st.rebond, si)
@@ -69,8 +79,9 @@ def test_rows_written_and_q36_matches_python(tmp_path, argon_scene, rng):
     assert np.allclose(pressure.PRESSION, pressure.QUANTITE_MOUVEMENT / (scene.duration * area), rtol=1e-12, atol=0)
 
 
-def test_failed_run_leaves_nothing(tmp_path, argon_scene, rng):
-    store = st.Store(str(tmp_path / "a.db"))
+@both
+def test_failed_run_leaves_nothing(backend, argon_scene, rng):
+    store = st.Store(backend)
     scene = argon_scene(dim=2, n=20, length=1e-7)
     write_fake(store, scene, rng)
     with pytest.raises(KeyboardInterrupt):
@@ -82,10 +93,12 @@ def test_failed_run_leaves_nothing(tmp_path, argon_scene, rng):
     assert len(store.table(st.composition)) == 1
 
 
-def test_custom_species_gets_one_row(tmp_path, argon_scene):
-    store = st.Store(str(tmp_path / "a.db"))
+@both
+def test_custom_species_gets_one_row(backend, argon_scene):
+    """On a fresh database too: the PARTICULE ids come from the database (issue 13: seeding
+    with explicit ids left PostgreSQL's sequence at 1, and this run hit a duplicate key)."""
+    store = st.Store(backend)
     custom = Species("custom", 2e-26, 1e-10)
-    from dataclasses import replace
     scene = replace(argon_scene(dim=2, n=10, length=1e-7), components=((custom, 10),))
     for _ in range(2):
         with store.simulation(scene) as w:
@@ -130,3 +143,177 @@ def test_sqlite3_shell_runs_every_file(tmp_path, argon_scene, rng):
     q36 = subprocess.run(["sqlite3", "-csv", str(db), f".param set :si_num {si}",
                           f".read {tmp_path / 'q36_momentum_per_wall.sql'}"], capture_output=True, text=True)
     assert len(q36.stdout.strip().splitlines()) == 6  # six walls in 3D
+
+
+@both
+def test_every_packaged_query_runs(backend, argon_scene, rng):
+    """The SQL files are valid on both backends and return rows on a database with one run."""
+    store = st.Store(backend)
+    si, _ = write_fake(store, argon_scene(dim=3, n=50), rng, k=300)
+    for name in st.query_names():
+        text = st.query_text(name)
+        frame = store.read_sql(text, **({"si_num": si} if ":si_num" in text else {}))
+        assert len(frame) > 0, name
+    store.close()
+
+
+@both
+def test_same_rows_on_both_backends(backend, argon_scene, rng, tmp_path):
+    """The rows read back are the rows written, to the last bit, whichever the backend."""
+    store = st.Store(backend)
+    si, (t, particle, wall, speed, vperp) = write_fake(store, argon_scene(dim=2, n=30, length=1e-7), rng, k=2000)
+    rows = store.table(st.rebond, si).sort_values("RE_NUM")
+    assert np.array_equal(rows.RE_T.to_numpy(), t) and np.array_equal(rows.RE_VP.to_numpy(), vperp)
+    assert np.array_equal(rows.RE_VIT.to_numpy(), speed) and np.array_equal(rows.RE_DIR.to_numpy(), wall)
+    assert set(rows.PA_NUM) == {list(BUILTIN).index("Ar") + 1}
+    store.close()
+
+
+def test_readers_read_while_a_writer_writes(tmp_path, argon_scene, rng, monkeypatch):
+    """WAL: a reader is not blocked by a writer, even one whose transaction has spilled to
+    the file (in the rollback journal mode, that writer holds an exclusive lock)."""
+    db = tmp_path / "a.db"
+    store = st.Store(str(db))
+    write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng)
+    store.close()
+    writer = sqlite3.connect(db, isolation_level=None)
+    writer.execute("PRAGMA cache_size = 1")
+    writer.execute("BEGIN IMMEDIATE")
+    writer.executemany("INSERT INTO rebond VALUES (1, ?, 1, 0.0, 1, 1.0, 1.0)",
+                       [(k,) for k in range(10_000, 60_000)])
+    monkeypatch.setattr(st, "BUSY_TIMEOUT_S", 0.1)
+    try:
+        reader = st.Store(str(db), create=False)
+        assert len(reader.table(st.rebond)) == 5000  # the committed rows, not the writer's
+        reader.close()
+    finally:
+        writer.execute("ROLLBACK")
+        writer.close()
+
+
+# --- schema versions ----------------------------------------------------------------
+def _version_1(db: str) -> None:
+    """A database as gaz wrote it before schema versions: the same tables but SCHEMA_VERSION,
+    PARTICULE seeded with explicit ids (so PostgreSQL's sequence stays at 1), one simulation."""
+    engine = sa.create_engine(st.url_for(db))
+    with engine.begin() as conn:
+        for table in st.metadata.sorted_tables:
+            if table is not st.schema_version:
+                table.create(conn)
+        conn.execute(st.particule.insert(), [
+            {"pa_num": k + 1, "pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius}
+            for k, s in enumerate(BUILTIN.values())])
+        conn.execute(st.simulation.insert().values(si_num=1, si_deb=sa.func.current_timestamp(),
+                                                   si_dur=1.0, si_dim=2, si_n=3, si_l=1.0))
+    engine.dispose()
+
+
+@both
+def test_version_1_is_migrated_forward(backend, argon_scene):
+    _version_1(backend)
+    reader = st.Store(backend, create=False)
+    assert reader.schema_version() == 1  # reading does not migrate
+    reader.close()
+    store = st.Store(backend)
+    assert store.schema_version() == st.SCHEMA_VERSION
+    custom = Species("custom", 2e-26, 1e-10)
+    scene = replace(argon_scene(dim=2, n=10, length=1e-7), components=((custom, 10),))
+    with store.simulation(scene) as w:  # PostgreSQL: needs the sequences moved past the rows
+        w.finish(RunStats(0, 0, 0, 0.0, initial_state(scene)), 0.0, 0.0)
+    assert w.si_num == 2 and store.simulation_numbers() == [1, 2]
+    particles = store.table(st.particule)
+    assert int(particles[particles.PA_NOM == "custom"].PA_NUM.iloc[0]) == len(BUILTIN) + 1
+    store.close()
+
+
+@both
+def test_newer_version_is_refused(backend):
+    st.Store(backend).close()
+    engine = sa.create_engine(st.url_for(backend))
+    with engine.begin() as conn:
+        conn.execute(st.schema_version.update().values(sv_version=st.SCHEMA_VERSION + 1))
+    engine.dispose()
+    for create in (True, False):
+        with pytest.raises(StoreError, match=f"schema version {st.SCHEMA_VERSION + 1}, newer than"):
+            st.Store(backend, create=create)
+
+
+# --- foreign databases --------------------------------------------------------------
+FOREIGN = ["CREATE TABLE simulation (id INTEGER PRIMARY KEY, name TEXT)",
+           "CREATE TABLE particule (id INTEGER PRIMARY KEY, label TEXT)",
+           "CREATE TABLE rebond (id INTEGER PRIMARY KEY, t REAL)",
+           "INSERT INTO simulation VALUES (1, 'theirs')"]
+
+
+def test_foreign_sqlite_file_is_refused_and_untouched(tmp_path):
+    path = tmp_path / "theirs.db"
+    con = sqlite3.connect(path)
+    for sql in FOREIGN:
+        con.execute(sql)
+    con.commit()
+    con.close()
+    before = path.read_bytes()
+    with pytest.raises(StoreError) as err:
+        st.Store(str(path))
+    assert "not a gaz database: its table SIMULATION has columns (ID, NAME)" in str(err.value)
+    assert "\n" not in str(err.value) and "nothing was written" in str(err.value)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["theirs.db"]  # no journal, no scratch file
+
+
+@pytest.mark.postgres
+def test_foreign_postgres_schema_is_refused_and_untouched(postgres_db):
+    engine = sa.create_engine(postgres_db)
+    with engine.begin() as conn:
+        for sql in FOREIGN:
+            conn.exec_driver_sql(sql)
+    with pytest.raises(StoreError, match="not a gaz database: its table SIMULATION has columns"):
+        st.Store(postgres_db)
+    assert sorted(sa.inspect(engine).get_table_names()) == ["particule", "rebond", "simulation"]
+    engine.dispose()
+
+
+# --- concurrent creation ------------------------------------------------------------
+@both
+def test_concurrent_first_opens_create_one_schema(backend):
+    """Processes opening the same new database at once all succeed, and the database
+    gets one schema: one version row, the built-in species once."""
+    # each process imports first, then all open at the same instant
+    code = ("import sys, time; from gaz_cli.store import Store; "
+            "time.sleep(max(0.0, float(sys.argv[2]) - time.time())); Store(sys.argv[1]).close()")
+    start = str(time.time() + 4.0)
+    procs = [subprocess.Popen([sys.executable, "-c", code, backend, start], stderr=subprocess.PIPE, text=True)
+             for _ in range(4)]
+    errors = [p.communicate(timeout=120)[1] for p in procs]
+    assert [p.returncode for p in procs] == [0] * 4, errors
+    store = st.Store(backend, create=False)
+    assert len(store.table(st.schema_version)) == 1
+    assert list(store.table(st.particule).PA_NOM) == list(BUILTIN)
+    store.close()
+
+
+# --- one-line errors ------------------------------------------------------------------
+def test_unreachable_server_is_one_line_without_password():
+    with pytest.raises(StoreError) as err:
+        st.Store("postgresql://gaz:s3cret@127.0.0.1:1/gaz")
+    message = str(err.value)
+    assert message.startswith("cannot connect to database 'postgresql://gaz:***@127.0.0.1:1/gaz'")
+    assert "s3cret" not in message and "\n" not in message
+
+
+def test_missing_driver_names_the_extra(monkeypatch):
+    monkeypatch.setitem(sys.modules, "psycopg", None)  # import psycopg -> ImportError
+    with pytest.raises(StoreError, match=r"needs the psycopg driver; pip install 'gaz\[postgres\]'"):
+        st.Store("postgresql://gaz:s3cret@127.0.0.1:1/gaz")
+
+
+def test_read_only_database_is_one_line(tmp_path, argon_scene, rng):
+    path = tmp_path / "a.db"
+    store = st.Store(str(path))
+    write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+    store.close()
+    read_only = f"sqlite:///file:{path}?mode=ro&uri=true"
+    with pytest.raises(StoreError, match="is read-only .*; make it and its folder writable"):
+        writer = st.Store(read_only)
+        write_fake(writer, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+    assert st.Store(str(path), create=False).simulation_numbers() == [1]

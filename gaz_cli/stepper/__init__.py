@@ -42,7 +42,8 @@ import warnings
 import numba
 import numpy as np
 
-from gaz_cli.errors import EngineError, GazWarning, SceneError, interrupted
+from gaz_cli.errors import EngineError, GazWarning, SceneError
+from gaz_cli.interrupts import signal_of
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 from gaz_cli.stepper import kernels as _k
@@ -261,7 +262,7 @@ class _Stepper:
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
                     _deadline())
             except SystemError as err:
-                if interrupted(err):  # Ctrl-C seen as the kernel returned
+                if signal_of(err) is not None:  # Ctrl-C seen as the kernel returned
                     raise KeyboardInterrupt from None
                 raise
             self.step += done

@@ -1,0 +1,104 @@
+"""Figures of the results store (issue 13): REBOND rows per second into each backend.
+
+Not a test: it prints numbers. Run from the repository root:
+
+    python benchmarks/store.py                                  # SQLite, in a temporary folder
+    python benchmarks/store.py --db postgresql://gaz@/gaz?host=/tmp/pg --rows 1000000
+    python benchmarks/store.py --db URL_1 --db URL_2 --repeat 5
+
+Each round writes one simulation of --rows wall bounces (random rows in the
+engine's chunk size, 2^16) through the store's own writer
+(``Store.simulation``: what ``gaz simulate`` does), from the first chunk to
+the commit, and counts rows per wall-clock second; the median and the
+fastest of --repeat rounds are printed (a busy host only ever slows a round
+down). The engine is not run: this is the store's cost alone.
+
+SQLite: rows go to the scratch file during the run, and move in at the
+commit (both timed; the commit alone is also given, as it is the time the
+database's write lock is held). PostgreSQL: binary COPY into the run's
+transaction; the line says whether the role may set
+session_replication_role (the path without per-row foreign-key triggers) or
+not (every row checked by the two key triggers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+
+import numpy as np
+
+from gaz_cli import store as st
+from gaz_cli.recording import RunStats
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import lookup
+
+CHUNK = 1 << 16
+
+
+def scene() -> Scene:
+    """Argon in 3D, 1000 particles (the README example's size); only its rows matter here."""
+    return Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 1000),), seed=1)
+
+
+def one_round(db: str, rows: int, rng) -> tuple[float, float, int]:
+    """Write one simulation of ``rows`` bounces; (seconds in all, seconds of the commit, SI_NUM)."""
+    sc = scene()
+    state = initial_state(sc)
+    t = np.sort(rng.random(rows) * sc.duration)
+    particle = rng.integers(0, sc.n, rows)
+    wall = (rng.integers(0, 3, rows) + 1) * rng.choice([-1, 1], rows)
+    vperp = rng.random(rows) * 500
+    speed = vperp + rng.random(rows) * 100
+    with st.Store(db) as store:
+        start = time.perf_counter()
+        with store.simulation(sc) as writer:
+            for lo in range(0, rows, CHUNK):
+                part = slice(lo, lo + CHUNK)
+                writer.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
+            writer.finish(RunStats(rows, rows, 0, 1.0, state), 1.0, 1.0)
+            before_commit = time.perf_counter()
+        end = time.perf_counter()
+        return end - start, end - before_commit, writer.si_num
+
+
+def describe(db: str) -> str:
+    with st.Store(db) as store:
+        if store.is_sqlite:
+            return "SQLite (WAL; rows staged in a scratch file, moved in at the commit)"
+        with store.engine.connect() as conn:
+            version = conn.exec_driver_sql("SHOW server_version").scalar()
+            fast = st._may_skip_key_triggers(conn)
+    how = ("role may set session_replication_role: COPY without the per-row key triggers"
+           if fast else "role may not set session_replication_role: every row checked by the key triggers")
+    return f"PostgreSQL {version} (binary COPY; {how})"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--db", action="append", help="database path or URL (repeatable); default a temporary SQLite file")
+    ap.add_argument("--rows", type=int, default=1_000_000, help="REBOND rows per round (default 10^6)")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds per database (default 3)")
+    args = ap.parse_args()
+    load = os.getloadavg()
+    print(f"gaz store benchmark: {os.cpu_count()} cores, load average {load[0]:.2f}; "
+          f"{args.rows:,} REBOND rows per round, chunks of {CHUNK:,}, {args.repeat} rounds")
+    with tempfile.TemporaryDirectory() as tmp:
+        for db in args.db or [os.path.join(tmp, "bench.db")]:
+            rng = np.random.default_rng(1)
+            print(f"\n{st.shown(db)}: {describe(db)}")
+            rates, commits = [], []
+            for _ in range(args.repeat):
+                total, commit, si = one_round(db, args.rows, rng)
+                rates.append(args.rows / total)
+                commits.append(commit)
+                print(f"  SI_NUM {si}: {total:.2f} s, {args.rows / total:,.0f} rows/s (commit {commit:.2f} s)")
+            print(f"  median {statistics.median(rates):,.0f} rows/s, fastest {max(rates):,.0f} rows/s; "
+                  f"commit median {statistics.median(commits):.2f} s")
+
+
+if __name__ == "__main__":
+    main()

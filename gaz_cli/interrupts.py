@@ -1,0 +1,98 @@
+"""SIGINT and SIGTERM during a run: an exception that is not lost, and held over writes
+that must not be cut in half.
+
+- :func:`catching` (around a whole run, :func:`gaz_cli.runner.simulate`):
+  both signals raise :class:`~gaz_cli.errors.Interrupted`, so that the run
+  unwinds and rolls back as for Ctrl-C. A signal landing while Python runs a
+  weakref callback or a ``__del__`` sees its exception printed and dropped
+  ("Exception ignored in ..."); the signal stays recorded, and
+  :func:`check`, called by the recorders at every chunk, raises it again.
+- :func:`held` (around a commit, a trajectory snapshot): a signal arriving
+  inside the block is recorded and raised when the block has ended, so the
+  block is done whole or not started.
+
+Handlers are installed from the main thread only (Python's rule); elsewhere
+these are no-ops.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import threading
+
+from gaz_cli.errors import Interrupted
+
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+_pending: list[int] = []
+_state = {"catching": 0, "holding": 0}
+
+
+def _handler(signum, _frame):
+    _pending.append(signum)
+    if not _state["holding"]:
+        raise Interrupted(signum)
+
+
+def _main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
+
+
+@contextlib.contextmanager
+def catching():
+    """SIGINT and SIGTERM raise Interrupted inside the block; the old handlers come back after."""
+    if not _main_thread():
+        yield
+        return
+    previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+    _pending.clear()
+    _state["catching"] += 1
+    try:
+        yield
+    finally:
+        _state["catching"] -= 1
+        for s, h in previous.items():
+            signal.signal(s, h)
+        _pending.clear()
+
+
+def check() -> None:
+    """Raise Interrupted if a signal came (again, if its first exception was dropped)."""
+    if _pending and not _state["holding"]:
+        raise Interrupted(_pending[0])
+
+
+@contextlib.contextmanager
+def held():
+    """Run the block whole: a SIGINT or SIGTERM arriving inside it is raised after it."""
+    if not _main_thread():
+        yield
+        return
+    installed = None if _state["catching"] else {s: signal.signal(s, _handler) for s in SIGNALS}
+    _state["holding"] += 1
+    try:
+        yield
+    finally:
+        _state["holding"] -= 1
+        if installed is not None:
+            for s, h in installed.items():
+                signal.signal(s, h)
+    if _pending:
+        signum = _pending[0]
+        if installed is not None:
+            _pending.clear()
+        raise Interrupted(signum)
+
+
+def signal_of(exc: BaseException) -> int | None:
+    """The signal behind ``exc``: a KeyboardInterrupt (Interrupted included) anywhere in its
+    chain of causes, else None. A Ctrl-C landing while a Numba function boxes its result
+    reaches Python as a SystemError whose cause is the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return getattr(exc, "signum", signal.SIGINT)
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

@@ -1,0 +1,99 @@
+"""The packaged SQL queries by name: what ``gaz query`` runs.
+
+Each file of ``sql/`` (installed as ``gaz_cli.sql``) is one query: its
+leading comment describes it (the first sentence is its one-line
+description) and its ``:name`` placeholders are its parameters. A query is
+called by its short name -- the file name's first word, ``q34``, ``q36``,
+``pressure`` -- or by the whole file name, in any case.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from gaz_cli.errors import QueryError
+
+_PARAMETER = re.compile(r"(?<![:\w]):([A-Za-z_]\w*)")
+
+
+@dataclass(frozen=True)
+class Query:
+    """One packaged query: short ``name``, ``file`` name, one-line ``description``,
+    ``parameters`` (its :name placeholders, in order of appearance) and ``sql``."""
+
+    name: str
+    file: str
+    description: str
+    parameters: tuple[str, ...]
+    sql: str
+
+
+def catalogue() -> list[Query]:
+    """Every packaged query, sorted by file name."""
+    from gaz_cli.store import query_names, query_text
+
+    files = query_names()
+    stems = [f[:-len(".sql")] for f in files]
+    firsts = [s.split("_", 1)[0] for s in stems]
+    out = []
+    for file, stem, first in zip(files, stems, firsts):
+        sql = query_text(file)
+        comment = " ".join(line.strip()[2:].strip() for line in sql.splitlines()
+                           if line.strip().startswith("--"))
+        code = "\n".join(line.split("--", 1)[0] for line in sql.splitlines())
+        params = tuple(dict.fromkeys(_PARAMETER.findall(code)))
+        sentence = re.split(r"(?<=\.)\s", comment, maxsplit=1)[0]
+        out.append(Query(first if firsts.count(first) == 1 else stem, file, sentence, params, sql))
+    return out
+
+
+def find(name: str) -> Query:
+    """The query called ``name`` (short name, file name, with or without .sql; any case)."""
+    key = name.lower().removesuffix(".sql")
+    queries = catalogue()
+    for q in queries:
+        if key in (q.name.lower(), q.file.lower().removesuffix(".sql")):
+            return q
+    raise QueryError(f"no query named {name!r}; the packaged ones are "
+                     f"{', '.join(q.name for q in queries)} (gaz query --list describes them)")
+
+
+def parse_parameters(query: Query, pairs) -> dict:
+    """``KEY=VALUE`` strings -> the query's parameters (ints and floats converted).
+
+    Raises QueryError naming a malformed pair, an unknown key or a missing one.
+    """
+    params = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise QueryError(f"--param {pair!r} is not KEY=VALUE (e.g. --param si_num=1)")
+        if key not in query.parameters:
+            takes = (f"takes {', '.join(query.parameters)}" if query.parameters else "takes no parameter")
+            raise QueryError(f"query {query.name} has no parameter {key!r}; it {takes}")
+        params[key] = _number(value.strip())
+    missing = [p for p in query.parameters if p not in params]
+    if missing:
+        raise QueryError(f"query {query.name} needs {' '.join(f'--param {p}=VALUE' for p in missing)}")
+    return params
+
+
+def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: F821
+    """Run the packaged query ``name`` on the database ``db`` with ``KEY=VALUE`` parameters."""
+    from gaz_cli.store import Store
+
+    query = find(name)
+    params = parse_parameters(query, pairs)
+    with Store(db, create=False) as store:
+        return query, store.read_sql(query.sql, **params)
+
+
+def _number(text: str):
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text

@@ -1,0 +1,80 @@
+"""``gaz query NAME``: the packaged SQL files by name, on SQLite and PostgreSQL."""
+
+import io
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
+from cli_helpers import invoke
+from gaz_cli import queries
+from gaz_cli import store as st
+from gaz_cli.errors import QueryError
+
+QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",
+         "--duration", "2e-10"]
+
+
+def test_list_names_every_packaged_file():
+    res = invoke(["query", "--list"])
+    assert res.exit_code == 0
+    lines = res.stdout.splitlines()
+    assert len(lines) == len(st.query_names())
+    by_name = {line.split()[0]: line for line in lines}
+    assert set(by_name) == {"pressure", "q34", "q35", "q36"}
+    assert "Q34: number of simulations for each dimension of space." in by_name["q34"]
+    assert by_name["q36"].endswith("[--param si_num=...]") and "--param" not in by_name["q34"]
+    frame = pd.read_csv(io.StringIO(invoke(["query", "--list", "--format", "csv"]).stdout))
+    assert list(frame.FILE) == st.query_names()
+
+
+def test_names_resolve_in_any_spelling():
+    for name in ("q36", "Q36", "q36_momentum_per_wall", "q36_momentum_per_wall.sql"):
+        assert queries.find(name).file == "q36_momentum_per_wall.sql"
+    assert queries.find("pressure").parameters == ("si_num",)
+    assert queries.find("q34").parameters == ()
+
+
+@pytest.mark.parametrize("backend", BACKENDS, indirect=True)
+def test_query_csv_is_the_query_result(backend):
+    """csv output reads back with pd.read_csv, numbers as numbers, equal to the store's result."""
+    assert invoke([*QUICK, "--seed", "1", "--db", backend]).exit_code == 0
+    for name, params in (("q36", ["--param", "si_num=1"]), ("q35", []), ("q34", []),
+                         ("pressure", ["--param", "si_num=1"])):
+        res = invoke(["query", name, *params, "--db", backend, "--format", "csv"])
+        assert res.exit_code == 0, res.stderr
+        frame = pd.read_csv(io.StringIO(res.stdout))
+        store = st.Store(backend, create=False)
+        expected = store.query(queries.find(name).file, **({"si_num": 1} if params else {}))
+        store.close()
+        assert list(frame.columns) == list(expected.columns) and len(frame) == len(expected) > 0
+        for column in frame.columns:
+            assert frame[column].dtype.kind in "if"
+            assert np.allclose(frame[column], expected[column], rtol=1e-15, atol=0)  # csv keeps 17 digits
+    res = invoke(["query", "q36", "--param", "si_num=1", "--db", backend, "--format", "json"])
+    assert res.exit_code == 0 and '"q36"' in res.stdout
+
+
+@pytest.mark.parametrize("args, message", [
+    (["query", "q36"], "gaz: error: query q36 needs --param si_num=VALUE\n"),
+    (["query", "q34", "--param", "x=1"], "gaz: error: query q34 has no parameter 'x'; it takes no parameter\n"),
+    (["query", "q36", "--param", "si_num"],
+     "gaz: error: --param 'si_num' is not KEY=VALUE (e.g. --param si_num=1)\n"),
+    (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are pressure, q34, q35, q36 "
+                       "(gaz query --list describes them)\n"),
+])
+def test_query_errors_are_one_line(tmp_path, args, message):
+    db = str(tmp_path / "gaz.db")
+    assert invoke([*QUICK, "--seed", "1", "--db", db]).exit_code == 0
+    res = invoke([*args, "--db", db])
+    assert (res.exit_code, res.stdout, res.stderr) == (1, "", message)
+
+
+def test_query_without_name_or_database(tmp_path):
+    res = invoke(["query"])
+    assert res.exit_code == 2 and "give a query NAME, or --list to see them" in res.stderr
+    res = invoke(["query", "q34", "--db", str(tmp_path / "none.db")])
+    assert res.exit_code == 1 and "does not exist" in res.stderr and res.stderr.count("\n") == 1
+    with pytest.raises(QueryError):
+        queries.parse_parameters(queries.find("q36"), ["si_num=1", "extra=2"])

@@ -1,0 +1,272 @@
+"""The store under real use, through ``gaz`` itself: many writers on one SQLite file,
+readers while they write, SIGKILL / SIGINT / SIGTERM, foreign databases, failures before
+the commit, and the round trip on PostgreSQL."""
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+import sqlalchemy as sa
+
+from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
+from cli_helpers import invoke
+from gaz_cli import staging
+from gaz_cli import store as st
+
+# a run of the exam's own engine (no JIT to wait for), a few ms long
+QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",
+         "--duration", "2e-10"]
+
+
+def gaz(*args):
+    """``gaz ARGS`` in a process of its own (its real signal handling and exit code)."""
+    return subprocess.Popen([sys.executable, "-m", "gaz_cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def leftovers(folder, keep):
+    """Files in ``folder`` other than ``keep``: journals, WAL files, scratch files."""
+    return sorted(p.name for p in folder.iterdir() if p.name not in keep)
+
+
+def check_consistent(path):
+    """PRAGMA integrity_check and foreign_key_check clean; every stored run complete."""
+    con = sqlite3.connect(path)
+    try:
+        assert con.execute("PRAGMA integrity_check").fetchall() == [("ok",)]
+        assert con.execute("PRAGMA foreign_key_check").fetchall() == []
+        counts = con.execute("SELECT S.SI_NUM, R.RS_BOUNCES, (SELECT COUNT(*) FROM REBOND B "
+                             "WHERE B.SI_NUM = S.SI_NUM) FROM SIMULATION S "
+                             "LEFT JOIN RESULTAT R ON R.SI_NUM = S.SI_NUM").fetchall()
+    finally:
+        con.close()
+    for si, expected, found in counts:
+        assert expected == found, f"simulation {si}: {found} REBOND rows, RESULTAT says {expected}"
+    return [c[0] for c in counts]
+
+
+def test_eight_writers_one_file_and_a_reader(tmp_path):
+    """8 ``gaz simulate`` at once into one SQLite file all succeed with distinct SI_NUM and
+    all their rows; ``gaz analyse`` reads the file while they write."""
+    db = tmp_path / "gaz.db"
+    assert invoke([*QUICK, "--seed", "100", "--db", str(db)]).exit_code == 0
+    # runs of ~18 000 bounces each: the commits (moving rows in) take long enough to collide
+    runs = ["simulate", "--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "1e-9"]
+    procs = [gaz(*runs, "--seed", str(seed), "--db", str(db), "--json") for seed in range(8)]
+    reads = []
+    while any(p.poll() is None for p in procs) or not reads:
+        res = invoke(["analyse", "--db", str(db), "--format", "json"])
+        assert res.exit_code == 0, res.stderr
+        reads.append(len(json.loads(res.stdout)))
+        time.sleep(0.2)
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0] * 8, [err for _, err in outs]
+    summaries = [json.loads(out) for out, _ in outs]
+    assert sorted(s["si_num"] for s in summaries) == list(range(2, 10))
+    con = sqlite3.connect(db)
+    for s in summaries:
+        (rows,) = con.execute("SELECT COUNT(*) FROM REBOND WHERE SI_NUM = ?", (s["si_num"],)).fetchone()
+        (seed,) = con.execute("SELECT SC_SEED FROM SCENE WHERE SI_NUM = ?", (s["si_num"],)).fetchone()
+        assert rows == s["wall_bounces"] > 0 and seed == s["seed"]
+    con.close()
+    assert check_consistent(db) == list(range(1, 10))
+
+
+CHILD = textwrap.dedent("""
+    import sys
+    import numpy as np
+    from gaz_cli import store as st
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import lookup
+
+    move_in = st._StagedRun._move_in
+    def announced(self, conn, table, *args, **kw):
+        if table is st.rebond:
+            print("moving", flush=True)
+        return move_in(self, conn, table, *args, **kw)
+    st._StagedRun._move_in = announced
+
+    scene = Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 100),), seed=1)
+    rng = np.random.default_rng(1)
+    k = 400_000
+    store = st.Store(sys.argv[1])
+    while True:
+        with store.simulation(scene) as w:
+            for part in np.array_split(np.arange(k), 8):
+                m = len(part)
+                w.add_bounces(np.sort(rng.random(m)), rng.integers(0, 100, m),
+                              rng.integers(1, 4, m), rng.random(m) + 1, rng.random(m))
+            w.finish(RunStats(k, k, 0, 1.0, initial_state(scene)), 1.0, 1.0)
+""")
+
+
+def test_sigkill_mid_insert_leaves_the_file_consistent(tmp_path):
+    """A writer killed (SIGKILL) while moving its rows in leaves a consistent file: integrity
+    and foreign keys clean, the runs committed before it whole, its own absent."""
+    db = tmp_path / "gaz.db"
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(db)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline() == "moving\n"  # first run: let it commit
+        assert child.stdout.readline() == "moving\n"  # second run: kill it inside its INSERT
+        time.sleep(0.2)
+        assert child.poll() is None
+        child.send_signal(signal.SIGKILL)
+    finally:
+        child.kill()
+        child.wait(timeout=60)
+    assert check_consistent(db) == [1]
+    stale = [p for p in tmp_path.iterdir() if p.name.endswith(staging.SUFFIX)]
+    assert len(stale) == 1  # its scratch file; the next writer removes it
+    store = st.Store(str(db))
+    assert store.simulation_numbers() == [1]
+    store.close()
+    st.Store(str(db)).close()
+    sim = subprocess.run([sys.executable, "-m", "gaz_cli", *QUICK, "--seed", "1", "--db", str(db)],
+                         capture_output=True, text=True, timeout=120)
+    assert sim.returncode == 0, sim.stderr
+    assert check_consistent(db) == [1, 2]
+    assert leftovers(tmp_path, {"gaz.db"}) == []
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupt_rolls_back_and_says_what_is_left(tmp_path, signum):
+    """SIGINT and SIGTERM during a run: exit 128 + signal, one line saying that nothing
+    went to the database and how many trajectory snapshots stay; no journal, WAL or
+    scratch file left; the trajectory file readable with that many snapshots."""
+    h5py = pytest.importorskip("h5py")
+    db, traj = tmp_path / "gaz.db", tmp_path / "run.h5"
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    # the time-stepped engine: its diagnostics on stderr say the run is under way
+    proc = gaz("simulate", "--engine", "step", "--dt", "1e-12", "--print-every", "200", "--dim", "2",
+               "--n", "100", "--length", "1e-7", "--duration", "1e-5", "--seed", "2", "--db", str(db),
+               "--trajectory", str(traj), "--every", "1e-11")
+    try:
+        for _ in range(3):
+            assert proc.stderr.readline().startswith("time="), proc.communicate()
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 128 + signum, err
+    # (click writes an empty line first, after the terminal's ^C)
+    lines = [line for line in err.splitlines() if line and not line.startswith("time=")]
+    assert len(lines) == 1, err
+    name = signal.Signals(signum).name
+    assert lines[0].startswith(f"gaz: interrupted by {name}; nothing was written to '{db}'; "
+                               f"trajectory '{traj}' keeps the ")
+    snapshots = int(lines[0].split("keeps the ")[1].split()[0])
+    with h5py.File(traj) as fh:
+        assert fh["particles/all/position/value"].shape[0] == snapshots > 0
+    assert leftovers(tmp_path, {"gaz.db", "run.h5"}) == []
+    assert check_consistent(db) == [1]
+
+
+def test_foreign_database_is_refused_untouched(tmp_path):
+    db = tmp_path / "theirs.db"
+    con = sqlite3.connect(db)
+    con.execute("CREATE TABLE REBOND (ID INTEGER PRIMARY KEY, WHEN_ TEXT)")
+    con.execute("CREATE TABLE PARTICULE (PA_NUM INTEGER PRIMARY KEY, PA_NOM TEXT)")
+    con.execute("INSERT INTO PARTICULE VALUES (1, 'theirs')")
+    con.commit()
+    con.close()
+    before = db.read_bytes()
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db)])
+    assert res.exit_code == 1 and res.stdout == ""
+    assert res.stderr.count("\n") == 1 and "is not a gaz database: its table PARTICULE has columns" in res.stderr
+    assert db.read_bytes() == before
+    assert leftovers(tmp_path, {"theirs.db"}) == []
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (a disk always full)")
+def test_a_failing_state_file_commits_nothing(tmp_path):
+    """--save-state that cannot be written fails the run before its commit (it used to
+    exit 1 with the simulation committed)."""
+    db = tmp_path / "gaz.db"
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1
+    assert res.stderr == "gaz: error: cannot write --save-state '/dev/full': No space left on device\n"
+    assert check_consistent(db) == []
+    assert os.path.exists("/dev/full")  # only regular files of the failed run are removed
+
+
+def test_a_failing_summary_commits_nothing(tmp_path):
+    """A periodic box of one particle has no kinetic temperature: the summary fails, and
+    it comes before the commit (it used to exit 1 with the simulation committed)."""
+    db = tmp_path / "gaz.db"
+    res = invoke(["simulate", "--dim", "2", "--n", "1", "--length", "1e-7", "--duration", "1e-11",
+                  "--boundary", "periodic", "--seed", "1", "--db", str(db)])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1
+    assert check_consistent(db) == []
+
+
+def test_full_disk_at_the_commit_removes_the_state_file(tmp_path, monkeypatch):
+    """A commit that fails (here: the disk full while moving the rows in) leaves no
+    simulation and no state file of the failed run; one line, exit 1."""
+    def full(*args, **kwargs):
+        raise sqlite3.OperationalError("database or disk is full")
+
+    db, state = tmp_path / "gaz.db", tmp_path / "final.csv"
+    monkeypatch.setattr(st._StagedRun, "_move_in", full)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", str(state)])
+    assert res.exit_code == 1, res.output
+    assert res.stderr == f"gaz: error: no space left for database '{db}' (database or disk is full); " \
+                         "free some space or choose another --db\n"
+    assert not state.exists()
+    assert check_consistent(db) == []
+    assert leftovers(tmp_path, {"gaz.db"}) == []
+
+
+def test_locked_database_is_one_line_before_the_run(tmp_path, monkeypatch):
+    db = tmp_path / "gaz.db"
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    monkeypatch.setattr(st, "BUSY_TIMEOUT_S", 0.2)
+    holder = sqlite3.connect(db, isolation_level=None)
+    holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
+    traj = tmp_path / "run.h5"
+    try:
+        res = invoke([*QUICK, "--seed", "2", "--db", str(db), "--trajectory", str(traj), "--every", "1e-11"])
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    assert res.exit_code == 1
+    assert not traj.exists()  # refused before the run began
+    assert res.stderr == f"gaz: error: database '{db}' is locked by another process (waited 0.2 s); " \
+                         "try again when it has finished\n"
+    assert check_consistent(db) == [1]
+
+
+@pytest.mark.postgres
+def test_round_trip_on_postgres_same_rows_as_sqlite(tmp_path, postgres_db):
+    """simulate / analyse / query on PostgreSQL; the same seed gives the same REBOND rows
+    in PostgreSQL as in SQLite, bit for bit; a custom species on a fresh database works."""
+    sqlite_db = str(tmp_path / "gaz.db")
+    for db in (sqlite_db, postgres_db):
+        res = invoke(["simulate", "--dim", "2", "--n", "30", "--length", "1e-7", "--duration", "1e-10",
+                      "--seed", "7", "--db", db, "--json"])
+        assert res.exit_code == 0, res.stderr
+        assert json.loads(res.stdout)["si_num"] == 1
+    frames = []
+    for db in (sqlite_db, postgres_db):
+        engine = sa.create_engine(st.url_for(db))
+        with engine.connect() as conn:
+            frames.append(pd.read_sql("SELECT * FROM rebond ORDER BY re_num", conn))
+        engine.dispose()
+    assert len(frames[0]) > 0
+    pd.testing.assert_frame_equal(frames[0], frames[1], check_exact=True)
+    res = invoke(["simulate", "--dim", "2", "--n", "10", "--radius", "1e-10", "--mass", "1e-26",
+                  "--length", "1e-7", "--duration", "1e-10", "--seed", "1", "--db", postgres_db, "--json"])
+    assert res.exit_code == 0, res.stderr
+    assert invoke(["analyse", "--db", postgres_db, "--sim", "1"]).exit_code == 0
+    res = invoke(["query", "q36", "--param", "si_num=1", "--db", postgres_db, "--format", "csv"])
+    assert res.exit_code == 0 and len(pd.read_csv(pd.io.common.StringIO(res.stdout))) == 4
+    assert np.isfinite(pd.read_csv(pd.io.common.StringIO(res.stdout)).QUANTITE_MOUVEMENT).all()
+    assert os.environ.get("GAZ_TEST_POSTGRES_URL")
