@@ -171,6 +171,8 @@ class Run:
     tc: float = 0.0
     temperature: float = math.nan
     """The scene's temperature of the initial velocities, K."""
+    temperature_error: float = 0.0
+    """Standard error of the temperature theory is evaluated at, K (under gravity: measured from the hits)."""
     record: str = "bounces"
     ke_start: float = math.nan
     ke_end: float = math.nan
@@ -373,6 +375,31 @@ def virial_bin_pressures(run: Run, temperature: float) -> np.ndarray | None:
     return (run.n * K_B * temperature + w / (run.dim * width)) / run.length ** run.dim
 
 
+def exam_per_wall(run: Run) -> pd.DataFrame:
+    """sql/pressure_per_wall.sql's table (SI_NUM, RE_DIR, NB_REBONDS, QUANTITE_MOUVEMENT, PRESSION), from the bins.
+
+    The same sums as the exam's query (2 m |v_perp| per bounce, PA_M in
+    grams), added up from the per-bin sums the database returned, so that
+    the REBOND rows are read once.
+    """
+    h = run.hits
+    if not len(h):
+        return pd.DataFrame(columns=["SI_NUM", "RE_DIR", "NB_REBONDS", "QUANTITE_MOUVEMENT", "PRESSION"])
+    mom = pd.Series(2.0 * _hit_masses(run) * h.SUM_VP.to_numpy(dtype=float), index=h.index)
+    walls = pd.DataFrame({"NB_REBONDS": h.NB_REBONDS.groupby(h.RE_DIR).sum(),
+                          "QUANTITE_MOUVEMENT": mom.groupby(h.RE_DIR).sum()}).reset_index()
+    walls["PRESSION"] = walls.QUANTITE_MOUVEMENT / (run.duration * run.wall_measure)
+    walls.insert(0, "SI_NUM", run.si_num)
+    return walls.astype({"RE_DIR": int, "NB_REBONDS": int})
+
+
+def exam_q35(run: Run) -> pd.DataFrame:
+    """Q35 (sql/q35_bounces_per_simulation.sql) for this simulation alone, from the bins."""
+    count = run.bounces_count
+    mean = float(run.hits.SUM_VIT.sum() / count) if count else NA
+    return pd.DataFrame([{"SI_NUM": run.si_num, "NB_REBONDS": count, "VITESSE_MOYENNE": mean}])
+
+
 def _estimate(run: Run, series, weights=None, static_var: float = 0.0,
               relaxation: float = math.inf) -> errorbars.Estimate:
     """Time average of a (BINS,) series over the analysed part of the run; ``relaxation`` in mean free times."""
@@ -412,6 +439,8 @@ class Expectation:
     """Relative size of the model's known systematic error for this scene (0: exact or unknown)."""
     applies: bool = True
     """False when the model is known not to fit the scene: no deviation in sigmas is printed."""
+    error: float = 0.0
+    """Standard error of the value from that of its input temperature (under gravity), same unit."""
 
     @property
     def known(self) -> bool:
@@ -429,6 +458,20 @@ def _try(model: str, func, note: str = "") -> Expectation:
 def _counts_radii_masses(run: Run):
     return (run.species.COUNT.to_numpy(dtype=float), run.species.RADIUS_M.to_numpy(dtype=float),
             run.species.MASS_KG.to_numpy(dtype=float))
+
+
+def settled_temperature(run: Run) -> errorbars.Estimate:
+    """Temperature of the analysed (settled) part of the run from its wall hits, K.
+
+    Flux-weighted Maxwell-Boltzmann: <m v_perp^2> over the hits on any wall
+    is 2 k_B T at any density and height, for every species; the hits of the
+    settled part give T and its error (reblocking of the per-bin sums).
+    """
+    h = run.hits
+    if not len(h) or "SUM_VP2" not in h:
+        return errorbars.NAN_ESTIMATE
+    energy = _hit_masses(run) * h.SUM_VP2.to_numpy(dtype=float) / (2.0 * K_B)
+    return _estimate(run, _per_bin(h.BIN, energy), _per_bin(h.BIN, h.NB_REBONDS))
 
 
 def _gravity_walls(run: Run, temperature: float):
@@ -483,14 +526,18 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
                         "no interactions: excess pressure ignored"))
         return out
     if run.gravity > 0.0:
-        def mean_gravity():
-            floor, ceiling, side, _, _ = _gravity_walls(run, temperature)
+        def mean_gravity(t=temperature):
+            floor, ceiling, side, _, _ = _gravity_walls(run, t)
             return (floor + ceiling + (2 * d - 2) * side) / (2 * d)
         try:
             _, _, _, name, note = _gravity_walls(run, temperature)
         except SceneError as err:
             name, note = "under gravity", str(err)
         exp = _try(f"{name} (mean of the walls)", mean_gravity, note)
+        if exp.known and run.temperature_error > 0:
+            exp.error = abs(mean_gravity(temperature + run.temperature_error) - exp.value)
+            exp.note += (f"; T = {temperature:.5g} +- {run.temperature_error:.2g} K from <v_perp^2> of the "
+                         "settled part's wall hits (its error is in DEV_SIGMA)")
         if not run.settled:
             exp.applies = False
             exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
@@ -524,9 +571,6 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
     ideal = _try("ideal gas at walls, N kT/((L-2R) L^(D-1))",
                  lambda: theory.ideal_wall_pressure(d, L, temperature, counts, radii),
                  "dilute limit (eta -> 0), exact for non-interacting particles")
-    if d > 1 and run.packing_fraction > 0.01 and out and out[0].known:
-        ideal.applies = False
-        ideal.note += f"; packing {run.packing_fraction:.3g}: not this scene, shown for scale"
     out.append(ideal)
     return out
 
@@ -536,9 +580,14 @@ def wall_pressure_theory(run: Run, temperature: float, best: Expectation | None 
     best = best or pressure_models(run, temperature)[0]
     if run.gravity > 0.0 and best.known and not run.periodic:
         d = run.dim
-        floor, ceiling, side, name, note = _gravity_walls(run, temperature)
-        return {w: Expectation(float(floor if w == -d else ceiling if w == d else side), name, best.note,
-                               applies=best.applies)
+        values = _gravity_walls(run, temperature)[:3]
+        shifted = (_gravity_walls(run, temperature + run.temperature_error)[:3] if run.temperature_error > 0
+                   else values)
+
+        def pick(v, w):
+            return float(v[0] if w == -d else v[1] if w == d else v[2])
+        return {w: Expectation(pick(values, w), best.model, best.note, applies=best.applies,
+                               error=abs(pick(shifted, w) - pick(values, w)))
                 for w in run.walls}
     return {w: best for w in run.walls}
 
@@ -551,11 +600,11 @@ def _species_partial_weights(run: Run) -> np.ndarray:
 
 
 # --- the frames ------------------------------------------------------------------------
-def _dev(measured, error, expected, applies: bool = True) -> float:
-    """(measured - expected)/error, or NaN."""
+def _dev(measured, error, expected, applies: bool = True, theory_error: float = 0.0) -> float:
+    """(measured - expected)/sqrt(error^2 + theory_error^2), or NaN."""
     if not applies or not all(map(math.isfinite, (measured, error, expected))) or error <= 0:
         return NA
-    return (measured - expected) / error
+    return (measured - expected) / math.hypot(error, theory_error)
 
 
 def _rel(measured, expected) -> float:
@@ -576,7 +625,8 @@ def simulation_frame(run: Run, temperature: float) -> dict:
             "SPECIES": ", ".join(f"{r.NAME}:{r.COUNT}" for r in run.species.itertuples()),
             "PACKING_FRACTION": run.packing_fraction if len(run.species) else NA,
             "GRAVITY": run.gravity, "RESTITUTION": run.restitution, "WALL_RESTITUTION": run.wall_restitution,
-            "T_SCENE_K": _num(run.temperature), "T_KIN_K": _num(temperature),
+            "T_SCENE_K": _num(run.temperature), "T_KIN_K": _num(run.kinetic_temperature),
+            "T_THEORY_K": _num(temperature), "T_THEORY_ERR_K": run.temperature_error,
             "BOUNCES": run.bounces_count, "COLLISIONS": _num(run.collisions),
             "COLL_PER_PARTICLE": run.collisions_per_particle,
             "MEAN_FREE_TIME_S": run.mean_free_time if math.isfinite(run.mean_free_time) else NA,
@@ -600,7 +650,7 @@ def per_wall_frame(run: Run, per_wall: pd.DataFrame, temperature: float, summary
         cols["P_ERR"].append(est.error)
         cols["N_EFF"].append(est.n_eff)
         cols["P_THEORY"].append(exp.value)
-        cols["DEV_SIGMA"].append(_dev(est.mean, est.error, exp.value, exp.applies))
+        cols["DEV_SIGMA"].append(_dev(est.mean, est.error, exp.value, exp.applies, exp.error))
         cols["NOTE"].append(_wall_note(run, exp))
     for k, v in cols.items():
         frame[k] = v
@@ -645,7 +695,7 @@ def pressure_frame(run: Run, temperature: float, summary: dict) -> pd.DataFrame:
     for exp in summary["models"]:
         rows.append({"MODEL": exp.model, "P_UNIT": run.unit, "P_MEASURED": _num(summary["measured"]),
                      "P_ERR": _num(summary["error"]), "N_EFF": summary["n_eff"], "P_THEORY": exp.value,
-                     "DEV_SIGMA": _dev(summary["measured"], summary["error"], exp.value, exp.applies),
+                     "DEV_SIGMA": _dev(summary["measured"], summary["error"], exp.value, exp.applies, exp.error),
                      "REL_DEV": _rel(summary["measured"], exp.value), "SYST_REL": exp.syst,
                      "MEASURED": summary["how"], "NOTE": exp.note})
     return pd.DataFrame(rows)
@@ -737,12 +787,15 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         static = (errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
                   if math.isfinite(temperature) else 0.0)
         est = _estimate(run, sums, counts, static_var=static, relaxation=relax)
+        if exp.known and run.temperature_error > 0:
+            exp.error = exp.value * run.temperature_error / (2.0 * temperature)    # theory ~ sqrt(T)
         if frozen_forever:
             exp.note = "1D equal masses: the N speeds drawn at the start are kept for ever (in ERR)"
         expected_all = expected_all + w * exp.value
         rows.append({"SPECIES": sp.NAME, "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": exp.value,
-                     "DEV_SIGMA": _dev(est.mean, est.error, exp.value), "REL_DEV": _rel(est.mean, exp.value),
+                     "DEV_SIGMA": _dev(est.mean, est.error, exp.value, True, exp.error),
+                     "REL_DEV": _rel(est.mean, exp.value),
                      "GAS_MEAN_SPEED": (float(theory.mean_speed(run.dim, temperature, sp.MASS_KG))
                                         if math.isfinite(temperature) else NA), "NOTE": exp.note})
     if len(run.species) > 1:
@@ -764,7 +817,7 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         frame["DEV_SIGMA"] = NA
     elif run.gravity > 0.0 and len(frame):
         frame["NOTE"] = (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
-                         "the final kinetic temperature" if run.settled else
+                         "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)" if run.settled else
                          "under gravity: the run did not settle (fall and thermalisation take over half of it)")
         if not run.settled:
             frame["DEV_SIGMA"] = NA
@@ -876,7 +929,7 @@ TABLES = {
     "q34": "Q34 simulations per dimension",
     "q35": "Q35 wall bounces and mean speed of wall hits",
     "q36": "Q36 momentum and pressure per wall",
-    "overview": "pressure against theory, one row per simulation",
+    "overview": "pressure against the ideal gas",
     "simulation": "simulation",
     "pressure": "pressure against theory",
     "collisions": "collision rate against Enskog",
@@ -914,15 +967,19 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
         _make_dir(plot_dir)
     chosen = [sim] if sim is not None else numbers
     q34 = store.query("q34_simulations_per_dimension")
-    q35 = (store.query("q35_one_simulation", si_num=sim) if sim is not None
-           else store.query("q35_bounces_per_simulation"))
+    q35 = None if sim is not None else store.query("q35_bounces_per_simulation")
     walls, overview, figures = [], [], []
     detail = {}
     for number in chosen:
         run = load_run(store, number)
         temperature = run.kinetic_temperature
-        per_wall = store.query("pressure_per_wall", si_num=number)
-        per_wall.insert(0, "SI_NUM", number)
+        if run.gravity > 0.0 and not run.periodic and run.settled and run.restitution >= 1.0:
+            settled = settled_temperature(run)
+            if math.isfinite(settled.mean) and math.isfinite(settled.error):
+                temperature, run.temperature_error = settled.mean, settled.error
+        per_wall = exam_per_wall(run)
+        if sim is not None:
+            q35 = exam_q35(run)
         summary = pressure_summary(run, temperature)
         walls.append(per_wall_frame(run, per_wall, temperature, summary))
         overview.append(_overview_row(run, temperature, summary))
@@ -967,7 +1024,7 @@ def _overview_row(run: Run, temperature: float, summary: dict) -> dict:
     row.update({"P_MEASURED": measured, "P_ERR": _num(summary["error"]), "N_EFF": summary["n_eff"],
                 "P_IDEAL": ideal.value, "RATIO": _rel(measured, ideal.value) + 1.0,
                 "P_THEORY": best.value, "THEORY": best.model,
-                "DEV_SIGMA": _dev(measured, summary["error"], best.value, best.applies),
+                "DEV_SIGMA": _dev(measured, summary["error"], best.value, best.applies, best.error),
                 "NOTE": "" if best.known and best.applies else best.note})
     return row
 

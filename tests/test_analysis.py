@@ -157,7 +157,7 @@ def test_report_sees_a_wrong_pressure(tmp_path):
     # claim the particles are 30% heavier than the ones the hits were drawn for
     with Store(db).engine.begin() as conn:
         conn.exec_driver_sql("UPDATE PARTICULE SET PA_M = PA_M * 1.3 WHERE PA_NOM = 'Ar'")
-    row = analysis.report(db, sim=1)["pressure against theory, one row per simulation"].iloc[0]
+    row = analysis.report(db, sim=1)["pressure against the ideal gas"].iloc[0]
     assert row.DEV_SIGMA > 8, row
 
 
@@ -284,7 +284,7 @@ def test_unknown_simulation_is_one_line(synthetic_db):
 
 def test_overview_without_sim_has_one_row_per_simulation(synthetic_db):
     frames = analysis.report(synthetic_db)
-    over = frames["pressure against theory, one row per simulation"]
+    over = frames["pressure against the ideal gas"]
     assert over.SI_NUM.tolist() == [1, 2]
     assert {"P_ERR", "P_THEORY", "DEV_SIGMA", "THEORY"} <= set(over.columns)
     assert "simulation" not in frames
@@ -330,3 +330,37 @@ def test_placement_histogram_plot_with_exact_density(tmp_path):
     chi2 = np.sum((frame["count"].to_numpy()[keep] - expected[keep]) ** 2 / expected[keep])
     from scipy import stats
     assert stats.chi2.sf(chi2, keep.sum() - 1) > 1e-3
+
+
+def test_per_wall_sums_from_the_bins_equal_the_exam_query(synthetic_db):
+    """analyse adds up the database's per-bin sums; sql/pressure_per_wall.sql on the rows gives the same table."""
+    frames = analysis.report(synthetic_db, sim=2)
+    walls = frames["Q36 momentum and pressure per wall"]
+    exam = Store(synthetic_db, create=False).query("pressure_per_wall", si_num=2)
+    assert walls.RE_DIR.tolist() == exam.RE_DIR.tolist()
+    assert walls.NB_REBONDS.tolist() == exam.NB_REBONDS.tolist()
+    np.testing.assert_allclose(walls.PRESSION, exam.PRESSION, rtol=1e-12)
+    q35 = Store(synthetic_db, create=False).query("q35_bounces_per_simulation").set_index("SI_NUM").loc[2]
+    mine = frames["Q35 wall bounces and mean speed of wall hits"].iloc[0]
+    assert mine.NB_REBONDS == q35.NB_REBONDS
+    assert mine.VITESSE_MOYENNE == pytest.approx(q35.VITESSE_MOYENNE, rel=1e-12)
+
+
+def test_csv_table_is_read_by_pandas_with_numeric_columns(tmp_path):
+    """--table NAME prints one csv table; a value that does not exist is an empty cell, not text."""
+    db = str(tmp_path / "dense.db")
+    n, length = 400, 1e-8
+    radius = math.sqrt(0.70 * length ** 2 / (n * math.pi))      # beyond the 2D fit: no theory value
+    write_synthetic(db, dim=2, n=n, length=length, duration=1e-11, seed=6, species=Species("big", MASS, radius))
+    from io import StringIO
+    for table, numeric in (("pressure", ["P_MEASURED", "P_ERR", "P_THEORY", "DEV_SIGMA"]),
+                           ("collisions", ["RATE_PER_PARTICLE_HZ", "RATE_ERR_HZ", "THEORY_HZ", "DEV_SIGMA"]),
+                           ("q36", ["PRESSION", "P_ERR", "P_THEORY", "DEV_SIGMA"])):
+        code, out, err = invoke(["analyse", "--db", db, "--sim", "1", "--format", "csv", "--table", table])
+        assert code == 0, err
+        frame = pd.read_csv(StringIO(out))
+        for col in numeric:
+            assert pd.api.types.is_float_dtype(frame[col]), (table, col, frame[col])
+    assert frame.P_UNIT.tolist() == ["N/m"] * 4
+    code, _, err = invoke(["analyse", "--db", db, "--table", "gravity"])
+    assert code != 0 and err.count("\n") == 1 and "no table 'gravity'" in err

@@ -74,16 +74,16 @@ def test_rods_wall_pressure_is_tonks_exact(tmp_path):
     frames = analyse(tmp_path, scene)
     row = best_row(frames)
     assert row.MODEL.startswith("Tonks")
-    measured, err = row.P_MEASURED_PA, row.P_ERR_PA
+    measured, err = row.P_MEASURED, row.P_ERR
     # the same law computed independently from the initial velocities (the set never changes)
     state = initial_state(scene)
     exact = theory.rods_wall_pressure(state.velocities, 1.0, 1.0, scene.radii()[0])
-    assert row.P_THEORY_PA == pytest.approx(exact, rel=1e-9)
+    assert row.P_THEORY == pytest.approx(exact, rel=1e-9)
     assert abs(measured - exact) < 3 * err, (measured, exact, err)
     assert err < 0.01 * exact                        # a sharp test: better than 1%
     # it is the excluded length that doubles the pressure at packing 0.5
     ideal = frames["pressure against theory"].iloc[1]
-    assert abs(measured - ideal.P_THEORY_PA) > 50 * err
+    assert abs(measured - ideal.P_THEORY) > 50 * err
     # both walls, one by one
     walls = frames["Q36 momentum and pressure per wall"]
     assert len(walls) == 2 and (walls.DEV_SIGMA.abs() < 3).all(), walls
@@ -95,12 +95,12 @@ def test_dilute_3d_gas_wall_pressure(tmp_path):
     frames = analyse(tmp_path, scene)
     row = best_row(frames)
     assert abs(row.DEV_SIGMA) < 3, row
-    assert row.P_ERR_PA < 0.0025 * row.P_THEORY_PA
+    assert row.P_ERR < 0.0025 * row.P_THEORY
     walls = frames["Q36 momentum and pressure per wall"]
     assert len(walls) == 6 and (walls.DEV_SIGMA.abs() < 4).all(), walls
     # the 2R in L - 2R is seen: L^3 instead would be 1.6% low, over 6 sigma here
     naive = scene.n * KT / scene.length ** 3
-    assert abs(row.P_MEASURED_PA - naive) > 6 * row.P_ERR_PA
+    assert abs(row.P_MEASURED - naive) > 6 * row.P_ERR
 
 
 def test_2d_gas_wall_pressure(tmp_path):
