@@ -325,11 +325,14 @@ def load_run(store, si_num: int) -> Run:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
-    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS)
-    hits["BIN"] = np.clip(hits.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
+    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
+    key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
+    hits.insert(0, "RE_DIR", key % 8 - 4)
+    hits.insert(1, "PA_NUM", (key // 8) % 1048576)
+    hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
     run.hits = hits
     if run.record == "all":
-        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS)
+        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
             run.collision_bins = coll
@@ -557,12 +560,15 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
                 exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
             except SceneError:
                 exp.syst = NA
-            if stat_rel > 0 and not exp.syst <= max(stat_rel, 1e-3):
+            if stat_rel > 0 and not exp.syst <= stat_rel:
                 exp.applies = False
-                exp.note = (f"no theory for this scene: the wall model's systematic error (up to "
-                            f"{exp.syst:.2%}, wall adsorption) exceeds the statistical error "
-                            f"({stat_rel:.2%}); a dense fluid at walls needs the contact density, "
-                            "which the database does not hold")
+                dense = exp.syst > 10 * stat_rel
+                exp.note = ((f"no theory for this scene: " if dense else "") +
+                            f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
+                            f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
+                            "compare REL_DEV with SYST_REL" +
+                            ("; a dense fluid at walls needs its contact density, which the database "
+                             "does not hold" if dense else ""))
         out.append(exp)
     else:
         out.append(_try("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",

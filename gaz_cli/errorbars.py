@@ -137,7 +137,7 @@ def reblock(series) -> tuple[float, int, bool]:
         intercept, slope = cov @ (design.T @ (weight * v))
         model = intercept + slope * m
     if slope > 3.0 * math.sqrt(cov[1, 1]) and v[-1] < v[0] / 16.0:   # a steeply falling curve: end effects
-        return math.sqrt(max(float(intercept), floor)), sizes[start], plateau
+        return math.sqrt(max(float(intercept) + math.sqrt(cov[0, 0]), floor)), sizes[start], plateau
     weight = (m - 1.0)                                 # flat: the weighted mean of the plateau's levels
     return math.sqrt(float(np.sum(weight * v) / np.sum(weight))), sizes[start], plateau
 
