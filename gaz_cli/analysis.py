@@ -418,15 +418,42 @@ def _estimate(run: Run, series, weights=None, static_var: float = 0.0,
                                   duration=run.window, static_var=static_var, relaxation_s=tau)
 
 
-def wall_estimates(run: Run, expected: dict) -> dict[int, errorbars.Estimate]:
-    """Wall code -> pressure estimate; the axis' frozen share of the energy uses the expected (or measured) value."""
+def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, errorbars.Estimate]:
+    """Wall code -> pressure estimate, from the two opposite walls of each axis.
+
+    A wall's pressure is half the sum S of its axis' two walls plus (or
+    minus) half their difference D. S follows the axis' kinetic energy: it is
+    reblocked, with the frozen share of the energy the axis drew at the start
+    (scaled by the expected, else measured, pressure). D is exactly the change
+    of the gas's momentum along the axis over the run, divided by the run's
+    time and the wall measure: its variance has the closed form
+    2 sum_s N_s m_s k_B T/(T L^(D-1))^2 (start and end momenta independent
+    draws), where reblocking would read its hit-by-hit noise as white and
+    overestimate it (a momentum given to one wall is soon given back to the
+    other). S and D are uncorrelated by the box's mirror symmetry.
+    """
     out = {}
     share = errorbars.axis_share_var(run.dim, run.n)
-    for w, series in wall_bin_pressures(run).items():
-        exp = expected.get(w)
-        scale = exp.value if exp is not None and exp.known else float(np.mean(series))
-        out[w] = _estimate(run, series, static_var=share * scale ** 2,
-                           relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim])
+    series = wall_bin_pressures(run)
+    counts, _, masses = _counts_radii_masses(run)
+    window = run.window
+    diff_var = (2.0 * float(np.sum(counts * masses)) * K_B * temperature / (window * run.wall_measure) ** 2
+                if math.isfinite(temperature) and len(run.species) else math.nan)
+    for d in range(1, run.dim + 1):
+        low, high = series[-d], series[d]
+        exp = [expected.get(w) for w in (-d, d)]
+        scale = sum(e.value if e is not None and e.known else float(np.mean(x)) for e, x in zip(exp, (low, high)))
+        total = _estimate(run, low + high, static_var=share * scale ** 2,
+                          relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim])
+        for w, x in ((-d, low), (d, high)):
+            own = _estimate(run, x)
+            if not (math.isfinite(total.error) and math.isfinite(diff_var)):
+                out[w] = own
+                continue
+            error = 0.5 * math.sqrt(total.error ** 2 + diff_var)
+            var1 = float(np.var(x[run.settle_bin:], ddof=1)) if x.size - run.settle_bin > 1 else math.nan
+            out[w] = errorbars.Estimate(own.mean, error, var1 / error ** 2 if error > 0 else math.nan,
+                                        total.block_s, total.plateau, 0.5 * total.frozen)
     return out
 
 
@@ -646,7 +673,7 @@ def per_wall_frame(run: Run, per_wall: pd.DataFrame, temperature: float, summary
     if not len(frame):
         return frame
     expected = wall_pressure_theory(run, temperature, summary["best"])
-    estimates = wall_estimates(run, expected)
+    estimates = wall_estimates(run, expected, temperature)
     cols = {k: [] for k in ("P_UNIT", "P_MEASURED", "P_ERR", "N_EFF", "P_THEORY", "DEV_SIGMA", "NOTE")}
     for w in frame.RE_DIR.astype(int):
         est = estimates.get(w, errorbars.NAN_ESTIMATE)
