@@ -13,10 +13,17 @@ other seed sets).
 
 Where the estimator is known to be conservative, the quantity is held to
 the one-sided bound (within 1 sigma >= 0.5, within 2 sigma >= 0.85): errors
-too large, never too small. Measured (README, 'what the physics says'): in
-the dense 2D box, a wall's pressure (errors about 1.8 times too large: the
-box's slow pressure oscillations look like white noise to the reblocking)
-and the mean pressure (0.87 within 1 sigma).
+too large, never too small. Measured on seeds 31-130 (README, 'what the
+physics says'), within 1 sigma: the mean pressure of the collisionless box
+(0.80) and of the dilute box (0.83: the mean over the walls is measured to
+1e-4, from a falling reblocking curve, and its error is noisy: 0.92 within
+2 sigma), a wall of the dilute box (0.83), and in the dense 2D box a wall
+(0.93: the box's slow pressure oscillations look like white noise to the
+reblocking) and the mean pressure (0.94).
+With the within-1 and within-2 fractions measured there, a fresh set of 30
+seeds would fail one of the 11 quantities with probability about 0.5
+(binomial; mostly a within-2 fraction of 0.91-0.93 falling below 0.85, and
+the wall-hit speeds' 0.60-0.63 within 1 sigma); these seeds pass.
 
 The reference is analyse's own theory where it is exact for the scene, the
 mean over the seeds of measured/theory otherwise (the dense box's wall
@@ -38,9 +45,9 @@ SEEDS = range(1, 31)
 
 # class -> {(quantity, reference): "two-sided" | "one-sided"}
 EXPECTED = {
-    "collisionless-3d": {("mean pressure", "theory"): "two-sided", ("wall pressure", "theory"): "two-sided",
+    "collisionless-3d": {("mean pressure", "theory"): "one-sided", ("wall pressure", "theory"): "two-sided",
                          ("wall-hit speed", "theory"): "two-sided"},
-    "dilute-3d": {("mean pressure", "seed mean"): "two-sided", ("wall pressure", "theory"): "two-sided",
+    "dilute-3d": {("mean pressure", "seed mean"): "one-sided", ("wall pressure", "theory"): "one-sided",
                   ("wall-hit speed", "theory"): "two-sided"},
     "dense-2d": {("mean pressure", "seed mean"): "one-sided", ("wall pressure", "seed mean"): "one-sided",
                  ("wall-hit speed", "seed mean"): "two-sided"},
