@@ -12,6 +12,8 @@ statistical error or its stated accuracy:
 * speeds relax from all-equal to Maxwell-Boltzmann (Kolmogorov-Smirnov);
 * Q35's mean wall-hit speed equals the flux-weighted mean, not the gas's;
 * a cooling granular gas follows Haff's law.
+* hard spheres under gravity fit the barometric profile with the local
+  equation of state (pressure, walls, hit speed, force balance).
 
 The whole file takes about a minute with the engine's kernels compiled
 (each kind of scene compiles once, ~10 s, then is cached).
@@ -241,3 +243,33 @@ def test_haff_cooling_law():
     # the elastic gas would stay at T0: the test sees the cooling law, not a constant
     assert abs(temps[-1] / haff[-1] - 1) < 0.03 < abs(temps[-1] / t0_k - 1)
     assert run_stats.collisions > 10 * n
+
+
+# --------------------------------------------------------------------- gravity (issue 14)
+
+
+def test_hard_spheres_under_gravity_fit_the_local_equation_of_state(tmp_path):
+    """3D, packing 0.01, scale height L/2, ~100 collisions per particle: pressure, walls and hit speed within 3 sigma.
+
+    The theory is the barometric profile with the hard-sphere equation of state at the local
+    density, at the temperature of the settled part (from its hits); the ideal gas under
+    gravity misses the hard-sphere excess (about 4 eta at the floor) by many sigma.
+    """
+    scene = reduced_scene(3, 400, 0.01, duration=30.0, seed=4, gravity=2.0)
+    frames = analyse(tmp_path, scene)
+    row = best_row(frames)
+    assert row.MODEL.startswith("hard spheres under gravity"), row
+    assert abs(row.DEV_SIGMA) < 3, row
+    walls = frames["Q36 momentum and pressure per wall"]
+    assert (walls.DEV_SIGMA.abs() < 3.5).all(), walls
+    speed = frames["mean wall-hit speed against theory"].iloc[0]
+    assert abs(speed.DEV_SIGMA) < 3, speed
+    balance = frames["force balance under gravity"].iloc[0]
+    assert abs(balance.DEV_SIGMA) < 3, balance
+    # the ideal gas under gravity, at the same temperature, is far off
+    sim = frames["simulation"]
+    counts, radius = [scene.n], scene.radii()[0]
+    floor, ceiling = theory.ideal_gravity_wall_pressures(3, 1.0, sim["T_THEORY_K"], counts, [radius], [1.0], 2.0)
+    side = theory.ideal_wall_pressure(3, 1.0, sim["T_THEORY_K"], counts, [radius])
+    ideal = (floor + ceiling + 4 * side) / 6
+    assert (row.P_MEASURED - ideal) / row.P_ERR > 5, (row.P_MEASURED, ideal, row.P_ERR)
