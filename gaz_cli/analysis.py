@@ -326,6 +326,7 @@ def load_run(store, si_num: int) -> Run:
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
     hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
+    hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
     key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
     hits.insert(0, "RE_DIR", key % 8 - 4)
     hits.insert(1, "PA_NUM", (key // 8) % 1048576)
@@ -333,6 +334,7 @@ def load_run(store, si_num: int) -> Run:
     run.hits = hits
     if run.record == "all":
         coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
+        coll = coll[coll.BIN.notna()].reset_index(drop=True)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
             run.collision_bins = coll
@@ -1045,7 +1047,8 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
 def _overview_row(run: Run, temperature: float, summary: dict) -> dict:
     """One simulation in one row: measured pressure, ideal gas, best theory, deviation in sigmas."""
     row = {"SI_NUM": run.si_num, "SI_DIM": run.dim, "SI_N": run.n, "SI_L": run.length, "SI_DUR": run.duration,
-           "BOUNDARY": run.boundary, "T_KIN_K": _num(temperature), "P_UNIT": run.unit}
+           "BOUNDARY": run.boundary, "T_KIN_K": _num(run.kinetic_temperature), "T_THEORY_K": _num(temperature),
+           "P_UNIT": run.unit}
     if run.periodic:
         ideal = _try("ideal", lambda: theory.ideal_gas_pressure(run.n, temperature, run.length ** run.dim))
     else:
