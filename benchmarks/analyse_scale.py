@@ -4,7 +4,8 @@ Builds (once, into --db) one 3D simulation of --rows synthetic wall bounces
 (uniform times, Rayleigh normal speeds; written through Store's public
 writer) plus a small second simulation, then runs ``gaz analyse --db DB
 --sim 1`` --repeat times in a fresh process and prints the median and fastest
-wall time and the peak resident memory (ru_maxrss of the child).
+wall time, the child's CPU time (what the wall time would be on an idle
+core: the host is shared) and its peak resident memory (ru_maxrss).
 
     python benchmarks/analyse_scale.py                       # 10^7 rows into /tmp/gaz_scale.db
     python benchmarks/analyse_scale.py --rows 1000000 --repeat 5
@@ -60,17 +61,22 @@ def main() -> None:
         build(args.db, args.rows)
         print(f"built {args.db}: {args.rows} + 1000 REBOND rows in {time.perf_counter() - t0:.0f} s "
               f"({Path(args.db).stat().st_size / 1e6:.0f} MB)")
-    times, peaks = [], []
+    times, peaks, cpus = [], [], []
     for _ in range(args.repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         proc = subprocess.run([sys.executable, "-m", "gaz_cli", "analyse", "--db", args.db, "--sim", "1"],
                               capture_output=True, text=True)
         times.append(time.perf_counter() - t0)
         if proc.returncode:
             sys.exit(proc.stderr)
-        peaks.append(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+        peaks.append(after.ru_maxrss / 1024)
     print(f"{os.cpu_count()} cores; gaz analyse --sim 1 on {args.rows} rows: median {statistics.median(times):.2f} s, "
-          f"fastest {min(times):.2f} s over {args.repeat} runs; peak RSS {max(peaks):.0f} MB")
+          f"fastest {min(times):.2f} s over {args.repeat} runs; CPU time (user + sys) median "
+          f"{statistics.median(cpus):.2f} s (the wall time on an idle core); peak RSS {max(peaks):.0f} MB; "
+          f"load average {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

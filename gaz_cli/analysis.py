@@ -325,7 +325,9 @@ def load_run(store, si_num: int) -> Run:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
-    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
+    # CAST truncates on SQLite and rounds elsewhere (PostgreSQL): half makes both floor (sql/bounce_bins.sql)
+    half = 0.0 if store.engine.dialect.name == "sqlite" else 0.5
+    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
     hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
     key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
     hits.insert(0, "RE_DIR", key % 8 - 4)
@@ -333,7 +335,8 @@ def load_run(store, si_num: int) -> Run:
     hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
     run.hits = hits
     if run.record == "all":
-        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
+        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration,
+                           half=half)
         coll = coll[coll.BIN.notna()].reset_index(drop=True)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
