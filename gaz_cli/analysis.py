@@ -1,25 +1,31 @@
 """What ``gaz analyse`` and ``gaz place --repeat`` compute from placements and the database.
 
 The store runs the packaged SQL and hands back tables; this module puts the
-results beside theory (:mod:`gaz_cli.theory`), with statistical error bars,
-and asks :mod:`gaz_cli.plots` for figures. It never prints and never writes
-SQL.
+results beside theory (:mod:`gaz_cli.theory`), with statistical error bars
+(:mod:`gaz_cli.errorbars`), and asks :mod:`gaz_cli.plots` for figures. It
+never prints and never writes SQL.
 
-Error bars are block averages: the run's duration is cut into ``BLOCKS``
-equal time windows, a quantity (a wall's pressure, the mean speed of wall
-hits...) is measured in each, and the standard error of the mean of the
-blocks, std(blocks, ddof=1)/sqrt(BLOCKS), is the uncertainty. It is right
-when a window is much longer than the correlation time of the quantity (a
-few mean free times: the 'simulation' frame shows both). With hard walls and
-few collisions the wall pressure converges faster than 1/sqrt(time)
-(particles bounce back and forth with fixed energies), so the block error is
-then on the safe side; the mean speed of the hits, whose particles keep
-their speeds between collisions, is the exception, and in 1D (equal masses,
-speeds never relax) its error adds the spread of the initial draw.
+The database does the summing: bounces per wall, species and time bin
+(``sql/bounce_bins.sql``), collisions per time bin (``sql/collision_bins.sql``);
+analysis reads those few thousand numbers, not the REBOND rows (figures
+excepted), and only for the simulations asked for.
+
+Error bars: every time average (a wall's pressure, the mean over the walls,
+the virial pressure, the mean speed of wall hits, the collision rate, the
+force balance under gravity, the cooling) is cut into
+:data:`gaz_cli.errorbars.BINS` time bins, reblocked (Flyvbjerg-Petersen),
+and, for the quantities an initial draw of few particles fixes for longer
+than the run (a wall's share of the kinetic energy, the set of speeds), the
+closed-form spread of that draw not yet relaxed by collisions is added. The
+error is one standard deviation of the number over repeated runs (seeds) of
+the same scene; ``N_EFF`` is the effective number of independent samples.
 
 Each comparison names its theory (``MODEL``) and its caveats (``NOTE``);
-values theory cannot give for a scene (a fit used beyond its range, a mixture,
-a cooling gas) are reported as the string ``'n/a'``, never as an error.
+where theory cannot give a value for a scene (a fit used beyond its range, a
+cooling gas) or does not fit it (a dense fluid at walls, a run that did not
+settle), the numeric cell is NaN (empty in csv, null in json) and the reason
+is in ``NOTE``: no deviation in sigmas is printed against a theory that does
+not apply.
 """
 
 from __future__ import annotations
@@ -31,15 +37,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from gaz_cli import theory
+from gaz_cli import errorbars, theory
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError, StoreError
 
-NA = "n/a"
-"""What a cell holds when theory or the data cannot give a value."""
+NA = math.nan
+"""What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
 
 BLOCKS = 16
-"""Time windows of the block averages."""
+"""Time windows of the block values drawn in the pressure figure, and of :func:`block_sums`' default."""
 
 
 # --- placement (gaz place) --------------------------------------------------------
@@ -143,7 +149,12 @@ def mean_and_error(samples) -> tuple[float, float]:
 # --- one simulation, read once ------------------------------------------------------
 @dataclass
 class Run:
-    """One simulation's rows, as analysis needs them (SI units: kg, m, s, K, J)."""
+    """One simulation, as analysis needs it (SI units: kg, m, s, K, J).
+
+    The wall bounces and collisions arrive summed by the database per wall,
+    species and time bin (:data:`gaz_cli.errorbars.BINS` equal windows of
+    the run): the rows themselves are read only to draw figures.
+    """
 
     si_num: int
     dim: int
@@ -156,19 +167,25 @@ class Run:
     engine: str = "?"
     gravity: float = 0.0
     restitution: float = 1.0
+    wall_restitution: float = 1.0
     tc: float = 0.0
     temperature: float = math.nan
     """The scene's temperature of the initial velocities, K."""
+    temperature_error: float = 0.0
+    """Standard error of the temperature theory is evaluated at, K (under gravity: measured from the hits)."""
     record: str = "bounces"
     ke_start: float = math.nan
     ke_end: float = math.nan
     events: int | None = None
     collisions: int | None = None
     virial: float = math.nan
-    bounces: pd.DataFrame = field(default_factory=pd.DataFrame)
-    """REBOND rows: RE_T, RE_DIR, RE_VIT, RE_VP, PA_NUM (time order)."""
+    hits: pd.DataFrame = field(default_factory=pd.DataFrame)
+    """Bounces per (RE_DIR, PA_NUM, BIN): NB_REBONDS, SUM_VP, SUM_VIT (sql/bounce_bins.sql)."""
+    collision_bins: pd.DataFrame | None = None
+    """Collisions per BIN: NB_CHOCS, SUM_IMP (sql/collision_bins.sql), or None without CHOC rows."""
     chocs: pd.DataFrame | None = None
-    """CHOC rows (--record all) or None."""
+    """CHOC rows, read only for a cooling gas (restitution < 1) with --record all."""
+    store: object = None
 
     # --- derived ------------------------------------------------------------
     @property
@@ -185,6 +202,15 @@ class Run:
         return self.length ** (self.dim - 1)
 
     @property
+    def unit(self) -> str:
+        """Unit of a 'pressure' in this dimension: force per wall measure."""
+        return PRESSURE_UNIT[self.dim]
+
+    @property
+    def bounces_count(self) -> int:
+        return int(self.hits.NB_REBONDS.sum()) if len(self.hits) else 0
+
+    @property
     def packing_fraction(self) -> float:
         from gaz_cli.scene import ball_volume
 
@@ -192,12 +218,51 @@ class Run:
                      / self.length ** self.dim)
 
     @property
+    def collisions_per_particle(self) -> float:
+        """2 C/N over the run (nan if unknown)."""
+        return 2.0 * self.collisions / self.n if self.collisions is not None else math.nan
+
+    @property
+    def mean_free_time(self) -> float:
+        """Duration / collisions per particle, s (inf without collisions, nan if unknown)."""
+        c = self.collisions_per_particle
+        if not math.isfinite(c):
+            return math.nan
+        return self.duration / c if c > 0 else math.inf
+
+    @property
+    def settle_bin(self) -> int:
+        """First time bin of the part of the run analysed: 0, or under gravity the bin after settling.
+
+        The uniform start falls and thermalises in about a fall time sqrt(2L/g)
+        and a few mean free times: the part before one fall time + 20 mean free
+        times (rounded up to a whole bin) is left out of pressures and speeds.
+        """
+        if self.gravity <= 0.0:
+            return 0
+        tau = self.mean_free_time
+        tau = 0.0 if not math.isfinite(tau) else tau
+        t_settle = math.sqrt(2.0 * self.length / self.gravity) + 20.0 * tau
+        return min(errorbars.BINS, int(math.ceil(t_settle / self.duration * errorbars.BINS)))
+
+    @property
+    def settled(self) -> bool:
+        """Whether at least half the run is left after settling."""
+        return self.settle_bin <= errorbars.BINS // 2
+
+    @property
+    def window(self) -> float:
+        """Duration of the analysed part of the run, s."""
+        return self.duration * (errorbars.BINS - self.settle_bin) / errorbars.BINS
+
+    @property
     def kinetic_temperature(self) -> float:
         """Temperature of the run from its kinetic energy, K (nan if unknown).
 
         Elastic, no gravity: K is constant, the mean of start and end. Under
         gravity the initial, uniform heights settle and the kinetic energy
-        changes: the end value. Cooling (restitution < 1): the start value.
+        changes: the end value, that of the settled part. Cooling
+        (restitution < 1): the start value.
         """
         if not (math.isfinite(self.ke_start) and math.isfinite(self.ke_end)):
             return math.nan
@@ -217,9 +282,22 @@ class Run:
         """Wall codes (RE_DIR) of the box: -1, +1, -2, +2, ..."""
         return [s * (d + 1) for d in range(self.dim) for s in (-1, 1)]
 
+    def bounces(self) -> pd.DataFrame:
+        """The REBOND rows themselves (RE_T, RE_DIR, RE_VIT, RE_VP, PA_NUM, time order), for figures."""
+        from gaz_cli import store as st
+
+        rows = self.store.table(st.rebond, self.si_num) if self.store is not None else pd.DataFrame()
+        if not len(rows):
+            return pd.DataFrame({"RE_T": [], "RE_DIR": [], "RE_VIT": [], "RE_VP": [], "PA_NUM": []})
+        return rows.sort_values("RE_NUM")[["RE_T", "RE_DIR", "RE_VIT", "RE_VP", "PA_NUM"]].reset_index(drop=True)
+
+
+PRESSURE_UNIT = {1: "N", 2: "N/m", 3: "Pa"}
+"""A 'pressure' is a force per wall measure L^(D-1): N in 1D, N/m in 2D, Pa in 3D."""
+
 
 def load_run(store, si_num: int) -> Run:
-    """Every row of simulation ``si_num`` analysis uses (REBOND, CHOC included)."""
+    """One simulation: its scene, results, and its bounces and collisions summed per time bin in SQL."""
     from gaz_cli import store as st
 
     sim = store.table(st.simulation, si_num).iloc[0]
@@ -233,12 +311,13 @@ def load_run(store, si_num: int) -> Run:
     else:   # written by something else than gaz simulate: species from the bounces only
         species = pd.DataFrame(columns=["PA_NUM", "NAME", "MASS_KG", "RADIUS_M", "COUNT"])
     run = Run(si_num=int(si_num), dim=int(sim.SI_DIM), n=int(sim.SI_N), length=float(sim.SI_L),
-              duration=float(sim.SI_DUR), species=species)
+              duration=float(sim.SI_DUR), species=species, store=store)
     scene = store.table(st.scene_table, si_num)
     if len(scene):
         sc = scene.iloc[0]
         run.boundary, run.engine = str(sc.SC_BOUNDARY), str(sc.SC_ENGINE)
         run.gravity, run.restitution = float(sc.SC_GRAVITY), float(sc.SC_RESTITUTION)
+        run.wall_restitution = float(sc.SC_WALL_RESTITUTION)
         run.tc, run.temperature, run.record = float(sc.SC_TC), float(sc.SC_TEMPERATURE), str(sc.SC_RECORD)
     res = store.table(st.resultat, si_num)
     if len(res):
@@ -246,66 +325,165 @@ def load_run(store, si_num: int) -> Run:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
-    bounces = store.table(st.rebond, si_num)
-    run.bounces = bounces.sort_values("RE_NUM")[["RE_T", "RE_DIR", "RE_VIT", "RE_VP", "PA_NUM"]] \
-        .reset_index(drop=True) if len(bounces) else pd.DataFrame(
-            {"RE_T": [], "RE_DIR": [], "RE_VIT": [], "RE_VP": [], "PA_NUM": []})
+    # CAST truncates on SQLite and rounds elsewhere (PostgreSQL): half makes both floor (sql/bounce_bins.sql)
+    half = 0.0 if store.engine.dialect.name == "sqlite" else 0.5
+    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
+    hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
+    key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
+    hits.insert(0, "RE_DIR", key % 8 - 4)
+    hits.insert(1, "PA_NUM", (key // 8) % 1048576)
+    hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
+    run.hits = hits
     if run.record == "all":
-        chocs = store.table(st.choc, si_num)
-        run.chocs = chocs.sort_values("CH_NUM").reset_index(drop=True) if len(chocs) else None
+        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration,
+                           half=half)
+        coll = coll[coll.BIN.notna()].reset_index(drop=True)
+        if len(coll):
+            coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
+            run.collision_bins = coll
+            if run.restitution < 1.0:
+                chocs = store.table(st.choc, si_num)
+                run.chocs = chocs.sort_values("CH_NUM").reset_index(drop=True)
     return run
 
 
-# --- measurements -------------------------------------------------------------------
-def _bounce_momentum(run: Run) -> np.ndarray:
-    """(k,) momentum 2 m |v_perp| given to the wall by each bounce, kg m/s."""
+# --- binned measurements ----------------------------------------------------------------
+def _per_bin(bins, values) -> np.ndarray:
+    """(BINS,) sums of ``values`` over their time bins."""
+    return np.bincount(np.asarray(bins, dtype=np.int64), weights=np.asarray(values, dtype=float),
+                       minlength=errorbars.BINS)[:errorbars.BINS]
+
+
+def _hit_masses(run: Run) -> np.ndarray:
     mass = run.species.set_index("PA_NUM").MASS_KG
-    m = mass.reindex(run.bounces.PA_NUM.to_numpy()).to_numpy(dtype=float)
-    return 2.0 * m * run.bounces.RE_VP.to_numpy(dtype=float)
+    return mass.reindex(run.hits.PA_NUM.to_numpy()).to_numpy(dtype=float)
 
 
-def wall_block_pressures(run: Run, blocks: int = BLOCKS) -> dict[int, np.ndarray]:
-    """Wall code -> (blocks,) pressure in each time window (Pa, per full wall area L^(D-1))."""
-    t = run.bounces.RE_T.to_numpy(dtype=float)
-    wall = run.bounces.RE_DIR.to_numpy(dtype=np.int64)
-    mom = _bounce_momentum(run)
-    width = run.duration / blocks
-    return {w: block_sums(t[wall == w], mom[wall == w], run.duration, blocks) / (width * run.wall_measure)
-            for w in run.walls}
+def wall_bin_pressures(run: Run) -> dict[int, np.ndarray]:
+    """Wall code -> (BINS,) pressure in each time bin (unit per :data:`PRESSURE_UNIT`), from 2 m |v_perp|."""
+    h = run.hits
+    width = run.duration / errorbars.BINS
+    if not len(h):
+        return {w: np.zeros(errorbars.BINS) for w in run.walls}
+    mom = 2.0 * _hit_masses(run) * h.SUM_VP.to_numpy(dtype=float)
+    wall = h.RE_DIR.to_numpy(dtype=np.int64)
+    return {w: _per_bin(h.BIN[wall == w], mom[wall == w]) / (width * run.wall_measure) for w in run.walls}
 
 
-def virial_block_pressures(run: Run, temperature: float, blocks: int = BLOCKS) -> np.ndarray | None:
-    """(blocks,) virial pressure of a periodic box in each time window, from CHOC (one species), or None.
+def virial_bin_pressures(run: Run, temperature: float) -> np.ndarray | None:
+    """(BINS,) virial pressure of a periodic box in each time bin, from CHOC (one species), or None.
 
-    P = (N k_B T + W/(D dt))/V with W = sum of |J| sigma over the window's collisions.
+    P = (N k_B T + W/(D dt))/V with W = sum of |J| sigma over the bin's collisions.
     """
-    if run.chocs is None or not run.one_species or not math.isfinite(temperature):
+    if run.collision_bins is None or not run.one_species or not math.isfinite(temperature):
         return None
     sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
-    w = block_sums(run.chocs.CH_T.to_numpy(dtype=float), run.chocs.CH_IMP.to_numpy(dtype=float) * sigma,
-                   run.duration, blocks)
-    width = run.duration / blocks
+    w = _per_bin(run.collision_bins.BIN, run.collision_bins.SUM_IMP.to_numpy(dtype=float) * sigma)
+    width = run.duration / errorbars.BINS
     return (run.n * K_B * temperature + w / (run.dim * width)) / run.length ** run.dim
+
+
+def exam_per_wall(run: Run) -> pd.DataFrame:
+    """sql/pressure_per_wall.sql's table (SI_NUM, RE_DIR, NB_REBONDS, QUANTITE_MOUVEMENT, PRESSION), from the bins.
+
+    The same sums as the exam's query (2 m |v_perp| per bounce, PA_M in
+    grams), added up from the per-bin sums the database returned, so that
+    the REBOND rows are read once.
+    """
+    h = run.hits
+    if not len(h):
+        return pd.DataFrame(columns=["SI_NUM", "RE_DIR", "NB_REBONDS", "QUANTITE_MOUVEMENT", "PRESSION"])
+    mom = pd.Series(2.0 * _hit_masses(run) * h.SUM_VP.to_numpy(dtype=float), index=h.index)
+    walls = pd.DataFrame({"NB_REBONDS": h.NB_REBONDS.groupby(h.RE_DIR).sum(),
+                          "QUANTITE_MOUVEMENT": mom.groupby(h.RE_DIR).sum()}).reset_index()
+    walls["PRESSION"] = walls.QUANTITE_MOUVEMENT / (run.duration * run.wall_measure)
+    walls.insert(0, "SI_NUM", run.si_num)
+    return walls.astype({"RE_DIR": int, "NB_REBONDS": int})
+
+
+def exam_q35(run: Run) -> pd.DataFrame:
+    """Q35 (sql/q35_bounces_per_simulation.sql) for this simulation alone, from the bins."""
+    count = run.bounces_count
+    mean = float(run.hits.SUM_VIT.sum() / count) if count else NA
+    return pd.DataFrame([{"SI_NUM": run.si_num, "NB_REBONDS": count, "VITESSE_MOYENNE": mean}])
+
+
+def _estimate(run: Run, series, weights=None, static_var: float = 0.0,
+              relaxation: float = math.inf) -> errorbars.Estimate:
+    """Time average of a (BINS,) series over the analysed part of the run; ``relaxation`` in mean free times."""
+    start = run.settle_bin
+    if start >= errorbars.BINS:
+        return errorbars.NAN_ESTIMATE
+    tau = run.mean_free_time
+    tau = math.inf if not math.isfinite(tau) else tau * relaxation
+    if not math.isfinite(run.mean_free_time) and static_var > 0.0 and run.collisions is None:
+        tau = math.inf                    # collisions unknown: assume the draw stays frozen
+    return errorbars.time_average(np.asarray(series)[start:],
+                                  None if weights is None else np.asarray(weights)[start:],
+                                  duration=run.window, static_var=static_var, relaxation_s=tau)
+
+
+def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, errorbars.Estimate]:
+    """Wall code -> pressure estimate, from the two opposite walls of each axis.
+
+    A wall's pressure is half the sum S of its axis' two walls plus (or
+    minus) half their difference D. S follows the axis' kinetic energy: it is
+    reblocked, with the frozen share of the energy the axis drew at the start
+    (scaled by the expected, else measured, pressure). D is exactly the change
+    of the gas's momentum along the axis over the run, divided by the run's
+    time and the wall measure: its variance has the closed form
+    2 sum_s N_s m_s k_B T/(T L^(D-1))^2 (start and end momenta independent
+    draws), where reblocking would read its hit-by-hit noise as white and
+    overestimate it (a momentum given to one wall is soon given back to the
+    other). S and D are uncorrelated by the box's mirror symmetry.
+    """
+    out = {}
+    share = errorbars.axis_share_var(run.dim, run.n)
+    series = wall_bin_pressures(run)
+    counts, _, masses = _counts_radii_masses(run)
+    window = run.window
+    diff_var = (2.0 * float(np.sum(counts * masses)) * K_B * temperature / (window * run.wall_measure) ** 2
+                if math.isfinite(temperature) and len(run.species) else math.nan)
+    for d in range(1, run.dim + 1):
+        low, high = series[-d], series[d]
+        exp = [expected.get(w) for w in (-d, d)]
+        scale = sum(e.value if e is not None and e.known else float(np.mean(x)) for e, x in zip(exp, (low, high)))
+        total = _estimate(run, low + high, static_var=share * scale ** 2,
+                          relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim])
+        for w, x in ((-d, low), (d, high)):
+            own = _estimate(run, x)
+            if not (math.isfinite(total.error) and math.isfinite(diff_var)):
+                out[w] = own
+                continue
+            error = 0.5 * math.sqrt(total.error ** 2 + diff_var)
+            var1 = float(np.var(x[run.settle_bin:], ddof=1)) if x.size - run.settle_bin > 1 else math.nan
+            out[w] = errorbars.Estimate(own.mean, error, var1 / error ** 2 if error > 0 else math.nan,
+                                        total.block_s, total.plateau, 0.5 * total.frozen)
+    return out
 
 
 # --- theory for one run ---------------------------------------------------------------
 @dataclass
 class Expectation:
-    """One theoretical value: its number (or NA), the model's name and its caveat."""
+    """One theoretical value: its number (NaN where none), the model's name and its caveat."""
 
-    value: float | str
+    value: float
     model: str
     note: str = ""
-    syst: float | str = 0.0
+    syst: float = 0.0
     """Relative size of the model's known systematic error for this scene (0: exact or unknown)."""
+    applies: bool = True
+    """False when the model is known not to fit the scene: no deviation in sigmas is printed."""
+    error: float = 0.0
+    """Standard error of the value from that of its input temperature (under gravity), same unit."""
 
     @property
     def known(self) -> bool:
-        return not isinstance(self.value, str) and math.isfinite(self.value)
+        return math.isfinite(self.value)
 
 
 def _try(model: str, func, note: str = "") -> Expectation:
-    """Evaluate ``func()``; a theory range error becomes NA with the reason as note."""
+    """Evaluate ``func()``; a theory range error becomes NaN with the reason as note."""
     try:
         return Expectation(float(func()), model, note)
     except SceneError as err:
@@ -317,14 +495,44 @@ def _counts_radii_masses(run: Run):
             run.species.MASS_KG.to_numpy(dtype=float))
 
 
-def pressure_models(run: Run, temperature: float) -> list[Expectation]:
+def settled_temperature(run: Run) -> errorbars.Estimate:
+    """Temperature of the analysed (settled) part of the run from its wall hits, K.
+
+    Flux-weighted Maxwell-Boltzmann: <m v_perp^2> over the hits on any wall
+    is 2 k_B T at any density and height, for every species; the hits of the
+    settled part give T and its error (reblocking of the per-bin sums).
+    """
+    h = run.hits
+    if not len(h) or "SUM_VP2" not in h:
+        return errorbars.NAN_ESTIMATE
+    energy = _hit_masses(run) * h.SUM_VP2.to_numpy(dtype=float) / (2.0 * K_B)
+    return _estimate(run, _per_bin(h.BIN, energy), _per_bin(h.BIN, h.NB_REBONDS))
+
+
+def _gravity_walls(run: Run, temperature: float):
+    """(floor, ceiling, side, model, note) of the best gravity model for the run."""
+    counts, radii, masses = _counts_radii_masses(run)
+    d, L = run.dim, run.length
+    if run.one_species and radii[0] > 0:
+        floor, ceiling, side = theory.hard_sphere_gravity_wall_pressures(
+            d, L, temperature, counts[0], radii[0], masses[0], run.gravity)
+        return floor, ceiling, side, f"hard spheres under gravity, local {theory.BEST_MODEL[d]} EOS", \
+            "barometric profile with the bulk EOS at the local density; first order in the wall corrections"
+    floor, ceiling = theory.ideal_gravity_wall_pressures(d, L, temperature, counts, radii, masses, run.gravity)
+    side = theory.ideal_wall_pressure(d, L, temperature, counts, radii) if d > 1 else 0.0
+    return floor, ceiling, side, "ideal gas under gravity", "non-interacting (dilute) limit; mixture: no excess"
+
+
+def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list[Expectation]:
     """Every theoretical pressure that applies to the run; the first one is the best.
 
     Walls: what the SQL measures (per full wall area). 1D: Tonks, exact.
     2D/3D: :func:`theory.hard_sphere_wall_pressure` (one species), then the
-    non-interacting gas. Under gravity the mean over the walls of the
-    non-interacting floor, ceiling and side pressures. Periodic: the bulk
-    equation of state against the virial. Cooling gas: no equilibrium value.
+    non-interacting gas; when its systematic error bound (wall adsorption)
+    exceeds the statistical error ``stat_rel`` (relative), it does not fit the
+    scene and no deviation is printed. Under gravity the mean over the walls
+    of the hard-sphere barometric model. Periodic: the bulk equation of state
+    against the virial. Cooling gas: no equilibrium value.
     """
     counts, radii, masses = _counts_radii_masses(run)
     d, L = run.dim, run.length
@@ -333,6 +541,10 @@ def pressure_models(run: Run, temperature: float) -> list[Expectation]:
     if run.restitution < 1.0:
         return [Expectation(NA, "none", f"restitution {run.restitution:g} < 1: the gas cools "
                                         "(Haff's law below), there is no equilibrium pressure")]
+    if run.wall_restitution < 1.0:
+        return [Expectation(NA, "none", f"wall restitution {run.wall_restitution:g} < 1: the walls cool the gas, "
+                                        "there is no equilibrium pressure; the measured value uses the exam's "
+                                        "2 m |v_perp| per bounce, the run summary (1 + e_w) m |v_perp|")]
     out = []
     if run.periodic:
         n = run.n / L ** d
@@ -340,17 +552,32 @@ def pressure_models(run: Run, temperature: float) -> list[Expectation]:
             model = theory.BEST_MODEL[d]
             out.append(_try(f"hard spheres, bulk {model} EOS",
                             lambda: theory.hard_sphere_pressure(d, n, 2 * radii[0], temperature)))
+        else:
+            out.append(_try("mixture, bulk BMCSL EOS" if d == 3 else "mixture, bulk EOS",
+                            lambda: theory.mixture_pressure(d, counts / L ** d, 2 * radii, temperature),
+                            "Boublik-Mansoori-Carnahan-Starling-Leland (3D; about 0.2% low at packing 0.3); "
+                            "2D: the Santos-Yuste-Lopez de Haro mapping on the one-component EOS"))
         out.append(_try("ideal gas N kT/V", lambda: theory.ideal_gas_pressure(run.n, temperature, L ** d),
                         "no interactions: excess pressure ignored"))
         return out
     if run.gravity > 0.0:
-        def mean_gravity():
-            floor, ceiling = theory.ideal_gravity_wall_pressures(d, L, temperature, counts, radii, masses,
-                                                                 run.gravity)
-            side = theory.ideal_wall_pressure(d, L, temperature, counts, radii) if d > 1 else 0.0
+        def mean_gravity(t=temperature):
+            floor, ceiling, side, _, _ = _gravity_walls(run, t)
             return (floor + ceiling + (2 * d - 2) * side) / (2 * d)
-        out.append(_try("ideal gas under gravity (mean of the walls)", mean_gravity,
-                        "non-interacting (dilute) limit"))
+        try:
+            _, _, _, name, note = _gravity_walls(run, temperature)
+        except SceneError as err:
+            name, note = "under gravity", str(err)
+        exp = _try(f"{name} (mean of the walls)", mean_gravity, note)
+        if exp.known and run.temperature_error > 0:
+            exp.error = abs(mean_gravity(temperature + run.temperature_error) - exp.value)
+            exp.note += (f"; T = {temperature:.5g} +- {run.temperature_error:.2g} K from <v_perp^2> of the "
+                         "settled part's wall hits (its error is in DEV_SIGMA)")
+        if not run.settled:
+            exp.applies = False
+            exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
+                        "fall and thermalisation; run longer")
+        out.append(exp)
         return out
     if d == 1:
         out.append(_try("Tonks, exact (1D rods)", lambda: theory.tonks_pressure(L, temperature, counts, radii),
@@ -365,24 +592,40 @@ def pressure_models(run: Run, temperature: float) -> list[Expectation]:
                 exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
             except SceneError:
                 exp.syst = NA
+            if stat_rel > 0 and not exp.syst <= stat_rel:
+                exp.applies = False
+                dense = exp.syst > 10 * stat_rel
+                exp.note = ((f"no theory for this scene: " if dense else "") +
+                            f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
+                            f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
+                            "compare REL_DEV with SYST_REL" +
+                            ("; a dense fluid at walls needs its contact density, which the database "
+                             "does not hold" if dense else ""))
         out.append(exp)
-    out.append(_try("ideal gas at walls, N kT/((L-2R) L^(D-1))",
-                    lambda: theory.ideal_wall_pressure(d, L, temperature, counts, radii),
-                    "dilute limit (eta -> 0), exact for non-interacting particles"))
+    else:
+        out.append(_try("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",
+                        lambda: theory.mixture_wall_pressure(d, L, temperature, counts, radii),
+                        "first order in eta and 2R/L, as for one species"))
+    ideal = _try("ideal gas at walls, N kT/((L-2R) L^(D-1))",
+                 lambda: theory.ideal_wall_pressure(d, L, temperature, counts, radii),
+                 "dilute limit (eta -> 0), exact for non-interacting particles")
+    out.append(ideal)
     return out
 
 
-def wall_pressure_theory(run: Run, temperature: float) -> dict[int, Expectation]:
+def wall_pressure_theory(run: Run, temperature: float, best: Expectation | None = None) -> dict[int, Expectation]:
     """Wall code -> expected pressure on that wall (best model)."""
-    counts, radii, masses = _counts_radii_masses(run)
-    best = pressure_models(run, temperature)[0]
-    if run.gravity > 0.0 and best.known:
+    best = best or pressure_models(run, temperature)[0]
+    if run.gravity > 0.0 and best.known and not run.periodic:
         d = run.dim
-        floor, ceiling = theory.ideal_gravity_wall_pressures(d, run.length, temperature, counts, radii, masses,
-                                                             run.gravity)
-        side = theory.ideal_wall_pressure(d, run.length, temperature, counts, radii)
-        name = "ideal gas under gravity"
-        return {w: Expectation(float(floor if w == -d else ceiling if w == d else side), name, best.note)
+        values = _gravity_walls(run, temperature)[:3]
+        shifted = (_gravity_walls(run, temperature + run.temperature_error)[:3] if run.temperature_error > 0
+                   else values)
+
+        def pick(v, w):
+            return float(v[0] if w == -d else v[1] if w == d else v[2])
+        return {w: Expectation(pick(values, w), best.model, best.note, applies=best.applies,
+                               error=abs(pick(shifted, w) - pick(values, w)))
                 for w in run.walls}
     return {w: best for w in run.walls}
 
@@ -395,108 +638,126 @@ def _species_partial_weights(run: Run) -> np.ndarray:
 
 
 # --- the frames ------------------------------------------------------------------------
-def _dev(measured, error, expected) -> float | str:
-    """(measured - expected)/error, or NA."""
-    if isinstance(expected, str) or not all(map(math.isfinite, (measured, error, expected))) or error <= 0:
+def _dev(measured, error, expected, applies: bool = True, theory_error: float = 0.0) -> float:
+    """(measured - expected)/sqrt(error^2 + theory_error^2), or NaN."""
+    if not applies or not all(map(math.isfinite, (measured, error, expected))) or error <= 0:
         return NA
-    return (measured - expected) / error
+    return (measured - expected) / math.hypot(error, theory_error)
 
 
-def _rel(measured, expected) -> float | str:
-    if isinstance(expected, str) or not (math.isfinite(measured) and math.isfinite(expected)) or expected == 0:
+def _rel(measured, expected) -> float:
+    if not (math.isfinite(measured) and math.isfinite(expected)) or expected == 0:
         return NA
     return measured / expected - 1.0
 
 
-def _num(x) -> float | str:
-    """A float, or NA for None/NaN."""
-    return NA if x is None or (isinstance(x, float) and not math.isfinite(x)) else x
+def _num(x) -> float:
+    """A float, NaN for None."""
+    return NA if x is None else float(x)
 
 
 def simulation_frame(run: Run, temperature: float) -> dict:
-    """The scene in one row of scalars."""
+    """The scene in one row of scalars, with how errors are made."""
     return {"SI_NUM": run.si_num, "SI_DIM": run.dim, "SI_N": run.n, "SI_L": run.length,
             "SI_DUR": run.duration, "ENGINE": run.engine, "BOUNDARY": run.boundary,
-            "SPECIES": ", ".join(f"{r.NAME}:{r.COUNT}" for r in run.species.itertuples()) or NA,
+            "SPECIES": ", ".join(f"{r.NAME}:{r.COUNT}" for r in run.species.itertuples()),
             "PACKING_FRACTION": run.packing_fraction if len(run.species) else NA,
-            "GRAVITY": run.gravity, "RESTITUTION": run.restitution,
-            "T_SCENE_K": _num(run.temperature), "T_KIN_K": _num(temperature),
-            "BOUNCES": len(run.bounces), "COLLISIONS": _num(run.collisions),
-            "COLL_PER_PARTICLE": 2.0 * run.collisions / run.n if run.collisions is not None else NA,
-            "MEAN_FREE_TIME_S": (run.n * run.duration / (2.0 * run.collisions)
-                                 if run.collisions else NA),
-            "BLOCKS": BLOCKS, "BLOCK_S": run.duration / BLOCKS}
+            "GRAVITY": run.gravity, "RESTITUTION": run.restitution, "WALL_RESTITUTION": run.wall_restitution,
+            "T_SCENE_K": _num(run.temperature), "T_KIN_K": _num(run.kinetic_temperature),
+            "T_THEORY_K": _num(temperature), "T_THEORY_ERR_K": run.temperature_error,
+            "BOUNCES": run.bounces_count, "COLLISIONS": _num(run.collisions),
+            "COLL_PER_PARTICLE": run.collisions_per_particle,
+            "MEAN_FREE_TIME_S": run.mean_free_time if math.isfinite(run.mean_free_time) else NA,
+            "ANALYSED_FROM_S": run.duration - run.window, "P_UNIT": run.unit,
+            "ESTIMATOR": errorbars.ESTIMATOR, "BINS": errorbars.BINS, "BIN_S": run.duration / errorbars.BINS}
 
 
-def per_wall_frame(run: Run, per_wall: pd.DataFrame, temperature: float, blocks: int = BLOCKS) -> pd.DataFrame:
-    """The Q36 frame with, per wall, the block error, the expected pressure and the deviation in sigmas."""
+def per_wall_frame(run: Run, per_wall: pd.DataFrame, temperature: float, summary: dict) -> pd.DataFrame:
+    """The exam's per-wall pressure (SQL) with the time average analysed, its error, theory and deviation."""
     frame = per_wall.copy()
     if not len(frame):
         return frame
-    pressures = wall_block_pressures(run, blocks)
-    expected = wall_pressure_theory(run, temperature)
-    errors, theo, devs = [], [], []
-    for w, measured in zip(frame.RE_DIR.astype(int), frame.PRESSION.astype(float)):
-        _, err = mean_and_error(pressures.get(w, np.zeros(blocks)))
+    expected = wall_pressure_theory(run, temperature, summary["best"])
+    estimates = wall_estimates(run, expected, temperature)
+    cols = {k: [] for k in ("P_UNIT", "P_MEASURED", "P_ERR", "N_EFF", "P_THEORY", "DEV_SIGMA", "NOTE")}
+    for w in frame.RE_DIR.astype(int):
+        est = estimates.get(w, errorbars.NAN_ESTIMATE)
         exp = expected.get(w, Expectation(NA, "none"))
-        errors.append(_num(err))
-        theo.append(exp.value)
-        devs.append(_dev(measured, err, exp.value))
-    frame["P_ERR_PA"] = errors
-    frame["P_THEORY_PA"] = theo
-    frame["DEV_SIGMA"] = devs
+        cols["P_UNIT"].append(run.unit)
+        cols["P_MEASURED"].append(est.mean)
+        cols["P_ERR"].append(est.error)
+        cols["N_EFF"].append(est.n_eff)
+        cols["P_THEORY"].append(exp.value)
+        cols["DEV_SIGMA"].append(_dev(est.mean, est.error, exp.value, exp.applies, exp.error))
+        cols["NOTE"].append(_wall_note(run, exp))
+    for k, v in cols.items():
+        frame[k] = v
     return frame
 
 
-def pressure_summary(run: Run, temperature: float, blocks: int = BLOCKS) -> dict:
-    """Measured pressure (mean over the walls, or virial), its error, and the best theory."""
-    models = pressure_models(run, temperature)
-    best = models[0]
+def _wall_note(run: Run, exp: Expectation) -> str:
+    notes = []
+    if run.settle_bin:
+        notes.append(f"P_MEASURED: after settling, from {run.duration - run.window:.3g} s")
+    if not exp.known or not exp.applies:
+        notes.append(exp.note or "no theory for this scene")
+    return "; ".join(notes)
+
+
+def pressure_summary(run: Run, temperature: float) -> dict:
+    """Measured pressure (mean over the walls, or virial), its error estimate, and the theories."""
     if run.periodic:
         measured = (theory.virial_pressure(run.dim, run.n, temperature, run.length ** run.dim,
                                            run.virial, run.duration)
                     if math.isfinite(temperature) and math.isfinite(run.virial) else math.nan)
-        blocks_p = virial_block_pressures(run, temperature, blocks)
-        err = mean_and_error(blocks_p)[1] if blocks_p is not None else math.nan
-        how = "virial" + ("" if blocks_p is not None else " (error bar needs --record all)")
-    elif not len(run.bounces):
-        measured, err = math.nan, math.nan
+        series = virial_bin_pressures(run, temperature)
+        est = _estimate(run, series) if series is not None else errorbars.NAN_ESTIMATE
+        how = "virial" + ("" if series is not None else " (error bar needs --record all)")
+    elif not run.bounces_count:
+        measured, est = math.nan, errorbars.NAN_ESTIMATE
         how = "no wall bounce recorded" + (" (--record none)" if run.record == "none" else "")
     else:
-        per_block = wall_block_pressures(run, blocks)
-        walls_mean = np.mean([per_block[w] for w in run.walls], axis=0)
-        measured, err = mean_and_error(walls_mean)
-        how = "mean over the walls"
-    return {"measured": measured, "error": err, "how": how, "best": best, "models": models}
+        per_bin = wall_bin_pressures(run)
+        est = _estimate(run, np.mean([per_bin[w] for w in run.walls], axis=0))
+        measured = est.mean
+        how = "mean over the walls" + (" after settling" if run.settle_bin else "")
+    stat_rel = est.error / abs(measured) if math.isfinite(est.error) and measured else 0.0
+    models = pressure_models(run, temperature, stat_rel)
+    return {"measured": measured, "error": est.error, "n_eff": est.n_eff, "how": how,
+            "best": models[0], "models": models}
 
 
 def pressure_frame(run: Run, temperature: float, summary: dict) -> pd.DataFrame:
     """One row per theoretical model: expected pressure, deviation in sigmas and relative."""
     rows = []
     for exp in summary["models"]:
-        rows.append({"MODEL": exp.model, "P_MEASURED_PA": _num(summary["measured"]),
-                     "P_ERR_PA": _num(summary["error"]), "P_THEORY_PA": exp.value,
-                     "DEV_SIGMA": _dev(summary["measured"], summary["error"], exp.value),
+        rows.append({"MODEL": exp.model, "P_UNIT": run.unit, "P_MEASURED": _num(summary["measured"]),
+                     "P_ERR": _num(summary["error"]), "N_EFF": summary["n_eff"], "P_THEORY": exp.value,
+                     "DEV_SIGMA": _dev(summary["measured"], summary["error"], exp.value, exp.applies, exp.error),
                      "REL_DEV": _rel(summary["measured"], exp.value), "SYST_REL": exp.syst,
                      "MEASURED": summary["how"], "NOTE": exp.note})
     return pd.DataFrame(rows)
 
 
-def collision_frame(run: Run, temperature: float, blocks: int = BLOCKS) -> pd.DataFrame:
+def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     """Collisions per particle per second against Enskog (or the exact 1D result)."""
     if run.collisions is None:
-        return pd.DataFrame([{"MODEL": "none", "NOTE": "no RESULTAT row for this simulation"}])
+        return pd.DataFrame([{"MODEL": "none", "RATE_PER_PARTICLE_HZ": NA, "RATE_ERR_HZ": NA,
+                              "THEORY_HZ": NA, "DEV_SIGMA": NA, "NOTE": "no RESULTAT row for this simulation"}])
     rate = 2.0 * run.collisions / (run.n * run.duration)
-    err = math.nan
-    if run.chocs is not None and len(run.chocs) == run.collisions and run.restitution >= 1.0:
-        per_block = block_sums(run.chocs.CH_T.to_numpy(dtype=float), 1.0, run.duration, blocks)
-        err = mean_and_error(2.0 * per_block / (run.n * run.duration / blocks))[1]
+    est = errorbars.NAN_ESTIMATE
+    err_note = ""
+    if run.collision_bins is not None and run.restitution >= 1.0:
+        width = run.duration / errorbars.BINS
+        per_bin = _per_bin(run.collision_bins.BIN, run.collision_bins.NB_CHOCS.to_numpy(dtype=float))
+        est = errorbars.time_average(2.0 * per_bin / (run.n * width), duration=run.duration)
+    elif run.restitution >= 1.0:
+        err_note = "RATE_ERR_HZ needs the collisions' times: --record all; "
     counts, radii, masses = _counts_radii_masses(run)
     d, L = run.dim, run.length
     rows = []
     if not run.one_species:
-        exp = Expectation(NA, "Enskog", "one species only (mixture: cross-sections and masses differ)")
-        rows.append(exp)
+        rows.append(Expectation(NA, "Enskog", "one species only (mixture: cross-sections and masses differ)"))
     elif not math.isfinite(temperature):
         rows.append(Expectation(NA, "Enskog", "temperature unknown"))
     elif d == 1:
@@ -524,101 +785,142 @@ def collision_frame(run: Run, temperature: float, blocks: int = BLOCKS) -> pd.Da
             return theory.haff_collisions_per_particle(d, run.duration, run.restitution, omega0) / run.duration
         rows = [_try("Enskog omega0, cooled by Haff's law (mean over the run)", haff_rate,
                      "homogeneous cooling only: clusters raise the rate")]
+    # Enskog and the 1D Maxwellian average carry model errors of a few % (notes): a deviation in
+    # sigmas is printed only when the statistical error is larger than that
     frame = []
     for exp in rows:
+        approximate = exp.model.startswith("Enskog") or exp.model.startswith("1D rods")
+        fits = not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate)
         frame.append({"MODEL": exp.model, "COLLISIONS": run.collisions, "RATE_PER_PARTICLE_HZ": rate,
-                      "RATE_ERR_HZ": _num(err) if math.isfinite(err) else
-                      "n/a (needs --record all)" if run.chocs is None and run.restitution >= 1.0 else NA,
-                      "THEORY_HZ": exp.value, "DEV_SIGMA": _dev(rate, err, exp.value),
-                      "REL_DEV": _rel(rate, exp.value), "NOTE": exp.note})
+                      "RATE_ERR_HZ": est.error, "N_EFF": est.n_eff, "THEORY_HZ": exp.value,
+                      "DEV_SIGMA": _dev(rate, est.error, exp.value, fits),
+                      "REL_DEV": _rel(rate, exp.value),
+                      "NOTE": err_note + exp.note + ("" if fits or not math.isfinite(est.error) else
+                                                     "; model error (a few %) above the statistical "
+                                                     "error: REL_DEV, not DEV_SIGMA")})
     return pd.DataFrame(frame)
 
 
-def wall_speed_frame(run: Run, temperature: float, blocks: int = BLOCKS) -> pd.DataFrame:
-    """Q35's mean speed of wall hits, per species (and all), against the flux-weighted mean."""
-    b = run.bounces
-    t = b.RE_T.to_numpy(dtype=float)
-    v = b.RE_VIT.to_numpy(dtype=float)
-    pa = b.PA_NUM.to_numpy(dtype=np.int64)
+def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
+    """Q35's mean speed of wall hits, per species (and all), against the flux-weighted mean.
+
+    Error: reblocking plus the spread of the N_s speeds drawn at the start
+    (frozen until collisions redraw them, for ever for equal-mass rods).
+    Under gravity, over the settled part of the run only.
+    """
+    h = run.hits
     rows = []
     expected_all = 0.0
     weights = _species_partial_weights(run) if len(run.species) else []
+    pa = h.PA_NUM.to_numpy(dtype=np.int64) if len(h) else np.zeros(0, dtype=np.int64)
+    frozen_forever = run.dim == 1 and run.one_species
+    relax = math.inf if frozen_forever else errorbars.SPEED_RELAXATION
     for sp, w in zip(run.species.itertuples(), weights):
         sel = pa == sp.PA_NUM
-        mean = float(v[sel].mean()) if sel.any() else math.nan
-        _, err = mean_and_error(block_means(t[sel], v[sel], run.duration, blocks))
+        sums = _per_bin(h.BIN[sel], h.SUM_VIT[sel]) if len(h) else np.zeros(errorbars.BINS)
+        counts = _per_bin(h.BIN[sel], h.NB_REBONDS[sel]) if len(h) else np.zeros(errorbars.BINS)
         exp = (_try("flux-weighted mean <v^2>/<|v|>",
                     lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG))
                if math.isfinite(temperature) else Expectation(NA, "flux-weighted", "temperature unknown"))
-        if run.dim == 1 and run.one_species and exp.known and math.isfinite(err):
-            # the speeds drawn at the start are kept for ever: add their sampling spread
-            spread = float(theory.rods_hit_speed_sampling_error(run.n, temperature, sp.MASS_KG))
-            err = math.hypot(err, spread)
-            exp.note = "1D equal masses: ERR includes the spread of the N speeds drawn at the start"
-        if exp.known:
-            expected_all += w * exp.value
-        else:
-            expected_all = math.nan
-        rows.append({"SPECIES": sp.NAME, "BOUNCES": int(sel.sum()), "VITESSE_MOYENNE": _num(mean),
-                     "ERR": _num(err), "THEORY": exp.value, "DEV_SIGMA": _dev(mean, err, exp.value),
-                     "REL_DEV": _rel(mean, exp.value),
+        static = (errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
+                  if math.isfinite(temperature) else 0.0)
+        est = _estimate(run, sums, counts, static_var=static, relaxation=relax)
+        if exp.known and run.temperature_error > 0:
+            exp.error = exp.value * run.temperature_error / (2.0 * temperature)    # theory ~ sqrt(T)
+        if frozen_forever:
+            exp.note = "1D equal masses: the N speeds drawn at the start are kept for ever (in ERR)"
+        expected_all = expected_all + w * exp.value
+        rows.append({"SPECIES": sp.NAME, "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
+                     "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": exp.value,
+                     "DEV_SIGMA": _dev(est.mean, est.error, exp.value, True, exp.error),
+                     "REL_DEV": _rel(est.mean, exp.value),
                      "GAS_MEAN_SPEED": (float(theory.mean_speed(run.dim, temperature, sp.MASS_KG))
                                         if math.isfinite(temperature) else NA), "NOTE": exp.note})
     if len(run.species) > 1:
-        mean = float(v.mean()) if v.size else math.nan
-        _, err = mean_and_error(block_means(t, v, run.duration, blocks))
-        exp_all = expected_all if math.isfinite(expected_all) else NA
-        rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(v.size), "VITESSE_MOYENNE": _num(mean),
-                     "ERR": _num(err), "THEORY": exp_all, "DEV_SIGMA": _dev(mean, err, exp_all),
-                     "REL_DEV": _rel(mean, exp_all), "GAS_MEAN_SPEED": NA,
+        sums = _per_bin(h.BIN, h.SUM_VIT) if len(h) else np.zeros(errorbars.BINS)
+        counts = _per_bin(h.BIN, h.NB_REBONDS) if len(h) else np.zeros(errorbars.BINS)
+        static = 0.0
+        if math.isfinite(temperature):   # the species' frozen spreads, weighted by their shares of the hits
+            static = sum((wt ** 2) * errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
+                         for sp, wt in zip(run.species.itertuples(), weights))
+        est = _estimate(run, sums, counts, static_var=static, relaxation=errorbars.SPEED_RELAXATION)
+        rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
+                     "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
+                     "DEV_SIGMA": _dev(est.mean, est.error, expected_all),
+                     "REL_DEV": _rel(est.mean, expected_all), "GAS_MEAN_SPEED": NA,
                      "NOTE": "theory weighted by each species' share of the hits, N_s/((L-2R_s) sqrt(m_s))"})
     frame = pd.DataFrame(rows)
     if run.restitution < 1.0 and len(frame):
         frame["NOTE"] = "cooling gas: theory at the initial temperature"
+        frame["DEV_SIGMA"] = NA
     elif run.gravity > 0.0 and len(frame):
-        frame["NOTE"] = "under gravity: theory at the final kinetic temperature, if equilibrated"
+        frame["NOTE"] = (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
+                         "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)" if run.settled else
+                         "under gravity: the run did not settle (fall and thermalisation take over half of it)")
+        if not run.settled:
+            frame["DEV_SIGMA"] = NA
     return frame
 
 
-def gravity_frame(run: Run, temperature: float, blocks: int = BLOCKS) -> pd.DataFrame:
-    """Floor minus ceiling force against N m g (N), and the ceiling/floor hit ratio against Boltzmann."""
+def gravity_frame(run: Run, temperature: float) -> pd.DataFrame:
+    """Floor minus ceiling force against N m g (N), and the ceiling/floor hit ratio against its theory."""
     d = run.dim
-    pressures = wall_block_pressures(run, blocks)
-    force = (pressures[-d] - pressures[d]) * run.wall_measure
-    measured, err = mean_and_error(force)
+    pressures = wall_bin_pressures(run)
+    est = _estimate(run, (pressures[-d] - pressures[d]) * run.wall_measure)
     counts, radii, masses = _counts_radii_masses(run)
     weight = float(np.sum(counts * masses) * run.gravity)
-    rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": measured, "ERR": _num(err),
-             "THEORY": weight, "DEV_SIGMA": _dev(measured, err, weight), "REL_DEV": _rel(measured, weight),
-             "NOTE": "sum N m g: exact momentum balance, up to the change of total vertical "
-                     "momentum over the run divided by its duration"}]
-    wall = run.bounces.RE_DIR.to_numpy(dtype=np.int64)
-    floor_hits, ceiling_hits = int(np.sum(wall == -d)), int(np.sum(wall == d))
-    ratio = ceiling_hits / floor_hits if floor_hits else math.nan
-    ratio_err = (ratio * math.sqrt(1.0 / max(ceiling_hits, 1) + 1.0 / floor_hits)
-                 if floor_hits and ceiling_hits else math.nan)
-    if run.one_species and math.isfinite(temperature):
-        m, r = masses[0], radii[0]
-        exp = _try("Boltzmann exp(-m g (L-2R)/kT)",
-                   lambda: math.exp(-m * run.gravity * (run.length - 2 * r) / (K_B * temperature)))
+    rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": est.mean, "ERR": est.error, "N_EFF": est.n_eff,
+             "THEORY": weight, "DEV_SIGMA": _dev(est.mean, est.error, weight), "REL_DEV": _rel(est.mean, weight),
+             "NOTE": "sum N m g: exact momentum balance (settled part of the run)"}]
+    h = run.hits
+    start = run.settle_bin
+    wall = h.RE_DIR.to_numpy(dtype=np.int64) if len(h) else np.zeros(0, dtype=np.int64)
+    floor = _per_bin(h.BIN[wall == -d], h.NB_REBONDS[wall == -d]) if len(h) else np.zeros(errorbars.BINS)
+    ceiling = _per_bin(h.BIN[wall == d], h.NB_REBONDS[wall == d]) if len(h) else np.zeros(errorbars.BINS)
+    ratio_est = _estimate(run, ceiling, floor)
+    if run.one_species and math.isfinite(temperature) and len(run.species):
+        m = masses[0]
+
+        def hit_ratio():   # hits per time: P / sqrt(2 pi m kT) on each wall, same T: the pressure ratio
+            floor_p, ceiling_p, _, _, _ = _gravity_walls(run, temperature)
+            return ceiling_p / floor_p
+        exp = _try("ceiling/floor pressure ratio of the barometric model", hit_ratio,
+                   f"Boltzmann exp(-m g (L-2R)/kT) = "
+                   f"{math.exp(-m * run.gravity * (run.length - 2 * radii[0]) / (K_B * temperature)):.4g} "
+                   "for an ideal gas")
     else:
         exp = Expectation(NA, "Boltzmann", "one species only")
-    rows.append({"QUANTITY": "ceiling/floor hit ratio", "MEASURED": _num(ratio), "ERR": _num(ratio_err),
-                 "THEORY": exp.value, "DEV_SIGMA": _dev(ratio, ratio_err, exp.value),
-                 "REL_DEV": _rel(ratio, exp.value),
-                 "NOTE": "non-interacting gas in equilibrium at the final kinetic T; error: Poisson counts"})
+    rows.append({"QUANTITY": "ceiling/floor hit ratio", "MEASURED": ratio_est.mean, "ERR": ratio_est.error,
+                 "N_EFF": ratio_est.n_eff, "THEORY": exp.value,
+                 "DEV_SIGMA": _dev(ratio_est.mean, ratio_est.error, exp.value, run.settled),
+                 "REL_DEV": _rel(ratio_est.mean, exp.value),
+                 "NOTE": f"settled part, {int(floor[start:].sum())} floor and {int(ceiling[start:].sum())} "
+                         f"ceiling hits; {exp.note}"})
     return pd.DataFrame(rows)
 
 
 def cooling_frame(run: Run) -> pd.DataFrame:
-    """Final temperature of a cooling granular gas against Haff's law (time and per-collision forms)."""
+    """Final temperature of a cooling granular gas against Haff's law (time and per-collision forms).
+
+    T_END_K is exact (the final kinetic energy); its error is that of the
+    energy lost, from reblocking of the loss per time bin (needs CHOC rows).
+    """
     d = run.dim
     rows = []
-    t0 = (float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=run.periodic and run.n > 1))
+    periodic = run.periodic and run.n > 1
+    t0 = (float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
           if math.isfinite(run.ke_start) and run.ke_start > 0 else math.nan)
-    t_end = (float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=run.periodic and run.n > 1))
+    t_end = (float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))
              if math.isfinite(run.ke_end) and run.ke_end > 0 else math.nan)
+    err = NA
     counts, radii, masses = _counts_radii_masses(run)
+    if run.chocs is not None and run.one_species and math.isfinite(t0):
+        loss = _collision_losses(run)
+        bins = np.clip((run.chocs.CH_T.to_numpy(dtype=float) * errorbars.BINS / run.duration).astype(np.int64),
+                       0, errorbars.BINS - 1)
+        est = errorbars.time_average(_per_bin(bins, loss), duration=run.duration)
+        # the loss summed over the run is BINS times the mean loss per bin; T is linear in K
+        err = est.error * errorbars.BINS * t0 / run.ke_start
     if run.one_species and math.isfinite(t0):
         sigma = 2 * radii[0]
         n = run.n / (run.length if run.periodic else run.length - sigma) ** d
@@ -644,23 +946,52 @@ def cooling_frame(run: Run) -> pd.DataFrame:
         rows.append(_try("Haff per collision T0 exp(-(1-e^2) tau/D)",
                          lambda: theory.haff_temperature_per_collision(d, tau, t0, run.restitution),
                          note + "; molecular chaos: clusters slow the loss per collision"))
-    return pd.DataFrame([{"MODEL": e.model, "T_START_K": _num(t0), "T_END_K": _num(t_end),
+    return pd.DataFrame([{"MODEL": e.model, "T_START_K": t0, "T_END_K": t_end, "T_END_ERR_K": err,
                           "T_THEORY_K": e.value, "REL_DEV": _rel(t_end, e.value), "NOTE": e.note}
                          for e in rows])
 
 
-# --- gaz analyse ------------------------------------------------------------------
-def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict:
-    """What ``gaz analyse`` prints: a dict of name -> DataFrame (or dict of scalars).
+def _collision_losses(run: Run) -> np.ndarray:
+    """(k,) kinetic energy lost by each CHOC collision, J (0 for those the TC model made elastic)."""
+    m = float(run.species.MASS_KG.iloc[0])
+    e = run.restitution
+    t = run.chocs.CH_T.to_numpy(dtype=float)
+    j = run.chocs.CH_IMP.to_numpy(dtype=float)
+    inelastic = ~tc_elastic(t, run.chocs.CH_I.to_numpy(dtype=np.int64), run.chocs.CH_J.to_numpy(dtype=np.int64),
+                            run.tc)
+    return np.where(inelastic, (1 - e) / (1 + e) * j * j / m, 0.0)
 
-    Always: Q34, Q35, Q36 with the pressure per wall (with its block error,
-    the expected value and the deviation in sigmas) and the overview
-    'pressure against the ideal gas' (one row per simulation). With ``sim``:
-    also the scene, the pressure against every model that applies, the
-    collision rate against Enskog, the mean wall-hit speed against the
-    flux-weighted theory, under gravity the force balance, for a cooling gas
-    Haff's law. ``plot_dir``: PNG figures for each simulation analysed,
-    listed in a last frame 'figures'.
+
+# --- gaz analyse ------------------------------------------------------------------
+TABLES = {
+    "q34": "Q34 simulations per dimension",
+    "q35": "Q35 wall bounces and mean speed of wall hits",
+    "q36": "Q36 momentum and pressure per wall",
+    "overview": "pressure against the ideal gas",
+    "simulation": "simulation",
+    "pressure": "pressure against theory",
+    "collisions": "collision rate against Enskog",
+    "speed": "mean wall-hit speed against theory",
+    "gravity": "force balance under gravity",
+    "cooling": "cooling against Haff's law",
+    "figures": "figures",
+}
+"""Short names (``gaz analyse --table NAME``) of the tables ``report`` returns."""
+
+
+def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict:
+    """What ``gaz analyse`` prints: a dict of table title -> DataFrame (or dict of scalars).
+
+    Always: Q34, Q35, Q36 with the pressure per wall (with its error, the
+    expected value and the deviation in sigmas) and the overview (one row per
+    simulation). With ``sim``: also the scene, the pressure against every
+    model that applies, the collision rate against Enskog, the mean wall-hit
+    speed against the flux-weighted theory, under gravity the force balance,
+    for a cooling gas Haff's law. ``plot_dir``: PNG figures for each
+    simulation analysed, listed in a last table 'figures'. The database sums
+    the rows (per wall, species and time bin); only figures read the rows.
+    Numeric columns hold numbers (NaN where no value exists, the reason in
+    a text column).
     """
     from gaz_cli import store as st
 
@@ -674,65 +1005,66 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
         _make_dir(plot_dir)
     chosen = [sim] if sim is not None else numbers
     q34 = store.query("q34_simulations_per_dimension")
-    q35 = store.query("q35_bounces_per_simulation")
-    q35 = q35[q35.SI_NUM.isin(chosen)].reset_index(drop=True)
+    q35 = None if sim is not None else store.query("q35_bounces_per_simulation")
     walls, overview, figures = [], [], []
     detail = {}
     for number in chosen:
         run = load_run(store, number)
         temperature = run.kinetic_temperature
-        per_wall = store.query("pressure_per_wall", si_num=number)
-        per_wall.insert(0, "SI_NUM", number)
-        walls.append(per_wall_frame(run, per_wall, temperature))
+        if run.gravity > 0.0 and not run.periodic and run.settled and run.restitution >= 1.0:
+            settled = settled_temperature(run)
+            if math.isfinite(settled.mean) and math.isfinite(settled.error):
+                temperature, run.temperature_error = settled.mean, settled.error
+        per_wall = exam_per_wall(run)
+        if sim is not None:
+            q35 = exam_q35(run)
         summary = pressure_summary(run, temperature)
-        overview.append(_overview_row(run, temperature, summary, per_wall))
+        walls.append(per_wall_frame(run, per_wall, temperature, summary))
+        overview.append(_overview_row(run, temperature, summary))
         if sim is not None:
             detail = {
-                "simulation": simulation_frame(run, temperature),
-                "pressure against theory": pressure_frame(run, temperature, summary),
-                "collision rate against Enskog": collision_frame(run, temperature),
+                TABLES["simulation"]: simulation_frame(run, temperature),
+                TABLES["pressure"]: pressure_frame(run, temperature, summary),
+                TABLES["collisions"]: collision_frame(run, temperature),
             }
             if not run.periodic:
-                detail["mean wall-hit speed against theory"] = wall_speed_frame(run, temperature)
+                detail[TABLES["speed"]] = wall_speed_frame(run, temperature)
             if run.gravity > 0.0 and not run.periodic:
-                detail["force balance under gravity"] = gravity_frame(run, temperature)
+                detail[TABLES["gravity"]] = gravity_frame(run, temperature)
             if run.restitution < 1.0:
-                detail["cooling against Haff's law"] = cooling_frame(run)
+                detail[TABLES["cooling"]] = cooling_frame(run)
         if plot_dir is not None:
             figures.extend(make_plots(run, temperature, summary, plot_dir))
     frames = {
-        "Q34 simulations per dimension": q34,
-        "Q35 wall bounces and mean speed of wall hits": q35,
-        "Q36 momentum and pressure per wall": pd.concat(walls, ignore_index=True),
-        "pressure against the ideal gas": pd.DataFrame(overview),
+        TABLES["q34"]: q34,
+        TABLES["q35"]: q35,
+        TABLES["q36"]: pd.concat(walls, ignore_index=True),
+        TABLES["overview"]: pd.DataFrame(overview),
     }
     frames.update(detail)
     if plot_dir is not None:
-        frames["figures"] = pd.DataFrame(figures, columns=["SI_NUM", "FIGURE", "FILE"])
+        frames[TABLES["figures"]] = pd.DataFrame(figures, columns=["SI_NUM", "FIGURE", "FILE"])
     return frames
 
 
-def _overview_row(run: Run, temperature: float, summary: dict, per_wall: pd.DataFrame) -> dict:
+def _overview_row(run: Run, temperature: float, summary: dict) -> dict:
     """One simulation in one row: measured pressure, ideal gas, best theory, deviation in sigmas."""
     row = {"SI_NUM": run.si_num, "SI_DIM": run.dim, "SI_N": run.n, "SI_L": run.length, "SI_DUR": run.duration,
-           "BOUNDARY": run.boundary, "T_KIN_K": _num(temperature)}
+           "BOUNDARY": run.boundary, "T_KIN_K": _num(run.kinetic_temperature), "T_THEORY_K": _num(temperature),
+           "P_UNIT": run.unit}
     if run.periodic:
-        row["P_MEASURED_PA"] = _num(summary["measured"])
         ideal = _try("ideal", lambda: theory.ideal_gas_pressure(run.n, temperature, run.length ** run.dim))
     else:
-        # the SQL pressure, summed over the walls that were hit, over the 2D walls
-        row["P_MEASURED_PA"] = float(per_wall.PRESSION.sum() / (2 * run.dim)) if len(per_wall) else NA
         counts, radii, _ = _counts_radii_masses(run)
         ideal = (_try("ideal", lambda: theory.ideal_wall_pressure(run.dim, run.length, temperature, counts, radii))
                  if len(run.species) and math.isfinite(temperature) else Expectation(NA, "ideal"))
-    row["P_IDEAL_PA"] = ideal.value
-    measured = row["P_MEASURED_PA"]
-    row["RATIO"] = (measured / ideal.value if ideal.known and not isinstance(measured, str) else NA)
-    row["P_ERR_PA"] = _num(summary["error"])
+    measured = _num(summary["measured"])
     best = summary["best"]
-    row["P_THEORY_PA"] = best.value
-    row["THEORY"] = best.model
-    row["DEV_SIGMA"] = (_dev(measured, summary["error"], best.value) if not isinstance(measured, str) else NA)
+    row.update({"P_MEASURED": measured, "P_ERR": _num(summary["error"]), "N_EFF": summary["n_eff"],
+                "P_IDEAL": ideal.value, "RATIO": _rel(measured, ideal.value) + 1.0,
+                "P_THEORY": best.value, "THEORY": best.model,
+                "DEV_SIGMA": _dev(measured, summary["error"], best.value, best.applies, best.error),
+                "NOTE": "" if best.known and best.applies else best.note})
     return row
 
 
@@ -744,7 +1076,7 @@ def _make_dir(path: str) -> None:
 
 
 # --- figures -----------------------------------------------------------------------
-def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str, blocks: int = BLOCKS) -> list:
+def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str) -> list:
     """Write the figures of one simulation into ``plot_dir``; returns rows (SI_NUM, FIGURE, FILE)."""
     from gaz_cli import plots
 
@@ -754,7 +1086,7 @@ def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str, block
     def path(name):
         return str(base / f"sim{run.si_num}_{name}.png")
 
-    b = run.bounces
+    b = run.bounces() if run.bounces_count else run.bounces().iloc[:0]
     species = ([(r.NAME, r.MASS_KG, w, r.COUNT / run.n)
                 for r, w in zip(run.species.itertuples(), _species_partial_weights(run))]
                if len(run.species) else [])
@@ -771,13 +1103,13 @@ def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str, block
         p = path("bounces_per_wall")
         plots.bounces_per_wall(p, run.dim, run.walls, counts, expected, label, gravity=run.gravity > 0)
         out.append((run.si_num, "bounces per wall against theory", p))
-    series = _pressure_series(run, temperature, summary, blocks) if run.restitution >= 1.0 else None
+    series = _pressure_series(run, temperature, summary) if run.restitution >= 1.0 else None
     if series is not None:
         p = path("pressure_time")
         plots.pressure_against_time(p, **series, title=label)
         out.append((run.si_num, "running pressure against simulated time", p))
     if run.gravity > 0.0 and len(b):
-        prof = gravity_profile(run, temperature)
+        prof = gravity_profile(run, temperature, bounces=b)
         if prof is not None:
             p = path("density_profile")
             plots.density_profile(p, **prof, title=label)
@@ -810,7 +1142,7 @@ def _expected_hits(run: Run, temperature: float):
     share = share / share.sum()
     out = []
     for w in run.walls:
-        if run.gravity > 0.0 and abs(w) == run.dim:
+        if run.gravity > 0.0 and abs(w) == run.dim and not run.one_species:
             per_species = np.array([theory.ideal_gravity_wall_pressures(
                 run.dim, run.length, temperature, c, r, m, run.gravity)[0 if w < 0 else 1]
                 for c, r, m in zip(counts, radii, masses)])
@@ -820,46 +1152,34 @@ def _expected_hits(run: Run, temperature: float):
     return out
 
 
-def _pressure_series(run: Run, temperature: float, summary: dict, blocks: int):
+def _pressure_series(run: Run, temperature: float, summary: dict, blocks: int = BLOCKS):
     """Running mean of the pressure against time, its error band, block values and theory, or None."""
     best = summary["best"]
     theory_value = best.value if best.known else None
     if run.periodic:
-        if run.chocs is None or not run.one_species or not math.isfinite(temperature):
-            return None
-        sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
-        t = run.chocs.CH_T.to_numpy(dtype=float)
-        w = run.chocs.CH_IMP.to_numpy(dtype=float) * sigma
-        volume = run.length ** run.dim
-
-        def to_pressure(cum_w, time):
-            return (run.n * K_B * temperature + cum_w / (run.dim * time)) / volume
-        block_values = virial_block_pressures(run, temperature, blocks)
+        series = virial_bin_pressures(run, temperature)
         what = "virial pressure"
     else:
-        t = run.bounces.RE_T.to_numpy(dtype=float)
-        w = _bounce_momentum(run) / (2 * run.dim * run.wall_measure)  # mean over the walls
-
-        def to_pressure(cum_w, time):
-            return cum_w / time
-        per_block = wall_block_pressures(run, blocks)
-        block_values = np.mean([per_block[k] for k in run.walls], axis=0)
+        per_bin = wall_bin_pressures(run)
+        series = np.mean([per_bin[k] for k in run.walls], axis=0) if run.bounces_count else None
         what = "wall pressure (mean over the walls)"
-    if t.size < 2:
+    if series is None:
         return None
-    grid = np.linspace(run.duration / 200, run.duration, 200)
-    cum = np.concatenate(([0.0], np.cumsum(w)))
-    running = to_pressure(cum[np.searchsorted(t, grid, side="right")], grid)
-    _, err = mean_and_error(block_values)
-    band = err * np.sqrt(run.duration / grid) if math.isfinite(err) else None
+    nbins = errorbars.BINS
+    width = run.duration / nbins
+    times = (np.arange(nbins) + 1) * width
+    running = np.cumsum(series) / np.arange(1, nbins + 1)
+    err = summary["error"]
+    band = err * np.sqrt(run.duration / times) if math.isfinite(err) else None
+    block_values = series[: nbins - nbins % blocks].reshape(blocks, -1).mean(axis=1)
     centres = (np.arange(blocks) + 0.5) * run.duration / blocks
     others = [(e.model, e.value) for e in summary["models"][1:] if e.known]
-    return {"times": grid, "running": running, "band": band, "block_times": centres,
+    return {"times": times, "running": running, "band": band, "block_times": centres,
             "block_values": block_values, "theory": theory_value, "theory_label": best.model,
-            "others": others, "what": what, "unit": {1: "N", 2: "N/m", 3: "Pa"}[run.dim]}
+            "others": others, "what": what, "unit": run.unit}
 
 
-def gravity_profile(run: Run, temperature: float, bins: int = 60):
+def gravity_profile(run: Run, temperature: float, bins: int = 60, bounces: pd.DataFrame | None = None):
     """Density of centres against height, rebuilt from the floor hits, with the barometric law.
 
     The store keeps no positions; but a particle leaving the floor at the
@@ -874,7 +1194,7 @@ def gravity_profile(run: Run, temperature: float, bins: int = 60):
     d = run.dim
     if not len(run.species) or not math.isfinite(temperature):
         return None
-    b = run.bounces
+    b = run.bounces() if bounces is None else bounces
     floor = b[b.RE_DIR == -d]
     if not len(floor):
         return None
@@ -933,13 +1253,8 @@ def cooling_series(run: Run, points: int = 200):
     elastic (:func:`tc_elastic`) lose nothing.
     """
     d = run.dim
-    m = float(run.species.MASS_KG.iloc[0])
-    e = run.restitution
     t = run.chocs.CH_T.to_numpy(dtype=float)
-    j = run.chocs.CH_IMP.to_numpy(dtype=float)
-    inelastic = ~tc_elastic(t, run.chocs.CH_I.to_numpy(dtype=np.int64), run.chocs.CH_J.to_numpy(dtype=np.int64),
-                            run.tc)
-    loss = np.where(inelastic, (1 - e) / (1 + e) * j * j / m, 0.0)
+    loss = _collision_losses(run)
     periodic = run.periodic and run.n > 1
     t0 = float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
     grid = np.linspace(0.0, run.duration, points)

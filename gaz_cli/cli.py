@@ -256,24 +256,50 @@ def _print_diagnostic(values: dict) -> None:
 @click.option("--sim", type=int, default=None, help="Only this simulation (SI_NUM).")
 @format_option
 @click.option("--plot", type=click.Path(file_okay=False), default=None, help="Write PNG figures into DIR.")
-def analyse(db, sim, fmt, plot):
+@click.option("--table", "table", default=None, metavar="NAME",
+              help="Print only this table (csv: one table, readable by pandas.read_csv). NAME: "
+                   "q34, q35, q36, overview, simulation, pressure, collisions, speed, gravity, cooling, figures.")
+def analyse(db, sim, fmt, plot, table):
     """Run the packaged SQL queries (Q34, Q35, Q36, pressure) and compare with theory.
 
     Without --sim: one line per simulation, measured pressure beside the ideal
-    gas and the hard-sphere theory. With --sim N: per wall pressure with its
-    error (16 time blocks) and deviation in standard errors; collision rate
-    against Enskog; Q35's mean wall-hit speed against the flux-weighted mean;
-    under gravity floor minus ceiling force against N m g; with restitution < 1
-    the cooling against Haff's law. --plot DIR writes DIR/sim{N}_*.png.
+    gas and the best theory. With --sim N: per wall pressure with its error
+    and deviation in standard errors; collision rate against Enskog; Q35's
+    mean wall-hit speed against the flux-weighted mean; under gravity floor
+    minus ceiling force against N m g; with restitution < 1 the cooling
+    against Haff's law. Errors: reblocking of 512 time bins plus the spread of
+    the initial draw that too few collisions have not relaxed (ESTIMATOR,
+    N_EFF). Pressures are forces per wall measure: Pa (3D), N/m (2D), N (1D),
+    column P_UNIT. A value that does not exist is empty (csv), null (json) or
+    NaN, the reason in NOTE. --plot DIR writes DIR/sim{N}_*.png.
 
     \b
     Examples:
       gaz analyse --db gaz.db
       gaz analyse --db gaz.db --sim 1 --format json
+      gaz analyse --db gaz.db --sim 1 --format csv --table q36 > walls.csv
     """
     from gaz_cli import analysis
 
+    if table is not None and table not in analysis.TABLES:
+        raise click.BadParameter(f"{table!r} is not one of {', '.join(analysis.TABLES)}", param_hint="--table")
     frames = analysis.report(db, sim=sim, plot_dir=plot)
+    if table is not None:
+        title = analysis.TABLES[table]
+        if title not in frames:
+            raise GazError(f"no table {table!r} for this analysis ({'needs --sim' if sim is None else 'not this scene'}); "
+                           f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
+        frame = frames[title]
+        if fmt == "csv":
+            import pandas as pd
+
+            click.echo((frame if isinstance(frame, pd.DataFrame) else pd.DataFrame([frame])).to_csv(index=False),
+                       nl=False)
+            return
+        frames = {title: frame}
+    elif fmt == "csv" and len(frames) > 1:
+        click.echo("gaz analyse: several tables, each after a '# name' line; pick one with --table NAME "
+                   "for pandas.read_csv", err=True)
     emit_frames(frames, fmt)
 
 

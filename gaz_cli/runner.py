@@ -278,7 +278,8 @@ def describe(summary: dict) -> str:
     lines.append(f"  kinetic energy {ks:.6g} J -> {ke:.6g} J (relative change {drift:.2e})")
     if summary["pressure"] is not None:
         how = "mean over the walls" if summary["boundary"] == "walls" else "collision virial"
-        lines.append(f"  pressure {summary['pressure']:.6g} Pa ({how})")
+        unit = {1: "N", 2: "N/m"}.get(summary["dim"], "Pa")   # force per wall measure L^(D-1)
+        lines.append(f"  pressure {summary['pressure']:.6g} {unit} ({how})")
     eps = summary["events_per_second"]
     lines.append(f"  run time {summary['wall_time_s']:.3g} s"
                  + (f", {eps:,.0f} events/s" if eps else ""))

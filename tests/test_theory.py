@@ -712,3 +712,46 @@ def test_haff_collisions_per_particle():
     np.testing.assert_allclose(th.haff_temperature_per_collision(dim, tau, 300.0, e),
                                th.haff_temperature(dim, t, 300.0, e, omega0), rtol=1e-12)
     assert th.haff_collisions_per_particle(dim, 2.0, 1.0, omega0) == approx(10.0, rel=1e-14)
+
+
+# --------------------------------------------------------------------- issue 14: gravity, mixtures
+
+
+def test_chemical_potential_excess_of_rods_is_exact():
+    eta = 0.5
+    assert th.chemical_potential_excess(1, eta) == pytest.approx(-math.log(1 - eta) + eta / (1 - eta), rel=1e-6)
+    cs = (8 * 0.3 - 9 * 0.09 + 3 * 0.027) / 0.7 ** 3                    # Carnahan-Starling, closed form
+    assert th.chemical_potential_excess(3, 0.3, "carnahan-starling") == pytest.approx(cs, rel=1e-6)
+
+
+def test_hard_sphere_gravity_walls_limits_and_balance():
+    """Points: the ideal barometric pressures; spheres: the exact force balance and more pressure than ideal."""
+    kw = dict(dim=3, length=2e-8, temperature=300.0, number=1000, mass=6.63e-26, gravity=3.178e12)
+    floor, ceiling, side = th.hard_sphere_gravity_wall_pressures(radius=1e-15, **kw)
+    f0, c0 = th.ideal_gravity_wall_pressures(3, 2e-8, 300.0, [1000], [1e-15], [6.63e-26], 3.178e12)
+    assert floor == pytest.approx(f0, rel=1e-4) and ceiling == pytest.approx(c0, rel=1e-4)
+    floor, ceiling, side = th.hard_sphere_gravity_wall_pressures(radius=1.7e-10, **kw)
+    assert (floor - ceiling) * 2e-8 ** 2 == pytest.approx(1000 * 6.63e-26 * 3.178e12, rel=1e-6)
+    ideal_side = th.ideal_wall_pressure(3, 2e-8, 300.0, [1000], [1.7e-10])
+    assert 1.005 < side / ideal_side < 1.02                             # + about 4 eta of excess
+    # g = 0: the wall theory without gravity
+    no_g = th.hard_sphere_gravity_wall_pressures(radius=1.7e-10, **{**kw, "gravity": 0.0})
+    assert no_g[2] == pytest.approx(th.hard_sphere_wall_pressure(3, 2e-8, 300.0, 1000, 1.7e-10), rel=1e-9)
+
+
+def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
+    eta, sigma = 0.3, 1.0
+    n = eta * 6 / math.pi
+    kt_temperature = 1 / K_B
+    p = th.mixture_pressure(3, [n / 3, 2 * n / 3], [sigma, sigma], kt_temperature)
+    assert p / n == pytest.approx(th.z_carnahan_starling(eta), rel=1e-12)
+    g = th.mixture_contact_values([n / 3, 2 * n / 3], [sigma, sigma])
+    np.testing.assert_allclose(g, th.contact_value(3, eta, "carnahan-starling"), rtol=1e-12)
+    # a binary mixture: the virial route from the contact values gives the BMCSL pressure
+    ns, s = np.array([0.2, 0.1]), np.array([1.0, 1.5])
+    g = th.mixture_contact_values(ns, s)
+    sij = 0.5 * np.add.outer(s, s)
+    virial = ns.sum() + 2 * math.pi / 3 * np.sum(np.outer(ns, ns) * sij ** 3 * g)
+    assert th.mixture_pressure(3, ns, s, kt_temperature) == pytest.approx(virial, rel=1e-12)
+    with pytest.raises(SceneError, match="2D"):
+        th.mixture_pressure(2, ns, s, kt_temperature)

@@ -12,6 +12,8 @@ statistical error or its stated accuracy:
 * speeds relax from all-equal to Maxwell-Boltzmann (Kolmogorov-Smirnov);
 * Q35's mean wall-hit speed equals the flux-weighted mean, not the gas's;
 * a cooling granular gas follows Haff's law.
+* hard spheres under gravity fit the barometric profile with the local
+  equation of state (pressure, walls, hit speed, force balance).
 
 The whole file takes about a minute with the engine's kernels compiled
 (each kind of scene compiles once, ~10 s, then is cached).
@@ -74,16 +76,16 @@ def test_rods_wall_pressure_is_tonks_exact(tmp_path):
     frames = analyse(tmp_path, scene)
     row = best_row(frames)
     assert row.MODEL.startswith("Tonks")
-    measured, err = row.P_MEASURED_PA, row.P_ERR_PA
+    measured, err = row.P_MEASURED, row.P_ERR
     # the same law computed independently from the initial velocities (the set never changes)
     state = initial_state(scene)
     exact = theory.rods_wall_pressure(state.velocities, 1.0, 1.0, scene.radii()[0])
-    assert row.P_THEORY_PA == pytest.approx(exact, rel=1e-9)
+    assert row.P_THEORY == pytest.approx(exact, rel=1e-9)
     assert abs(measured - exact) < 3 * err, (measured, exact, err)
     assert err < 0.01 * exact                        # a sharp test: better than 1%
     # it is the excluded length that doubles the pressure at packing 0.5
     ideal = frames["pressure against theory"].iloc[1]
-    assert abs(measured - ideal.P_THEORY_PA) > 50 * err
+    assert abs(measured - ideal.P_THEORY) > 50 * err
     # both walls, one by one
     walls = frames["Q36 momentum and pressure per wall"]
     assert len(walls) == 2 and (walls.DEV_SIGMA.abs() < 3).all(), walls
@@ -95,12 +97,12 @@ def test_dilute_3d_gas_wall_pressure(tmp_path):
     frames = analyse(tmp_path, scene)
     row = best_row(frames)
     assert abs(row.DEV_SIGMA) < 3, row
-    assert row.P_ERR_PA < 0.0025 * row.P_THEORY_PA
+    assert row.P_ERR < 0.0025 * row.P_THEORY
     walls = frames["Q36 momentum and pressure per wall"]
     assert len(walls) == 6 and (walls.DEV_SIGMA.abs() < 4).all(), walls
     # the 2R in L - 2R is seen: L^3 instead would be 1.6% low, over 6 sigma here
     naive = scene.n * KT / scene.length ** 3
-    assert abs(row.P_MEASURED_PA - naive) > 6 * row.P_ERR_PA
+    assert abs(row.P_MEASURED - naive) > 6 * row.P_ERR
 
 
 def test_2d_gas_wall_pressure(tmp_path):
@@ -241,3 +243,33 @@ def test_haff_cooling_law():
     # the elastic gas would stay at T0: the test sees the cooling law, not a constant
     assert abs(temps[-1] / haff[-1] - 1) < 0.03 < abs(temps[-1] / t0_k - 1)
     assert run_stats.collisions > 10 * n
+
+
+# --------------------------------------------------------------------- gravity (issue 14)
+
+
+def test_hard_spheres_under_gravity_fit_the_local_equation_of_state(tmp_path):
+    """3D, packing 0.01, scale height L/2, ~100 collisions per particle: pressure, walls and hit speed within 3 sigma.
+
+    The theory is the barometric profile with the hard-sphere equation of state at the local
+    density, at the temperature of the settled part (from its hits); the ideal gas under
+    gravity misses the hard-sphere excess (about 4 eta at the floor) by many sigma.
+    """
+    scene = reduced_scene(3, 400, 0.01, duration=30.0, seed=4, gravity=2.0)
+    frames = analyse(tmp_path, scene)
+    row = best_row(frames)
+    assert row.MODEL.startswith("hard spheres under gravity"), row
+    assert abs(row.DEV_SIGMA) < 3, row
+    walls = frames["Q36 momentum and pressure per wall"]
+    assert (walls.DEV_SIGMA.abs() < 3.5).all(), walls
+    speed = frames["mean wall-hit speed against theory"].iloc[0]
+    assert abs(speed.DEV_SIGMA) < 3, speed
+    balance = frames["force balance under gravity"].iloc[0]
+    assert abs(balance.DEV_SIGMA) < 3, balance
+    # the ideal gas under gravity, at the same temperature, is far off
+    sim = frames["simulation"]
+    counts, radius = [scene.n], scene.radii()[0]
+    floor, ceiling = theory.ideal_gravity_wall_pressures(3, 1.0, sim["T_THEORY_K"], counts, [radius], [1.0], 2.0)
+    side = theory.ideal_wall_pressure(3, 1.0, sim["T_THEORY_K"], counts, [radius])
+    ideal = (floor + ceiling + 4 * side) / 6
+    assert (row.P_MEASURED - ideal) / row.P_ERR > 5, (row.P_MEASURED, ideal, row.P_ERR)

@@ -1,0 +1,83 @@
+"""Time and peak memory of ``gaz analyse --sim N`` on a database of 10^7 REBOND rows.
+
+Builds (once, into --db) one 3D simulation of --rows synthetic wall bounces
+(uniform times, Rayleigh normal speeds; written through Store's public
+writer) plus a small second simulation, then runs ``gaz analyse --db DB
+--sim 1`` --repeat times in a fresh process and prints the median and fastest
+wall time, the child's CPU time (what the wall time would be on an idle
+core: the host is shared) and its peak resident memory (ru_maxrss).
+
+    python benchmarks/analyse_scale.py                       # 10^7 rows into /tmp/gaz_scale.db
+    python benchmarks/analyse_scale.py --rows 1000000 --repeat 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def build(db: str, rows: int) -> None:
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, State
+    from gaz_cli.species import lookup
+    from gaz_cli.store import Store
+
+    ar = lookup("Ar")
+    store = Store(db)
+    for k, (n, count) in enumerate(((10000, rows), (100, 1000))):
+        scene = Scene(dim=3, length=1e-6, duration=1e-6, components=((ar, n),), seed=k + 1)
+        rng = np.random.default_rng(k)
+        with store.simulation(scene) as writer:
+            chunk = 1_000_000
+            for start in range(0, count, chunk):
+                m = min(chunk, count - start)
+                t = np.sort(rng.random(m)) * 1e-6 / (count / m) + start / count * 1e-6
+                vp = rng.rayleigh(250.0, m)
+                speed = np.hypot(vp, rng.rayleigh(250.0, m))
+                wall = rng.choice([-3, -2, -1, 1, 2, 3], m)
+                writer.add_bounces(t, rng.integers(0, n, m), wall, speed, vp)
+            ke = 1.5 * n * 1.380649e-23 * 300
+            writer.finish(RunStats(events=count, wall_bounces=count, collisions=0, wall_time_s=1.0,
+                                   final=State(np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n, int))), ke, ke)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--db", default="/tmp/gaz_scale.db")
+    ap.add_argument("--rows", type=int, default=10_000_000)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    if not Path(args.db).exists():
+        t0 = time.perf_counter()
+        build(args.db, args.rows)
+        print(f"built {args.db}: {args.rows} + 1000 REBOND rows in {time.perf_counter() - t0:.0f} s "
+              f"({Path(args.db).stat().st_size / 1e6:.0f} MB)")
+    times, peaks, cpus = [], [], []
+    for _ in range(args.repeat):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        t0 = time.perf_counter()
+        proc = subprocess.run([sys.executable, "-m", "gaz_cli", "analyse", "--db", args.db, "--sim", "1"],
+                              capture_output=True, text=True)
+        times.append(time.perf_counter() - t0)
+        if proc.returncode:
+            sys.exit(proc.stderr)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+        peaks.append(after.ru_maxrss / 1024)
+    print(f"{os.cpu_count()} cores; gaz analyse --sim 1 on {args.rows} rows: median {statistics.median(times):.2f} s, "
+          f"fastest {min(times):.2f} s over {args.repeat} runs; CPU time (user + sys) median "
+          f"{statistics.median(cpus):.2f} s (the wall time on an idle core); peak RSS {max(peaks):.0f} MB; "
+          f"load average {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

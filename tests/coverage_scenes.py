@@ -1,0 +1,115 @@
+"""Scene classes for the coverage of analyse's error bars (tests/test_coverage.py, benchmarks/error_coverage.py).
+
+Each class is a small scene run over many seeds; ``run_class`` returns, per
+seed and quantity, (measured, error, theory) from :func:`gaz_cli.analysis.report`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from gaz_cli import analysis, runner
+from gaz_cli.constants import K_B
+from gaz_cli.scene import Scene
+from gaz_cli.species import Species, lookup
+
+KT = 1.0
+
+
+def _radius(dim, n, packing, length=1.0):
+    unit = {1: 2.0, 2: math.pi, 3: 4.0 * math.pi / 3.0}[dim]
+    return (packing * length ** dim / (n * unit)) ** (1.0 / dim)
+
+
+def _reduced(dim, n, packing, duration, **kw) -> Callable[[int], Scene]:
+    species = Species("X", 1.0, _radius(dim, n, packing))
+    return lambda seed: Scene(dim=dim, length=1.0, duration=duration, components=((species, n),),
+                              temperature=KT / K_B, seed=seed, **kw)
+
+
+@dataclass(frozen=True)
+class SceneClass:
+    description: str
+    make: Callable[[int], Scene]
+    reference: str
+    """'theory': analyse's own theory is exact for the scene; 'seed mean': it is not, compare with the seeds' mean."""
+    in_test: bool = True
+
+
+CLASSES = {
+    # the exam's own scene, issue 14: about 2 collisions per particle
+    "exam": SceneClass("3D argon, N = 200, L = 1e-7 m, T = 4e-8 s (about 2 collisions per particle)",
+                       lambda seed: Scene(dim=3, length=1e-7, duration=4e-8, components=((lookup("Ar"), 200),),
+                                          seed=seed), "theory", in_test=False),
+    "collisionless-3d": SceneClass("3D box, N = 100, packing 1e-5, 40 wall crossings, ~0.1 collision per particle",
+                                   _reduced(3, 100, 1e-5, 40.0), "theory"),
+    "dilute-3d": SceneClass("3D box, N = 150, packing 0.02, ~50 collisions per particle",
+                            _reduced(3, 150, 0.02, 6.0), "theory"),
+    "dense-2d": SceneClass("2D box, N = 120, packing 0.45, ~300 collisions per particle",
+                           _reduced(2, 120, 0.45, 1.5), "seed mean"),
+    "periodic-3d": SceneClass("3D periodic fluid, N = 108, packing 0.3, --record all, ~60 collisions per particle",
+                              _reduced(3, 108, 0.3, 1.0, boundary="periodic", record="all"), "seed mean"),
+}
+
+
+def run_class(name: str, seeds, db: str) -> pd.DataFrame:
+    """Simulate every seed of class ``name`` into ``db``; one row per (seed, quantity) with measured, error, theory."""
+    klass = CLASSES[name]
+    rows = []
+    for k, seed in enumerate(seeds, start=1):
+        runner.simulate(klass.make(seed), db=db)
+        frames = analysis.report(db, sim=k)
+        p = frames["pressure against theory"].iloc[0]
+        rows.append({"seed": seed, "quantity": "mean pressure", "measured": p.P_MEASURED, "error": p.P_ERR,
+                     "theory": p.P_THEORY})
+        for w in frames["Q36 momentum and pressure per wall"].itertuples():
+            rows.append({"seed": seed, "quantity": "wall pressure", "measured": w.P_MEASURED, "error": w.P_ERR,
+                         "theory": w.P_THEORY, "wall": w.RE_DIR})
+        speeds = frames.get("mean wall-hit speed against theory")
+        if speeds is not None and len(speeds):
+            s = speeds.iloc[0]
+            rows.append({"seed": seed, "quantity": "wall-hit speed", "measured": s.VITESSE_MOYENNE,
+                         "error": s.ERR, "theory": s.THEORY})
+        coll = frames["collision rate against Enskog"].iloc[0]
+        if math.isfinite(coll.RATE_ERR_HZ):
+            rows.append({"seed": seed, "quantity": "collision rate", "measured": coll.RATE_PER_PARTICLE_HZ,
+                         "error": coll.RATE_ERR_HZ, "theory": coll.THEORY_HZ})
+    frame = pd.DataFrame(rows)
+    frame["class"] = name
+    frame["reference"] = klass.reference
+    return frame
+
+
+def z_scores(frame: pd.DataFrame, reference: str | None = None) -> pd.DataFrame:
+    """Add column z = (measured - reference)/error; reference 'theory' or 'seed mean' (per quantity and wall)."""
+    reference = reference or frame.reference.iloc[0]
+    out = frame.copy()
+    if reference == "theory":
+        out["z"] = (out.measured - out.theory) / out.error
+    else:
+        # the seeds differ in total energy: compare measured/theory with its mean over the seeds
+        key = ["quantity"] + (["wall"] if "wall" in out else [])
+        keyed = out.fillna({"wall": 0}) if "wall" in out else out
+        ratio = keyed.measured / keyed.theory
+        n = ratio.groupby([keyed[k] for k in key]).transform("size")
+        mean = ratio.groupby([keyed[k] for k in key]).transform("mean")
+        out["z"] = (ratio - mean) * keyed.theory / out.error * np.sqrt(n / (n - 1))
+    return out
+
+
+def coverage_table(frame: pd.DataFrame) -> pd.DataFrame:
+    """Per quantity and reference: samples, fraction within 1 and 2 sigma, mean and rms of z."""
+    rows = []
+    for reference in ("theory", "seed mean"):
+        z = z_scores(frame, reference)
+        for q, g in z.groupby("quantity", sort=False):
+            a = g.z.abs().dropna()
+            rows.append({"quantity": q, "reference": reference, "samples": a.size,
+                         "within_1": float((a < 1).mean()), "within_2": float((a < 2).mean()),
+                         "mean_z": float(g.z.mean()), "rms_z": float(np.sqrt((g.z ** 2).mean()))})
+    return pd.DataFrame(rows)
