@@ -148,10 +148,14 @@ def test_interrupt_rolls_back_and_says_what_is_left(tmp_path, signum):
     # the time-stepped engine: its diagnostics on stderr say the run is under way
     proc = gaz("simulate", "--engine", "step", "--dt", "1e-12", "--print-every", "200", "--dim", "2",
                "--n", "100", "--length", "1e-7", "--duration", "1e-5", "--seed", "2", "--db", str(db),
-               "--trajectory", str(traj), "--every", "1e-11")
+               "--trajectory", str(traj), "--every", "1e-11", "--force")  # a long run, on purpose
     try:
-        for _ in range(3):
-            assert proc.stderr.readline().startswith("time="), proc.communicate()
+        seen = 0  # three diagnostics lines (a warning about the step may come between them)
+        for _ in range(10):
+            seen += proc.stderr.readline().startswith("time=")
+            if seen == 3:
+                break
+        assert seen == 3
         proc.send_signal(signum)
         _, err = proc.communicate(timeout=120)
     finally:
