@@ -266,6 +266,11 @@ class Store:
             raise StoreError(f"--db {self.shown!r} is not a valid path or SQLAlchemy URL ({err})") from None
         except sa_exc.DBAPIError as err:
             raise StoreError(self._explain(err.orig if err.orig is not None else err)) from None
+        except pd.errors.DatabaseError as err:  # pandas' wrapper (an OSError) quotes the whole SQL
+            orig = err.__cause__
+            if isinstance(orig, sa_exc.DBAPIError) and orig.orig is not None:
+                orig = orig.orig
+            raise StoreError(self._explain(orig if orig is not None else err)) from None
         except (sqlite3.Error, OSError) as err:
             raise StoreError(self._explain(err)) from None
         except Exception as err:

@@ -321,3 +321,14 @@ def test_read_only_database_is_one_line(tmp_path, argon_scene, rng):
         writer = st.Store(read_only)
         write_fake(writer, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
     assert st.Store(str(path), create=False).simulation_numbers() == [1]
+
+
+def test_a_failing_query_is_one_line_without_its_sql(tmp_path, argon_scene, rng):
+    """pandas wraps a driver's error in a message quoting the whole SQL text over many lines;
+    the store's error is the driver's own reason, on one line."""
+    store = st.Store(str(tmp_path / "gaz.db"))
+    with pytest.raises(StoreError) as info:
+        store.read_sql("-- a comment line\nSELECT no_such_column FROM simulation")
+    store.close()
+    message = str(info.value)
+    assert "\n" not in message and "SELECT" not in message and "no_such_column" in message

@@ -237,7 +237,8 @@ def test_locked_database_is_one_line_before_the_run(tmp_path, monkeypatch):
     holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
     traj = tmp_path / "run.h5"
     try:
-        res = invoke([*QUICK, "--seed", "2", "--db", str(db), "--trajectory", str(traj), "--every", "1e-11"])
+        res = invoke([*QUICK, "--engine", "event", "--seed", "2", "--db", str(db), "--trajectory", str(traj),
+                      "--every", "1e-11"])
     finally:
         holder.execute("ROLLBACK")
         holder.close()
