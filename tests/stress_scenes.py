@@ -629,3 +629,14 @@ def long_time(mean_free_times: float, size) -> Case:
     sc, st, ev = _thermal(sc, mean_free_times)
     return Case(f"late time: {mean_free_times:.0e} mean free times simulated", sc, st, ev * 1.5,
                 snapshots=2)
+
+
+def rods_under_gravity(n, mass_ratio, gravity, length, duration) -> Case:
+    """1D rods of diameter 1 bouncing on the floor: n - n // 2 of mass 1, n // 2 of mass
+    ``mass_ratio``, k_B T = 1, seed 0 (found by the property tests)."""
+    comps = ((Species("s", 1.0, 0.5), n - n // 2), (Species("b", float(mass_ratio), 0.5), n // 2))
+    sc = Scene(dim=1, length=float(length), duration=float(duration), components=comps,
+               temperature=UNIT_T, seed=0, gravity=float(gravity))
+    st = initial_state(sc)
+    return Case(f"gravity: {n} rods 1D, masses 1 : {mass_ratio:g}, g = {gravity:g}", sc, st,
+                max(2e5, 10.0 * n * duration), snapshots=4)
