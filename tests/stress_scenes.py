@@ -40,6 +40,7 @@ from scipy.spatial import cKDTree
 from gaz_cli import engine, theory
 from gaz_cli.constants import K_B
 from gaz_cli.engine import driver
+from gaz_cli.errors import GazError
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, State, default_tc, initial_state
 from gaz_cli.species import Species
@@ -192,8 +193,10 @@ class Checker(Recorder):
     want_bounces = True
     want_collisions = True
 
-    def __init__(self, case: Case, keep: bool = False):
+    def __init__(self, case: Case, keep: bool = False, strict: bool = True):
         sc = case.scene
+        self.strict = strict
+        self.violations: list[str] = []
         self.case = case
         self.masses = sc.masses()
         self.radii = sc.radii()
@@ -221,8 +224,8 @@ class Checker(Recorder):
     def _times(self, t: np.ndarray, last: float, what: str) -> float:
         if t.size == 0:
             return last
-        assert t[0] >= last and np.all(np.diff(t) >= 0.0), f"{what} times decrease"
-        assert t[0] >= self.t0 and t[-1] <= self.t1, f"{what} outside the run's time span"
+        self.expect(t[0] >= last and np.all(np.diff(t) >= 0.0), f"{what} times decrease")
+        self.expect(t[0] >= self.t0 and t[-1] <= self.t1, f"{what} outside the run's time span")
         return float(t[-1])
 
     def _spend(self) -> None:
@@ -265,12 +268,21 @@ class Checker(Recorder):
             rel = abs(e - self.e0) / self.e0
             self.drift = max(self.drift, rel)
             allowed = ENERGY_TOL_PER_MEVENT * max(1.0, events / 1e6)
-            assert rel <= allowed, f"energy drift {rel:.3g} > {allowed:.3g} after {events} events"
+            self.expect(rel <= allowed, f"energy drift {rel:.3g} > {allowed:.3g} after {events} events")
         else:
             self.drift = e / self.e0
-            assert e <= self.e0 * (1.0 + ENERGY_TOL_PER_MEVENT), "an inelastic gas gained energy"
-        assert gap >= -GAP_TOL, f"two particles overlap: gap {gap:.3g} sigma"
-        assert out == 0, f"{out} particles outside the box"
+            self.expect(e <= self.e0 * (1.0 + ENERGY_TOL_PER_MEVENT), "an inelastic gas gained energy")
+        self.expect(gap >= -GAP_TOL, f"two particles overlap: gap {gap:.3g} sigma")
+        self.expect(out == 0, f"{out} particles outside the box")
+
+    def expect(self, ok, message: str) -> None:
+        """Strict: AssertionError(message) unless ok. Otherwise note the first violations."""
+        if ok:
+            return
+        if self.strict:
+            raise AssertionError(message)
+        if len(self.violations) < 3 and message not in self.violations:
+            self.violations.append(message)
 
     def records(self) -> dict:
         names_b = ("t", "particle", "wall", "speed", "vperp")
@@ -283,8 +295,26 @@ class Checker(Recorder):
 
 
 def run_checked(case: Case, keep: bool = False) -> Result:
-    """Run ``case`` with a :class:`Checker`; every check of the module docstring, then the Result."""
-    chk = Checker(case, keep=keep)
+    """Run ``case`` with a :class:`Checker`: every check of the module docstring, then the Result.
+
+    Raises AssertionError at the first violation (BudgetExceeded for a run out of budget).
+    """
+    return _run(Checker(case, keep=keep))
+
+
+def measure(case: Case) -> tuple[Result | None, list[str]]:
+    """Run ``case`` and report instead of asserting: (Result, violations) for the table of
+    benchmarks/stress.py; (None, [why]) when the run could not finish (budget, an error)."""
+    chk = Checker(case, strict=False)
+    try:
+        res = _run(chk)
+    except (AssertionError, GazError) as err:
+        return None, [f"{type(err).__name__}: {err}"]
+    return res, chk.violations
+
+
+def _run(chk: Checker) -> Result:
+    case = chk.case
     t_start = time.perf_counter()
     if case.t0:
         stats = _run_from(case.scene, case.state, chk, case.t0)
@@ -293,14 +323,15 @@ def run_checked(case: Case, keep: bool = False) -> Result:
     run_s = time.perf_counter() - t_start
     fin = stats.final
     chk.check_state(fin.positions, fin.velocities)
-    assert stats.wall_bounces == chk.n_b and stats.collisions == chk.n_c, "records lost"
+    chk.expect(stats.wall_bounces == chk.n_b and stats.collisions == chk.n_c, "records lost")
     overlapping = int(stats.extras["overlapping_collisions"])
-    assert overlapping == 0, f"{overlapping} collisions found overlapping (missed collisions)"
+    chk.expect(overlapping == 0, f"{overlapping} collisions found overlapping (missed collisions)")
     digest = hashlib.sha256(chk.hash_b.digest() + chk.hash_c.digest()).hexdigest()
-    times = chk.records()["collisions"]["t"] if keep else []
+    records = chk.records() if chk.keep else {}
+    times = list(records["collisions"]["t"]) if chk.keep else []
     return Result(case.name, case.scene.n, stats.events, stats.collisions, stats.wall_bounces,
                   chk.drift, chk.min_gap, chk.escapes, overlapping, run_s, digest, fin,
-                  list(times), chk.records() if keep else {})
+                  times, records)
 
 
 def _run_from(scene: Scene, state: State, recorder: Recorder, t0: float):
@@ -360,7 +391,7 @@ def _thermal(scene: Scene, per_particle: float) -> Case:
 def dense(dim, boundary, packing, size, seed=1) -> Case:
     """A dense fluid from a lattice (packing above the random-growth limit) or grown."""
     n = {"ci": {1: 400, 2: 400, 3: 500}, "long": {1: 4000, 2: 4000, 3: 4000}}[size][dim]
-    per = {"ci": 150, "long": 2500}[size]
+    per = {"ci": 150, "long": 500}[size]
     sc = reduced(dim, n, packing, boundary, seed=seed, placement="lattice" if dim > 1 else "auto")
     sc, st, ev = _thermal(sc, per)
     name = f"dense {dim}D {boundary} {packing:g}"
@@ -382,8 +413,8 @@ def lockstep_lattice(dim, size) -> Case:
     +1 and -1 in turn, and every particle at the same speed 1/2 (1/4) along y (z): every pair
     of neighbouring columns collides head-on at the same instant, every row reaches its wall
     at the same instant and the rows then collide in turn, all in exact (dyadic) arithmetic."""
-    k = {"ci": {2: 16, 3: 8}, "long": {2: 64, 3: 20}}[size][dim]
-    duration = {"ci": 600.0, "long": 20000.0}[size]
+    k = {"ci": {2: 16, 3: 8}, "long": {2: 32, 3: 12}}[size][dim]
+    duration = {"ci": 600.0, "long": {2: 3000.0, 3: 1500.0}[dim]}[size]
     grid = np.stack(np.meshgrid(*([np.arange(k)] * dim), indexing="ij"), -1).reshape(-1, dim)
     x = 1.0 + 2.0 * grid
     v = np.zeros_like(x)
@@ -402,8 +433,8 @@ def head_on_pairs(size) -> Case:
     """3D: pairs on a cubic lattice of spacing 4, each pair 2 sigma apart along a random axis,
     approaching head-on at a random dyadic speed in [1, 2], exactly symmetric about its site
     (all first collisions are over by t = 1/2, before any particle reaches another site)."""
-    k = {"ci": 6, "long": 14}[size]
-    duration = {"ci": 1000.0, "long": 30000.0}[size]
+    k = {"ci": 6, "long": 10}[size]
+    duration = {"ci": 1000.0, "long": 6000.0}[size]
     rng = np.random.default_rng(7)
     sites = 2.0 + 4.0 * np.stack(np.meshgrid(*([np.arange(k)] * 3), indexing="ij"), -1).reshape(-1, 3)
     axis = rng.integers(0, 3, len(sites))
@@ -421,9 +452,9 @@ def newton_cradle(dim, size) -> Case:
     """Rows of touching particles (centres exactly sigma apart) along x, a striker at speed 1
     into each from the left; in 3D rows side by side 2 sigma apart. Every collision of a row
     after the first is at distance exactly sigma, at the same instant as the one before it."""
-    rows = {"ci": {1: 1, 3: 16}, "long": {1: 1, 3: 64}}[size][dim]
+    rows = {"ci": {1: 1, 3: 16}, "long": {1: 1, 3: 36}}[size][dim]
     per_row = {"ci": 20, "long": 50}[size]
-    duration = {"ci": {1: 1e5, 3: 1e4}, "long": {1: 1e7, 3: 2e5}}[size][dim]
+    duration = {"ci": {1: 1e5, 3: 1e4}, "long": {1: 2e6, 3: 4e4}}[size][dim]
     length = float(2 * per_row + 8) if dim == 1 else float(max(2 * per_row + 8, 64))
     line = np.concatenate([[2.5], 8.0 + np.arange(per_row - 1)])
     if dim == 1:
@@ -447,8 +478,8 @@ def converging(dim, size) -> Case:
     """Groups of 2 D particles converging on a point along +-x, +-y (+-z) at equal speeds:
     the four (2D) or twelve (3D) neighbouring pairs of a group touch at the same instant,
     each particle in two (four) collisions at once. Groups on a lattice of spacing 8."""
-    k = {"ci": {2: 6, 3: 3}, "long": {2: 24, 3: 8}}[size][dim]
-    duration = {"ci": 3000.0, "long": 50000.0}[size]
+    k = {"ci": {2: 6, 3: 3}, "long": {2: 8, 3: 4}}[size][dim]
+    duration = {"ci": 3000.0, "long": 20000.0}[size]
     sites = 4.0 + 8.0 * np.stack(np.meshgrid(*([np.arange(k)] * dim), indexing="ij"), -1).reshape(-1, dim)
     xs, vs = [], []
     for d in range(dim):
@@ -497,7 +528,7 @@ def grazing_pair(dim, distance, side, seed) -> tuple[Case, bool]:
 def mass_mixture(size, ratio=1e6) -> Case:
     """2D walls, three species of equal diameter and masses 1, sqrt(ratio), ratio; equal temperature."""
     n = {"ci": 300, "long": 3000}[size]
-    per = {"ci": 400, "long": 5000}[size]
+    per = {"ci": 400, "long": 1000}[size]
     third = n // 3
     comps = tuple((Species(f"m{m:g}", float(m), 0.5), third) for m in (1.0, math.sqrt(ratio), ratio))
     length = math.sqrt(3 * third * _BALL[2] / 0.3)
@@ -512,8 +543,8 @@ def mass_mixture(size, ratio=1e6) -> Case:
 def radius_mixture(dim, size, ratio=100.0) -> Case:
     """Walls; a few big particles of diameter ``ratio`` among many small ones of diameter 1."""
     big_n = {2: 4, 3: 8}[dim]
-    small_n = {"ci": {2: 1000, 3: 400}, "long": {2: 6000, 3: 3000}}[size][dim]
-    per = {"ci": 60, "long": 500}[size]
+    small_n = {"ci": {2: 1000, 3: 400}, "long": {2: 3000, 3: 1000}}[size][dim]
+    per = {"ci": 60, "long": 200}[size]
     big = Species("big", ratio ** dim, ratio / 2.0)  # same mass density
     small = UNIT
     length = {2: 4.5 * ratio, 3: 3.0 * ratio}[dim]
@@ -539,7 +570,7 @@ def scaled(sigma: float, speed: float, size="ci") -> Case:
     sigma / speed, masses 1 kg."""
     n = {"ci": 64, "long": 500}[size]
     base = reduced(3, n, 0.2, "walls", seed=11)
-    per = {"ci": 4, "long": 200}[size]
+    per = 4  # (beyond, chaos makes the realisations different trajectories: SCALE_TOL)
     base, st, ev = _thermal(base, per)
     sp = Species("scaled", 1.0, 0.5 * sigma)
     sc = replace(base, length=base.length * sigma, duration=base.duration * sigma / speed,
@@ -551,16 +582,19 @@ def scaled(sigma: float, speed: float, size="ci") -> Case:
 def inelastic(dim, restitution, size) -> Case:
     """A dense gas (2D 0.5, 3D 0.4, walls) cooling with restitution e and the default TC
     contact time (1e-4 mean free times): no stall, no overlap, energy only decreasing,
-    and no more events than the gas at its starting temperature would take (it cools, so
-    collisions slow down)."""
+    and (short variant) no more events than the gas at its starting temperature would take
+    (it cools, so collisions slow down). Large systems cluster (the clustering instability
+    of granular gases: the dense regions collide faster than the mean), so the long variant
+    allows ten times that."""
     n = {"ci": 400, "long": 4000}[size]
-    per = {"ci": 400, "long": 2000}[size]
+    per = {"ci": 400, "long": 1000}[size]
     packing = {2: 0.5, 3: 0.4}[dim]
     sc = reduced(dim, n, packing, "walls", seed=2, restitution=restitution, placement="lattice")
     sc, st, ev = _thermal(sc, per)
     sc = replace(sc, tc=default_tc(sc))
-    return Case(f"inelastic e = {restitution:g} {dim}D", sc, st, ev * 1.5, conserves_energy=False,
-                budget=ev * 1.5)
+    budget = ev * (1.5 if size == "ci" else 10.0)
+    return Case(f"inelastic e = {restitution:g} {dim}D", sc, st, ev, conserves_energy=False,
+                budget=budget)
 
 
 def gravity_dense_bottom(dim, size) -> Case:
@@ -568,7 +602,7 @@ def gravity_dense_bottom(dim, size) -> Case:
     the floor (a square / cubic lattice of spacing 1.1 sigma, local packing 0.65 in 2D, 0.39
     in 3D) with Maxwell velocities at k_B T = 1: kinetic + potential energy conserved."""
     side, layers = {"ci": {2: (20, 8), 3: (10, 4)}, "long": {2: (60, 20), 3: (20, 8)}}[size][dim]
-    per = {"ci": 100, "long": 1500}[size]
+    per = {"ci": 100, "long": 600}[size]
     length = 1.1 * side
     grid = np.stack(np.meshgrid(*([np.arange(side)] * (dim - 1) + [np.arange(layers)]),
                                 indexing="ij"), -1).reshape(-1, dim)
