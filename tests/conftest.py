@@ -7,6 +7,11 @@ import math
 import numpy as np
 import pytest
 
+try:
+    from hypothesis import settings as _hypothesis_settings
+except ImportError:  # pragma: no cover - hypothesis is in the test extra
+    _hypothesis_settings = None
+
 from gaz_cli.constants import K_B
 from gaz_cli.scene import Scene
 from gaz_cli.species import Species, lookup
@@ -48,3 +53,16 @@ def argon_scene():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+if _hypothesis_settings is not None:
+    # Property tests (test_kernel_properties.py). "gaz", the default: derandomized, so every
+    # run on every machine tries the same examples and the suite cannot turn red at random
+    # (a failure found by exploring becomes an explicit @example); no deadline, since the
+    # first example of a test may wait for a Numba compilation; a bounded number of
+    # examples, so the file takes seconds. "explore" (--hypothesis-profile explore): fresh
+    # random examples, many more, for a search by hand.
+    _hypothesis_settings.register_profile("gaz", derandomize=True, deadline=None,
+                                          max_examples=100, database=None, print_blob=True)
+    _hypothesis_settings.register_profile("explore", deadline=None, max_examples=2000)
+    _hypothesis_settings.load_profile("gaz")
