@@ -85,14 +85,20 @@ def held():
         raise Interrupted(signum)
 
 
-def signal_of(exc: BaseException) -> int | None:
-    """The signal behind ``exc``: a KeyboardInterrupt (Interrupted included) anywhere in its
-    chain of causes, else None. A Ctrl-C landing while a Numba function boxes its result
-    reaches Python as a SystemError whose cause is the KeyboardInterrupt."""
+def interrupt_in(exc: BaseException) -> KeyboardInterrupt | None:
+    """The KeyboardInterrupt (Interrupted included) anywhere in ``exc``'s chain of causes, else
+    None. A signal landing while a Numba function boxes its result reaches Python as a
+    SystemError whose cause is the interrupt."""
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
-            return getattr(exc, "signum", signal.SIGINT)
+            return exc
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return None
+
+
+def signal_of(exc: BaseException) -> int | None:
+    """The signal behind ``exc`` (see :func:`interrupt_in`), else None."""
+    found = interrupt_in(exc)
+    return None if found is None else getattr(found, "signum", signal.SIGINT)

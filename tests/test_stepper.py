@@ -509,3 +509,29 @@ def test_a_preset_is_placed_with_the_seed_given_and_refuses_what_it_fixes():
             from_options(preset="marbles", **flags)
     with pytest.raises(SceneError, match="--preset comet sets --n"):
         from_options(preset="comet", n=10)
+
+
+def test_a_signal_seen_as_the_kernel_returns_keeps_its_number(monkeypatch):
+    """A SIGTERM landing while Numba boxes the step kernel's result reaches Python as a
+    SystemError caused by the interrupt: the stepper raises that same interrupt, so the run
+    exits 143 and says SIGTERM (it said SIGINT and exited 130, one CI run in a few)."""
+    import signal
+
+    import gaz_cli.stepper as stepper_mod
+    from gaz_cli.errors import Interrupted
+
+    real = stepper_mod._k._advance
+
+    def advance(count, *args):
+        if count == 0:  # the warm-up call (compiles the kernel)
+            return real(count, *args)
+        try:
+            raise Interrupted(signal.SIGTERM)
+        except Interrupted as cause:
+            raise SystemError("returned a result with an exception set") from cause
+
+    monkeypatch.setattr(stepper_mod._k, "_advance", advance)
+    scene, state = PRESETS["marbles"](n=5)
+    with pytest.raises(Interrupted) as info:
+        stepper_mod.run(scene, state, Recorder())
+    assert info.value.signum == signal.SIGTERM

@@ -43,7 +43,7 @@ import numba
 import numpy as np
 
 from gaz_cli.errors import EngineError, GazWarning, SceneError
-from gaz_cli.interrupts import signal_of
+from gaz_cli.interrupts import interrupt_in
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 from gaz_cli.stepper import kernels as _k
@@ -262,8 +262,9 @@ class _Stepper:
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
                     _deadline())
             except SystemError as err:
-                if signal_of(err) is not None:  # Ctrl-C seen as the kernel returned
-                    raise KeyboardInterrupt from None
+                interrupt = interrupt_in(err)
+                if interrupt is not None:  # a signal seen as the kernel returned: the same
+                    raise interrupt from None  # interrupt (SIGTERM stays SIGTERM)
                 raise
             self.step += done
             nsteps -= done
