@@ -558,6 +558,9 @@ class _Simulation:
             status = self._loop(t_stop - self.origin, budget)
             if status == K.DONE:
                 return
+            if int(IS[K.S_EVENTS]) >= self._check_at:  # a chunk's worth, whatever ended the call
+                self._check_stall()
+                self._check_at = int(IS[K.S_EVENTS]) + CHUNK
             if status == K.BUFFER_FULL:
                 self._flush()
             elif status == K.CELL_FULL:
@@ -566,9 +569,6 @@ class _Simulation:
             elif status == K.NL_FULL:
                 self._grow_lists()
             elif status == K.PAUSE:
-                if int(IS[K.S_EVENTS]) >= self._check_at:
-                    self._check_stall()
-                    self._check_at = int(IS[K.S_EVENTS]) + CHUNK
                 if self.restart_every and (int(IS[K.S_EVENTS]) - self._since_restart
                                            >= self.restart_every):
                     self._restart()
@@ -583,9 +583,6 @@ class _Simulation:
                 self._tuned = True
             else:
                 raise EngineError(f"event kernel returned unknown status {status}")
-            if int(IS[K.S_EVENTS]) >= self._check_at:  # a chunk's worth, whatever ended the call
-                self._check_stall()
-                self._check_at = int(IS[K.S_EVENTS]) + CHUNK
 
     def _check_stall(self) -> None:
         """Raise EngineError when simulated time stops, when the event rate runs away
