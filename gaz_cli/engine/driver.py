@@ -459,10 +459,7 @@ class _Simulation:
 
     def _restart(self) -> None:
         """Advance everybody to now, renumber in space order, predict afresh."""
-        t = float(self.FS[K.F_TNOW])
-        x, v = self._state_internal(t)
-        if self.periodic:
-            x = self._wrap(x)
+        t, x, v = self._now()
         perm = self._space_order(x)
         self.ident = self.ident[perm]
         self.M = _alloc(self.n, fill=self.M[perm])
@@ -473,14 +470,17 @@ class _Simulation:
         self._start(t)
         self.restarts += 1
 
+    def _now(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """(now on the kernels' clock, positions, velocities) in row order, wrapped if periodic."""
+        t = float(self.FS[K.F_TNOW])
+        x, v = self._state_internal(t)
+        return t, (self._wrap(x) if self.periodic else x), v
+
     def _rebase(self) -> None:
         """Move the kernels' time origin to now: everybody advanced to now, every prediction
         made afresh from there (as a restart does), so that event times keep their digits."""
         self._flush()  # the buffered rows carry times on the old origin
-        t = float(self.FS[K.F_TNOW])
-        x, v = self._state_internal(t)
-        if self.periodic:
-            x = self._wrap(x)
+        t, x, v = self._now()
         if self.inelastic:
             self.TL -= t
         self.origin += t
