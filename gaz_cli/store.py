@@ -115,6 +115,7 @@ scene_table = sa.Table(
     sa.Column("sc_placement", sa.String(16), nullable=False),
     sa.Column("sc_record", sa.String(16), nullable=False),
     sa.Column("sc_version", sa.String(16), nullable=False),
+    sa.Column("sc_file", sa.Text, info={"since": 3}),
 )
 
 composition = sa.Table(
@@ -122,6 +123,7 @@ composition = sa.Table(
     sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
     sa.Column("pa_num", sa.Integer, sa.ForeignKey("particule.pa_num"), primary_key=True),
     sa.Column("co_n", sa.Integer, nullable=False),
+    sa.Column("co_rank", sa.Integer, info={"since": 3}),
 )
 
 resultat = sa.Table(
@@ -154,10 +156,13 @@ schema_version = sa.Table(
 
 EXAM_TABLES = ("simulation", "particule", "rebond")
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 """Version of the layout this gaz writes. 1: the tables above but SCHEMA_VERSION
 (rollback journal, PostgreSQL's PARTICULE sequence left at 1 by seeding); 2: adds
-SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows."""
+SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows; 3: adds SCENE.SC_FILE
+(the scene file that re-runs the simulation) and COMPOSITION.CO_RANK (the species'
+place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
+indices map to species). A column added in version v carries ``info={"since": v}``."""
 
 BUSY_TIMEOUT_S = 60.0
 """How long a SQLite writer waits for another one's commit before giving up, s."""
@@ -332,7 +337,8 @@ class Store:
             if table.name not in names:
                 continue
             found = [c["name"].lower() for c in insp.get_columns(table.name)]
-            if set(found) != {c.name for c in table.columns}:
+            later = {c.name for c in table.columns if c.info.get("since", 1) > 1}
+            if not ({c.name for c in table.columns} - later <= set(found) <= {c.name for c in table.columns}):
                 raise StoreError(
                     f"{self.shown!r} is not a gaz database: its table {table.name.upper()} has columns "
                     f"({', '.join(c.upper() for c in found)}), not gaz's "
@@ -437,7 +443,24 @@ def _v1_to_v2(conn) -> None:
             conn.execute(sa.select(sa.func.setval(seq, top or 1, top is not None)))
 
 
-MIGRATIONS = {1: _v1_to_v2}
+def _v2_to_v3(conn) -> None:
+    """2 -> 3: the columns added in version 3 (SCENE.SC_FILE, COMPOSITION.CO_RANK), NULL
+    in the rows already there (their scene file and species order were not stored)."""
+    _add_columns(conn, since=3)
+
+
+def _add_columns(conn, since: int) -> None:
+    """ALTER TABLE ... ADD COLUMN for each column of version ``since`` the database lacks."""
+    insp = sa.inspect(conn)
+    for table in metadata.sorted_tables:
+        found = {c["name"].lower() for c in insp.get_columns(table.name)}
+        for col in table.columns:
+            if col.info.get("since", 1) == since and col.name not in found:
+                kind = col.type.compile(dialect=conn.dialect)
+                conn.exec_driver_sql(f"ALTER TABLE {table.name} ADD COLUMN {col.name} {kind}")
+
+
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
@@ -505,8 +528,8 @@ def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime) -> tuple[i
     si_num = int(res.inserted_primary_key[0])
     nums = [_pa_num(conn, sp) for sp in scene.species]
     conn.execute(composition.insert(), [
-        {"si_num": si_num, "pa_num": num, "co_n": int(k)}
-        for num, (_, k) in zip(nums, scene.components)])
+        {"si_num": si_num, "pa_num": num, "co_n": int(k), "co_rank": rank}
+        for rank, (num, (_, k)) in enumerate(zip(nums, scene.components))])
     conn.execute(scene_table.insert().values(
         si_num=si_num, sc_seed=int(scene.seed), sc_temperature=float(scene.temperature),
         sc_engine=scene.engine, sc_boundary=scene.boundary, sc_gravity=float(scene.gravity),

@@ -200,10 +200,14 @@ def _version_1(db: str) -> None:
     """A database as gaz wrote it before schema versions: the same tables but SCHEMA_VERSION,
     PARTICULE seeded with explicit ids (so PostgreSQL's sequence stays at 1), one simulation."""
     engine = sa.create_engine(st.url_for(db))
+    old = sa.MetaData()  # the layout of version 1: no column added since
     with engine.begin() as conn:
         for table in st.metadata.sorted_tables:
             if table is not st.schema_version:
-                table.create(conn)
+                sa.Table(table.name, old, *[
+                    sa.Column(c.name, c.type, *[sa.ForeignKey(fk.target_fullname) for fk in c.foreign_keys],
+                              primary_key=c.primary_key, nullable=c.nullable, autoincrement=c.autoincrement)
+                    for c in table.columns if c.info.get("since", 1) == 1]).create(conn)
         conn.execute(st.particule.insert(), [
             {"pa_num": k + 1, "pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius}
             for k, s in enumerate(BUILTIN.values())])
@@ -227,6 +231,22 @@ def test_version_1_is_migrated_forward(backend, argon_scene):
     assert w.si_num == 2 and store.simulation_numbers() == [1, 2]
     particles = store.table(st.particule)
     assert int(particles[particles.PA_NOM == "custom"].PA_NUM.iloc[0]) == len(BUILTIN) + 1
+    # the columns of version 3 were added: the new run fills them
+    assert store.table(st.composition, 2).CO_RANK.tolist() == [0]
+    store.close()
+
+
+@both
+def test_species_rank_maps_particles_to_species(backend, argon_scene):
+    """COMPOSITION.CO_RANK is the species' block in the scene, whatever its PA_NUM."""
+    store = st.Store(backend)
+    helium, argon = BUILTIN["He"], BUILTIN["Ar"]
+    scene = replace(argon_scene(dim=2, n=10, length=1e-7), components=((argon, 3), (helium, 7)))
+    with store.simulation(scene) as w:
+        w.finish(RunStats(0, 0, 0, 0.0, initial_state(scene)), 0.0, 0.0)
+    comp = store.table(st.composition, w.si_num).sort_values("CO_RANK")
+    names = store.table(st.particule).set_index("PA_NUM").PA_NOM
+    assert [names[k] for k in comp.PA_NUM] == ["Ar", "He"] and comp.CO_N.tolist() == [3, 7]
     store.close()
 
 
