@@ -408,6 +408,12 @@ class Store:
         """Run a packaged SQL file by name."""
         return self.read_sql(query_text(name), **params)
 
+    def scene_files(self) -> list[str]:
+        """The scene file text of every stored simulation that has one (SCENE.SC_FILE)."""
+        with self._errors(), self.engine.connect() as conn:
+            return [r[0] for r in conn.execute(sa.select(scene_table.c.sc_file)
+                                               .where(scene_table.c.sc_file.is_not(None)))]
+
     def simulation_numbers(self) -> list[int]:
         with self._errors(), self.engine.connect() as conn:
             return [int(r[0]) for r in conn.execute(sa.select(simulation.c.si_num).order_by(simulation.c.si_num))]

@@ -1,0 +1,330 @@
+"""Sweeps: one scene, some of its keys varied, several seeds, run on Dask.
+
+A sweep is the cartesian product of the varied keys' values times K seeds
+(:func:`plan`); each point is one ordinary simulation. The points run on a
+Dask cluster -- a :class:`distributed.LocalCluster` of this machine's cores by
+default, or an existing cluster given by its scheduler's address -- and each
+worker returns arrays (the run's bounces, collisions and results), never
+touching the database: the client alone writes, one run at a time, as runs
+finish (:func:`run`). So SQLite works, a crash of a worker loses only its
+run, and an interrupt keeps every run already stored.
+
+A run already in the database -- the same scene file text, seed included
+(SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
+interrupted one. A run that fails is reported and the others go on.
+
+The seeds of a sweep are ``base, base + 1, ..., base + K - 1`` where ``base``
+is the scene's own seed (1 if it has none): the same command gives the same
+runs, row for row.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from gaz_cli import interrupts
+from gaz_cli.errors import GazError, Interrupted, SceneError
+
+MAX_POINTS = 100_000
+"""A sweep larger than this is refused (a typo in START:STOP:COUNT, most likely)."""
+
+
+# --- the plan -------------------------------------------------------------------
+def parse_vary(text: str) -> tuple[str, list]:
+    """``KEY=V1,V2,...`` or ``KEY=START:STOP:COUNT`` (COUNT values, both ends included).
+
+    Values are ints where every one reads as an int, else floats where every
+    one reads as a float, else strings. Raises SceneError naming the problem.
+    """
+    key, sep, values = text.partition("=")
+    key = key.strip()
+    if not sep or not key or not values.strip():
+        raise SceneError(f"--vary {text!r}: write KEY=V1,V2,... or KEY=START:STOP:COUNT "
+                         "(e.g. packing=0.1:0.6:6)")
+    if ":" in values:
+        parts = values.split(":")
+        try:
+            start, stop, count = float(parts[0]), float(parts[1]), int(parts[2])
+        except (ValueError, IndexError):
+            raise SceneError(f"--vary {text!r}: START:STOP:COUNT needs two numbers and a whole count "
+                             "(e.g. packing=0.1:0.6:6)") from None
+        if len(parts) != 3 or count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
+            raise SceneError(f"--vary {text!r}: START:STOP:COUNT needs finite ends and COUNT >= 1")
+        if count == 1:
+            return key, [start]
+        step = (stop - start) / (count - 1)
+        return key, [_tidy(start + k * step) for k in range(count)]
+    items = [v.strip() for v in values.split(",")]
+    if any(not v for v in items):
+        raise SceneError(f"--vary {text!r}: an empty value between commas")
+    for kind in (int, float):
+        try:
+            return key, [kind(v) for v in items]
+        except ValueError:
+            continue
+    return key, items
+
+
+def _tidy(x: float) -> float:
+    """0.30000000000000004 -> 0.3: the value a user would have typed (12 significant digits)."""
+    return float(f"{x:.12g}")
+
+
+@dataclass(frozen=True)
+class Point:
+    """One run of a sweep: the varied keys' values and the seed."""
+
+    values: tuple  # ((key, value), ...) in the order the keys were given
+    seed: int
+
+    @property
+    def label(self) -> str:
+        return " ".join([*(f"{k}={v}" for k, v in self.values), f"seed={self.seed}"])
+
+    def overrides(self) -> dict:
+        return {**dict(self.values), "seed": self.seed}
+
+
+def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = None) -> list[Point]:
+    """The sweep's points: the cartesian product of ``varies`` times ``seeds`` seeds."""
+    if seeds < 1:
+        raise SceneError(f"--seeds {seeds}: give at least 1")
+    keys = [k for k, _ in varies]
+    repeated = sorted({k for k in keys if keys.count(k) > 1})
+    if repeated:
+        raise SceneError(f"--vary {repeated[0]} is given twice; give each key once with all its values")
+    if "seed" in keys:
+        raise SceneError("--vary seed: use --seeds K (K seeds from the scene's seed on)")
+    total = seeds * math.prod(len(v) for _, v in varies)
+    if total > MAX_POINTS:
+        raise SceneError(f"the sweep has {total} runs, more than {MAX_POINTS}; "
+                         "vary fewer values or fewer seeds")
+    base = 1 if base_seed is None else int(base_seed)
+    return [Point(tuple(zip(keys, combo)), base + k)
+            for combo in itertools.product(*(v for _, v in varies)) for k in range(seeds)]
+
+
+# --- one run, on a worker -------------------------------------------------------
+@dataclass
+class Outcome:
+    """What a worker sends back: everything the client needs to store the run."""
+
+    scene: Any
+    stats: Any
+    ke_start: float
+    ke_end: float
+    bounces: dict
+    collisions: dict
+    summary: dict = field(default_factory=dict)
+
+
+def simulate_in_memory(scene) -> Outcome:
+    """Run one scene without a database; return its arrays (the worker's task)."""
+    from gaz_cli.recording import MemoryRecorder
+    from gaz_cli.runner import Tee, WallMomentum, engine_run, prepare, summary
+    from gaz_cli.scene import initial_state
+
+    scene = prepare(scene)
+    keep = MemoryRecorder(collisions=scene.record == "all")
+    keep.want_bounces = scene.record in ("bounces", "all")
+    tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
+    state = initial_state(scene)
+    masses = scene.masses()
+    ke_start = state.kinetic_energy(masses)
+    stats = engine_run(scene.engine)(scene, state, Tee(keep, tally))
+    ke_end = stats.final.kinetic_energy(masses)
+    out = summary(scene, stats, None, ke_start, ke_end, None if tally is None else tally.momentum)
+    return Outcome(scene, stats, ke_start, ke_end, keep.bounces(), keep.collisions(), out)
+
+
+# --- the sweep, on the client ----------------------------------------------------
+@dataclass
+class Report:
+    """What happened to each point: stored (with its SI_NUM), skipped (already stored) or failed."""
+
+    rows: list = field(default_factory=list)  # (point, status, si_num or None, message)
+
+    def count(self, status: str) -> int:
+        return sum(1 for r in self.rows if r[1] == status)
+
+    @property
+    def failed(self) -> int:
+        return self.count("failed")
+
+
+def run(points: list[Point], scene_of: Callable[[dict], Any], key_of: Callable[[Any], str],
+        db: str, workers: int | None = None, scheduler: str | None = None,
+        progress: bool | None = None) -> Report:
+    """Run every point not already in ``db``; store each as it finishes; return the report.
+
+    ``scene_of(overrides)`` builds (and validates) the scene of a point;
+    ``key_of(scene)`` is the text stored in SCENE.SC_FILE, by which a run
+    already stored is recognised. ``workers``: LocalCluster size (default the
+    core count); ``scheduler``: address of an existing Dask scheduler instead.
+    ``progress``: a progress bar on stderr (default: when stderr is a terminal).
+    Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
+    was stored.
+    """
+    from gaz_cli.store import Store
+
+    report = Report()
+    todo = []
+    with Store(db) as store:
+        done = set(store.scene_files())
+    for point in points:
+        try:
+            scene = scene_of(point.overrides())
+        except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
+            report.rows.append((point, "failed", None, str(err)))
+            continue
+        if key_of(scene) in done:
+            report.rows.append((point, "skipped", None, "already in the database"))
+        else:
+            todo.append((point, scene))
+    if not todo:
+        return report
+    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, \
+            Store(db) as store, _Bar(len(todo), progress) as bar:
+        before = len(report.rows)
+        try:
+            _run_all(client, store, todo, report, bar)
+        except BaseException as exc:
+            signum = interrupts.signal_of(exc)
+            if signum is None:
+                raise
+            left = len(todo) - (len(report.rows) - before)
+            raise Interrupted(signum, f"{report.count('stored')} runs of the sweep were stored in "
+                                      f"{store.shown!r}, {left} were not; run the same sweep again to "
+                                      "finish it (stored runs are skipped)") from None
+    return report
+
+
+def _run_all(client, store, todo, report, bar) -> None:
+    from dask.distributed import wait
+
+    futures = {client.submit(simulate_in_memory, scene, pure=False, key=f"gaz-run-{k}-{os.getpid()}"): point
+               for k, (point, scene) in enumerate(todo)}
+    pending = set(futures)
+    stored = failed = 0
+    while pending:
+        try:
+            finished, pending = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
+        except TimeoutError:  # nothing finished in this tick: refresh the bar
+            finished = ()
+        interrupts.check()
+        for fut in finished:
+            point = futures[fut]
+            if fut.status == "finished":
+                si_num = _store(store, fut.result())
+                report.rows.append((point, "stored", si_num, ""))
+                stored += 1
+            else:
+                report.rows.append((point, "failed", None, _why(fut.exception())))
+                failed += 1
+            fut.release()
+        bar.update(done=stored, failed=failed, running=_running(client, pending))
+
+
+def _store(store, outcome: Outcome) -> int:
+    """Write one run's arrays through the store's ordinary writer (one short transaction)."""
+    with store.simulation(outcome.scene) as writer:
+        b, c = outcome.bounces, outcome.collisions
+        if writer.want_bounces and len(b["t"]):
+            writer.add_bounces(b["t"], b["particle"], b["wall"], b["speed"], b["vperp"])
+        if writer.want_collisions and len(c["t"]):
+            writer.add_collisions(c["t"], c["i"], c["j"], c["impulse"])
+        writer.finish(outcome.stats, outcome.ke_start, outcome.ke_end)
+    return writer.si_num
+
+
+def _why(exc: BaseException | None) -> str:
+    """One line for a failed run: the library's own message, or the exception's type and text."""
+    if exc is None:
+        return "failed without an exception (the worker was lost)"
+    text = " ".join(str(exc).split())
+    if isinstance(exc, GazError):
+        return text
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _running(client, pending) -> int:
+    """How many of the pending runs a worker is processing now."""
+    try:
+        busy = {key for keys in client.processing().values() for key in keys}
+    except Exception:  # the scheduler did not answer in time: the bar shows 0 for a tick
+        return 0
+    return sum(1 for f in pending if f.key in busy)
+
+
+class _client:
+    """A Dask client: on an existing scheduler, or on a LocalCluster started and stopped here."""
+
+    def __init__(self, workers: int | None, scheduler: str | None, runs: int):
+        self.workers, self.scheduler, self.runs = workers, scheduler, runs
+        self.cluster = self.client = None
+
+    def __enter__(self):
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError:
+            raise GazError("gaz sweep runs on Dask, which is not installed; "
+                           "pip install 'gaz[sweep]' (or pip install 'dask[distributed]')") from None
+        if self.scheduler:
+            try:
+                self.client = Client(self.scheduler, timeout="10s")
+            except (OSError, TimeoutError) as err:
+                raise GazError(f"--scheduler {self.scheduler!r}: cannot reach the Dask scheduler "
+                               f"({' '.join(str(err).split()) or type(err).__name__}); "
+                               "check the address, or leave --scheduler out to run here") from None
+            return self.client
+        workers = self.workers or os.cpu_count() or 1
+        self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
+                                    processes=True, dashboard_address=":0",
+                                    silence_logs=logging.ERROR)
+        self.client = Client(self.cluster)
+        return self.client
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+class _Bar:
+    """The sweep's progress on stderr (rich): runs done, running and failed, time left."""
+
+    def __init__(self, total: int, show: bool | None):
+        self.total = total
+        self.show = sys.stderr.isatty() if show is None else show
+        self.progress = None
+        self.started = time.monotonic()
+
+    def __enter__(self):
+        if self.show:
+            from rich.console import Console
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+            self.progress = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
+                                     TextColumn("runs · {task.fields[running]} running · "
+                                                "{task.fields[failed]} failed"),
+                                     TimeRemainingColumn(), console=Console(stderr=True),
+                                     transient=False)
+            self.progress.start()
+            self.task = self.progress.add_task("sweep", total=self.total, running=0, failed=0)
+        return self
+
+    def update(self, done: int, failed: int, running: int) -> None:
+        if self.progress is not None:
+            self.progress.update(self.task, completed=done + failed, running=running, failed=failed)
+
+    def __exit__(self, *exc):
+        if self.progress is not None:
+            self.progress.stop()
