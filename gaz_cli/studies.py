@@ -1,0 +1,185 @@
+"""Studies across runs: a measured quantity against a swept key, averaged over seeds,
+beside theory (``gaz analyse --vs KEY``).
+
+The per-run numbers come from the packaged SQL file ``sweep_runs.sql`` (one
+row per simulation: what it was, the momentum its walls received, its
+collisions and virial); this module turns them into each run's pressure,
+compressibility factor Z = P V/(N k_B T) and collision rate per particle,
+groups the runs by the key, and gives for each value the mean over its runs,
+the standard error from their spread (the runs are independent seeds), and
+theory for the same scene:
+
+- pressure: with walls, :func:`gaz_cli.theory.hard_sphere_wall_pressure` (the
+  bulk equation of state -- Tonks in 1D, Kolafa-Rottner in 2D, KLM in 3D --
+  at the density of the volume the centres reach); in a periodic box the
+  bulk equation of state itself; the ideal gas beside;
+- collision rate: Enskog's (exact in 1D).
+
+The temperature of each run is its kinetic temperature (mean of the start and
+end kinetic energies), as in the run's own summary.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from gaz_cli import theory
+from gaz_cli.errors import GazError, SceneError
+
+KEYS = {
+    "packing": "packing fraction eta of the run",
+    "temperature": "temperature asked for (SCENE.SC_TEMPERATURE), K",
+    "n": "number of particles (SI_N)",
+    "length": "box side (SI_L), m",
+    "density": "number density N/L^D, 1/m^D",
+}
+"""Keys ``--vs`` accepts, and what each is."""
+
+
+def runs(store) -> pd.DataFrame:
+    """One row per simulation with its key values, measured and theoretical numbers."""
+    frame = store.query("sweep_runs")
+    if frame.empty:
+        return frame
+    dim = frame.SI_DIM.to_numpy()
+    n = frame.SI_N.to_numpy(dtype=float)
+    length = frame.SI_L.to_numpy(dtype=float)
+    volume = length ** dim
+    periodic = (frame.SC_BOUNDARY == "periodic").to_numpy()
+    radius = frame.PA_R.to_numpy(dtype=float)
+    out = pd.DataFrame({"SI_NUM": frame.SI_NUM, "DIM": dim, "BOUNDARY": frame.SC_BOUNDARY,
+                        "SEED": frame.SC_SEED, "n": n, "length": length,
+                        "temperature": frame.SC_TEMPERATURE.astype(float), "density": n / volume})
+    out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
+                      for d, rho, r in zip(dim, out.density, radius)]
+    ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
+    t_kin = np.array([_kinetic_temperature(d, k, nn, p) for d, k, nn, p in zip(dim, ke, n, periodic)])
+    out["T_KIN"] = t_kin
+    duration = frame.SI_DUR.to_numpy(dtype=float)
+    wall = frame.MOMENTUM.to_numpy(dtype=float) / (2 * dim * duration * length ** (dim - 1))
+    virial = np.array([_virial(d, nn, t, v, w, tau) for d, nn, t, v, w, tau in
+                       zip(dim, n, t_kin, volume, frame.RS_VIRIAL.to_numpy(dtype=float), duration)])
+    out["P"] = np.where(periodic, virial, wall)
+    out["P_THEORY"] = [_pressure_theory(d, L, t, nn, r, p) for d, L, t, nn, r, p in
+                       zip(dim, length, t_kin, n, radius, periodic)]
+    out["P_IDEAL"] = n * theory.K_B * t_kin / volume
+    out["Z"] = out.P / out.P_IDEAL
+    out["Z_THEORY"] = out.P_THEORY / out.P_IDEAL
+    out["RATE"] = 2.0 * frame.RS_COLLISIONS.to_numpy(dtype=float) / (n * duration)
+    mass = frame.PA_M.to_numpy(dtype=float)
+    out["RATE_THEORY"] = [_rate_theory(d, nn, L, r, t, m) for d, nn, L, r, t, m in
+                          zip(dim, n, length, radius, t_kin, mass)]
+    return out
+
+
+def versus(store, key: str) -> pd.DataFrame:
+    """Per value of ``key``: runs, mean and standard error over them, theory, deviation in sigma."""
+    if key not in KEYS:
+        raise GazError(f"--vs {key!r} is not a key gaz can tabulate; use one of {', '.join(KEYS)}")
+    table = runs(store)
+    if table.empty:
+        raise GazError("the database holds no simulation to tabulate; run 'gaz sweep' or 'gaz simulate' first")
+    groups = table.groupby([table.DIM, table.BOUNDARY, table[key].round(12)], sort=True)
+    rows = []
+    for (dim, boundary, x), g in groups:
+        row = {"DIM": dim, "BOUNDARY": boundary, key.upper(): x, "RUNS": len(g)}
+        for name in ("P", "Z", "RATE"):
+            mean, err = _mean_err(g[name])
+            theory_ = g[f"{name}_THEORY"].mean()
+            row.update({name: mean, f"{name}_ERR": err, f"{name}_THEORY": theory_,
+                        f"{name}_DEV_SIGMA": (mean - theory_) / err if err > 0 else math.nan})
+        row["P_IDEAL"] = g.P_IDEAL.mean()
+        row["NOTE"] = "" if len(g) > 1 else "one run: no error bar (give --seeds 2 or more)"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _mean_err(values: pd.Series) -> tuple[float, float]:
+    """Mean and standard error of independent runs (NaN error for a single run)."""
+    v = values.to_numpy(dtype=float)
+    v = v[np.isfinite(v)]
+    if len(v) == 0:
+        return math.nan, math.nan
+    if len(v) == 1:
+        return float(v[0]), math.nan
+    return float(v.mean()), float(v.std(ddof=1) / math.sqrt(len(v)))
+
+
+def _kinetic_temperature(dim, ke, n, periodic) -> float:
+    try:
+        return float(theory.kinetic_temperature(dim, ke, n, periodic=bool(periodic)))
+    except SceneError:
+        return math.nan
+
+
+def _virial(dim, n, t, volume, w, tau) -> float:
+    if not (np.isfinite(t) and t > 0):
+        return math.nan
+    return float(theory.virial_pressure(dim, n, t, volume, w, tau))
+
+
+def _pressure_theory(dim, length, t, n, radius, periodic) -> float:
+    """The scene's pressure by theory; NaN where no theory applies (mixtures, beyond a model's range)."""
+    if not (np.isfinite(radius) and np.isfinite(t) and t > 0):
+        return math.nan
+    try:
+        if periodic:
+            return float(theory.hard_sphere_pressure(dim, n / length ** dim, 2.0 * radius, t))
+        return float(theory.hard_sphere_wall_pressure(dim, length, t, n, radius))
+    except SceneError:
+        return math.nan
+
+
+def _rate_theory(dim, n, length, radius, t, mass) -> float:
+    if not (np.isfinite(radius) and np.isfinite(t) and t > 0 and np.isfinite(mass) and n > 1):
+        return math.nan
+    try:
+        if dim == 1:
+            return float(theory.rods_collision_frequency(n, length, radius, t, mass))
+        return float(theory.enskog_collision_frequency(dim, n / length ** dim, 2.0 * radius, t, mass))
+    except SceneError:
+        return math.nan
+
+
+def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
+    """Draw Z (and P) against ``key`` with error bars beside theory; return the files written.
+
+    Against the packing fraction the theory is the equation of state's curve
+    Z(eta) (Tonks, Kolafa-Rottner or KLM) with the ideal gas Z = 1 beside, and
+    each point's own finite-box theory as an open marker.
+    """
+    import os
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(folder, exist_ok=True)
+    written = []
+    col = key.upper()
+    for (dim, boundary), g in table.groupby(["DIM", "BOUNDARY"]):
+        fig, ax = plt.subplots(figsize=(6, 4.2))
+        ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color="C0", capsize=3,
+                    label=f"measured (mean of {int(g.RUNS.min())}-{int(g.RUNS.max())} seeds, ±1σ)")
+        ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color="C1", label="theory for each scene")
+        if key == "packing":
+            eta = np.linspace(0.0, float(g[col].max()) * 1.05, 200)
+            model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[int(dim)]
+            ax.plot(eta, theory.compressibility_factor(int(dim), eta), "-", color="C1", lw=1,
+                    label=f"{model} (bulk)")
+            ax.set_xlabel("packing fraction η")
+        else:
+            ax.set_xlabel(f"{key} ({KEYS[key]})")
+        ax.axhline(1.0, color="grey", ls="--", lw=1, label="ideal gas")
+        ax.set_ylabel("Z = P V / (N k_B T)")
+        ax.set_title(f"{int(dim)}D, {boundary}: compressibility factor against {key}")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        written.append(path)
+    return written

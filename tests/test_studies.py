@@ -1,0 +1,66 @@
+"""Studies across runs (gaz analyse --vs): hard rods between walls, whose pressure is
+known exactly for any N (Tonks), swept over the packing fraction with several seeds."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from gaz_cli import studies
+from gaz_cli.errors import GazError
+from gaz_cli.runner import simulate
+from gaz_cli.scene import Scene
+from gaz_cli.species import BUILTIN
+from gaz_cli.store import Store
+
+ARGON = BUILTIN["Ar"]
+N = 50
+PACKINGS = (0.2, 0.5)
+SEEDS = 8
+
+
+@pytest.fixture(scope="module")
+def rods_db(tmp_path_factory):
+    db = str(tmp_path_factory.mktemp("studies") / "rods.db")
+    for eta in PACKINGS:
+        length = N * 2 * ARGON.radius / eta
+        for seed in range(1, SEEDS + 1):
+            simulate(Scene(dim=1, length=length, duration=2e-10, components=((ARGON, N),), seed=seed),
+                     db=db)
+    return db
+
+
+def test_rods_pressure_against_packing_agrees_with_tonks(rods_db):
+    """Each packing's mean over 8 seeds within 5 standard errors of Tonks' exact pressure.
+
+    Error model: the runs are independent, so (mean - exact)/SE follows Student's t
+    with 7 degrees of freedom; |t| > 5 has probability 0.16 % per point.
+    """
+    with Store(rods_db, create=False) as store:
+        table = studies.versus(store, "packing")
+    assert table.PACKING.tolist() == pytest.approx(list(PACKINGS), rel=1e-9)
+    assert (table.RUNS == SEEDS).all()
+    for _, row in table.iterrows():
+        assert row.P_ERR > 0 and abs(row.P_DEV_SIGMA) < 5, row.to_dict()
+        assert abs(row.Z_DEV_SIGMA) < 5, row.to_dict()
+        # the exact rod result: Z = 1/(1 - eta) up to the walls' share (L - 2R)
+        assert row.Z_THEORY == pytest.approx(1 / (1 - row.PACKING), rel=0.05)
+        assert abs(row.RATE_DEV_SIGMA) < 5, row.to_dict()
+
+
+def test_unknown_key_and_empty_database_are_one_line(rods_db, tmp_path):
+    with Store(rods_db, create=False) as store:
+        with pytest.raises(GazError, match="--vs 'colour' is not a key"):
+            studies.versus(store, "colour")
+    with Store(str(tmp_path / "empty.db")) as store:
+        with pytest.raises(GazError, match="no simulation"):
+            studies.versus(store, "packing")
+
+
+def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
+    with Store(rods_db, create=False) as store:
+        table = studies.versus(store, "packing")
+    files = studies.plot(table, "packing", str(tmp_path / "figs"))
+    assert len(files) == 1 and all(math.isfinite(z) for z in table.Z)
+    assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000

@@ -1,0 +1,118 @@
+"""Sweeps on a real Dask cluster: the plan, every run stored once with the rows a single
+run gives, failures reported while the others go on, a stored run skipped."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gaz_cli import sweep
+from gaz_cli.errors import SceneError
+from gaz_cli.runner import simulate
+from gaz_cli.scene import Scene
+from gaz_cli.species import BUILTIN
+from gaz_cli.store import Store, rebond
+
+pytest.importorskip("dask.distributed")
+
+BASE = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=7)
+
+
+def scene_of(overrides: dict) -> Scene:
+    """A point's scene: ``n`` varies; a point asking for more than fits fails to build."""
+    n = overrides["n"]
+    if n > 1000:
+        raise SceneError(f"n = {n}: too many for this box")
+    return replace(BASE, seed=overrides["seed"], components=((BUILTIN["Ar"], n),))
+
+
+def key_of(scene: Scene) -> str:
+    return f"n={scene.n} seed={scene.seed}"
+
+
+# --- the plan -------------------------------------------------------------------
+def test_vary_reads_lists_and_ranges():
+    assert sweep.parse_vary("packing=0.1:0.6:6") == ("packing", [0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    assert sweep.parse_vary("n=10,20") == ("n", [10, 20])
+    assert sweep.parse_vary("temperature=300,1e3") == ("temperature", [300.0, 1000.0])
+    assert sweep.parse_vary("boundary=walls,periodic") == ("boundary", ["walls", "periodic"])
+    assert sweep.parse_vary("length=2:2:1") == ("length", [2.0])
+
+
+@pytest.mark.parametrize("text", ["packing", "packing=", "=1,2", "n=1,,2", "packing=0.1:0.6",
+                                  "packing=0.1:0.6:0", "packing=a:b:3", "packing=0.1:0.6:2.5"])
+def test_vary_refuses_malformed_text_in_one_line(text):
+    with pytest.raises(SceneError) as err:
+        sweep.parse_vary(text)
+    assert "\n" not in str(err.value) and "--vary" in str(err.value)
+
+
+def test_plan_is_the_product_of_the_values_times_the_seeds():
+    points = sweep.plan([("n", [10, 20, 30]), ("temperature", [100.0, 300.0])], seeds=4, base_seed=7)
+    assert len(points) == 3 * 2 * 4 and len(set(points)) == len(points)
+    assert {p.seed for p in points} == {7, 8, 9, 10}
+    assert {p.overrides()["n"] for p in points} == {10, 20, 30}
+    assert sweep.plan([("n", [1])], seeds=2)[0].seed == 1  # no seed in the scene: from 1
+    with pytest.raises(SceneError, match="given twice"):
+        sweep.plan([("n", [1]), ("n", [2])], seeds=1)
+    with pytest.raises(SceneError, match="--seeds"):
+        sweep.plan([("n", [1])], seeds=0)
+    with pytest.raises(SceneError, match="more than"):
+        sweep.plan([("n", list(range(1000)))], seeds=1000)
+
+
+# --- on a cluster ----------------------------------------------------------------
+def _rows(db: str, si_num: int) -> np.ndarray:
+    with Store(db, create=False) as store:
+        frame = store.table(rebond, si_num)
+    return frame[["RE_NUM", "RE_T", "RE_DIR", "RE_VIT", "RE_VP"]].to_numpy()
+
+
+def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
+    """Two worker processes, a failing point among good ones: each good point is stored
+    once, with exactly the rows of the same scene run alone (same seed, same rows)."""
+    db = str(tmp_path / "sweep.db")
+    points = sweep.plan([("n", [10, 5000, 20])], seeds=2, base_seed=BASE.seed)
+    report = sweep.run(points, scene_of, key_of, db, workers=2, progress=False)
+    stored = [r for r in report.rows if r[1] == "stored"]
+    failed = [r for r in report.rows if r[1] == "failed"]
+    assert len(stored) == 4 and len(failed) == 2
+    assert all("too many" in r[3] for r in failed)
+    assert len({r[2] for r in stored}) == 4  # distinct SI_NUM
+    for point, _, si_num, _ in stored:
+        alone = simulate(scene_of(point.overrides()), db=str(tmp_path / "alone.db"))
+        rows = _rows(db, si_num)
+        assert len(rows) > 0 and np.array_equal(rows, _rows(str(tmp_path / "alone.db"), alone["si_num"]))
+
+
+def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path):
+    """A run that raises inside the worker (an engine the runner does not know) fails alone."""
+    db = str(tmp_path / "sweep.db")
+
+    def broken_or_not(overrides):
+        scene = scene_of(overrides)
+        return replace(scene, engine="warp") if overrides["n"] == 20 else scene
+
+    report = sweep.run(sweep.plan([("n", [10, 20])], seeds=1, base_seed=3), broken_or_not, key_of,
+                       db, workers=1, progress=False)
+    status = {p.overrides()["n"]: (s, why) for p, s, _, why in report.rows}
+    assert status[10][0] == "stored"
+    assert status[20][0] == "failed" and "warp" in status[20][1] and "\n" not in status[20][1]
+
+
+def test_a_sweep_runs_on_an_existing_scheduler(tmp_path):
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=":0") as cluster:
+        report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
+                           str(tmp_path / "s.db"), scheduler=cluster.scheduler_address, progress=False)
+    assert report.count("stored") == 2
+
+
+def test_an_unreachable_scheduler_is_one_line(tmp_path):
+    with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
+        sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
+                  scheduler="tcp://127.0.0.1:9", progress=False)
