@@ -1,0 +1,94 @@
+"""Which engine runs a scene: the registry, and ``auto``'s choice of the cheapest exact path.
+
+``auto`` (the default) looks at what the scene holds and takes, in order:
+
+1. ``ideal`` when no two particles can meet (one particle, or point particles)
+   and nothing bends a flight: wall bounces in closed form, no event queue
+   (:mod:`gaz_cli.ideal`);
+2. ``step`` when the scene asks for what only the time-stepped engine models:
+   drag, gravity between particles, extra planes, damped walls. Without a
+   time step it picks one from the scene: :data:`STEPS_PER_FLIGHT` steps per
+   mean free time, or per box crossing when that is shorter (said in the reason);
+3. ``event`` otherwise: hard spheres, with at most uniform gravity, exactly
+   (in 1D it follows each rod's two neighbours only).
+
+The choice and its reason go to the run's summary (``engine``, ``engine_reason``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from dataclasses import replace
+
+from gaz_cli.errors import SceneError
+
+ENGINES = {
+    "event": "gaz_cli.engine",
+    "ideal": "gaz_cli.ideal",
+    "reference": "gaz_cli.reference",
+    "step": "gaz_cli.stepper",
+}
+"""Engine name -> module exposing ``run(scene, state, recorder) -> RunStats``."""
+
+CHOICES = ("auto", *ENGINES)
+"""What a scene's ``engine`` may say."""
+
+STEPS_PER_FLIGHT = 50
+"""Steps per mean free time (or per box crossing, if shorter) when ``auto`` picks the step engine's dt."""
+
+
+def engine_run(name: str):
+    """The ``run`` function of the engine called ``name``."""
+    if name not in ENGINES:
+        raise SceneError(f"engine {name!r} is not one of {', '.join(CHOICES)}")
+    return importlib.import_module(ENGINES[name]).run
+
+
+def choose(scene):
+    """``scene`` with ``engine`` resolved (``auto`` replaced by a path) and the reason, one line.
+
+    A scene naming its engine keeps it (reason: "asked for").
+    """
+    if scene.engine != "auto":
+        return scene, f"engine {scene.engine!r} asked for"
+    from gaz_cli import ideal
+
+    step_needs = [what for what, present in (
+        ("drag", bool(scene.drag)), ("gravity between particles", bool(scene.pair_gravity)),
+        ("extra planes", bool(scene.planes)),
+        ("damped walls", scene.boundary == "walls" and scene.wall_restitution != 1.0)) if present]
+    if step_needs:
+        reason = f"{' and '.join(step_needs)}: only the time-stepped engine models them"
+        if scene.dt is None:
+            dt, basis = step_for(scene)
+            scene = replace(scene, dt=dt)
+            reason += f"; dt = {dt:.3g} s, {basis}"
+        return replace(scene, engine="step"), reason
+    if ideal.reason_not(scene) is None:
+        why = "one particle" if scene.n == 1 else "point particles"
+        return replace(scene, engine="ideal"), f"{why} never collide: wall bounces in closed form, no event queue"
+    if scene.dim == 1:
+        return replace(scene, engine="event"), "hard rods: exact events, each rod against its two neighbours"
+    return replace(scene, engine="event"), "hard spheres: exact event-driven dynamics"
+
+
+def step_for(scene) -> tuple[float, str]:
+    """A time step for the step engine: 1/STEPS_PER_FLIGHT of the mean free time, or of the
+    box-crossing time when that is shorter; and a phrase saying which."""
+    from gaz_cli import theory
+
+    masses = scene.masses()
+    speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
+    crossing = scene.length / speed
+    radius = float(scene.radii().mean())
+    free = math.inf
+    if radius > 0 and scene.n > 1:
+        density = scene.n / scene.volume
+        try:
+            free = float(theory.mean_free_path(scene.dim, density, 2.0 * radius)) / speed
+        except SceneError:
+            free = math.inf
+    if free < crossing:
+        return free / STEPS_PER_FLIGHT, f"{STEPS_PER_FLIGHT} steps per mean free time"
+    return crossing / STEPS_PER_FLIGHT, f"{STEPS_PER_FLIGHT} steps per box crossing"

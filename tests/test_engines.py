@@ -1,0 +1,47 @@
+"""--engine auto: the cheapest exact path for each scene, and the reason it gives."""
+
+from __future__ import annotations
+
+import pytest
+
+from gaz_cli import engines, theory
+from gaz_cli.scene import Scene
+from gaz_cli.species import BUILTIN, Species
+
+ARGON = BUILTIN["Ar"]
+POINT = Species("point", ARGON.mass, 0.0)
+
+
+def _scene(**kw) -> Scene:
+    base = dict(dim=3, length=1e-7, duration=1e-9, components=((ARGON, 100),), seed=1, engine="auto")
+    return Scene(**{**base, **kw})
+
+
+@pytest.mark.parametrize("kw, engine, words", [
+    (dict(components=((POINT, 100),)), "ideal", "point particles"),
+    (dict(components=((ARGON, 1),)), "ideal", "one particle"),
+    (dict(components=((POINT, 100),), boundary="periodic"), "ideal", "closed form"),
+    (dict(), "event", "hard spheres"),
+    (dict(gravity=1e12), "event", "hard spheres"),
+    (dict(components=((POINT, 100),), gravity=1e12), "event", "hard spheres"),
+    (dict(dim=1), "event", "neighbours"),
+    (dict(drag=1e9, dt=1e-13), "step", "drag"),
+    (dict(wall_restitution=0.9, dt=1e-13), "step", "damped walls"),
+    (dict(engine="reference"), "reference", "asked for"),
+])
+def test_auto_takes_the_path_the_scene_needs(kw, engine, words):
+    scene, reason = engines.choose(_scene(**kw))
+    assert scene.engine == engine and words in reason and "\n" not in reason
+
+
+def test_auto_picks_a_step_from_the_mean_free_time():
+    dense = _scene(length=5e-9, components=((ARGON, 200),), drag=1e9)
+    scene, reason = engines.choose(dense)
+    speed = theory.mean_speed(3, dense.temperature, ARGON.mass)
+    free_time = theory.mean_free_path(3, 200 / 5e-9 ** 3, 2 * ARGON.radius) / speed
+    assert scene.engine == "step" and "mean free time" in reason
+    assert scene.dt == pytest.approx(free_time / engines.STEPS_PER_FLIGHT, rel=1e-12)
+    # a dilute gas crosses the box before it meets anyone: the crossing time sets the step
+    scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9))
+    assert "box crossing" in reason
+    assert scene.dt == pytest.approx(1e-6 / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
