@@ -10,7 +10,7 @@ l = L - 2R) at position u = x - R and velocity v != 0 first meets a wall at
 
 then every tau = l/|v| after that, at the two walls in turn; its speed never
 changes. The bounces of all particles are generated window by window of
-simulated time (about :data:`CHUNK` at a time), put in time order (a stable sort)
+simulated time (about :data:`CHUNK` at a time), put in time order
 and handed to the recorder as the event engine would hand them: the same
 rows, to rounding (the event engine accumulates its clock bounce after bounce,
 this path computes t0 + k tau directly).
@@ -29,8 +29,10 @@ import numpy as np
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 
-CHUNK = 1 << 20
-"""About this many bounces are generated, sorted and recorded at a time (bounded memory)."""
+CHUNK = 1 << 16
+"""About this many bounces are generated, sorted and recorded at a time, or 2 N D if more
+(a window costs O(N D) to set up): small enough to sort in cache (measured, 3D, N = 10^4,
+1.2 M bounces: 1.7 M bounces/s with windows of 2^20, 4.4 M/s with 2^17, 4.8 M/s with 2^15)."""
 
 
 def reason_not(scene: Scene) -> str | None:
@@ -148,13 +150,14 @@ class _Flights:
 def _record(flights: _Flights, duration: float, total: int, start_time: float,
             recorder: Recorder) -> None:
     """Hand every bounce to the recorder in time order, about CHUNK at a time."""
-    windows = max(1, math.ceil(total / CHUNK))
+    per_window = max(CHUNK, 2 * flights.u.size)
+    windows = max(1, math.ceil(total / per_window))
     edges = np.linspace(0.0, duration, windows + 1)
     edges[-1] = duration
     for a, b in zip(edges[:-1], edges[1:]):
         t, particle, wall, speed, vperp = flights.window(a, b)
         if not len(t):
             continue
-        order = np.argsort(t, kind="stable")
+        order = np.argsort(t)  # exact ties (measure zero) in an order fixed by the input
         recorder.add_bounces(t[order] + start_time, particle[order], wall[order],
                              speed[order], vperp[order])

@@ -81,7 +81,7 @@ def test_periodic_point_particles_wrap_and_never_bounce():
 
 def test_windows_give_the_same_rows_in_time_order(monkeypatch):
     """Many small windows (CHUNK 16): the rows of one window, in one global time order."""
-    scene = validate(Scene(dim=2, length=1e-7, duration=1e-9, components=((POINT, 60),), seed=4))
+    scene = validate(Scene(dim=2, length=1e-7, duration=5e-9, components=((POINT, 20),), seed=4))
     state = initial_state(scene)
     whole = MemoryRecorder()
     ideal.run(scene, state, whole)
