@@ -123,14 +123,15 @@ def _check_writable(path: str | None, option: str) -> None:
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
-             every: float | None = None, diagnostics=None) -> dict:
+             every: float | None = None, diagnostics=None, write_scene: str | None = None) -> dict:
     """Run one simulation; return its summary (a dict, JSON-ready).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
-    database. ``state``: an explicit initial state (presets), else one is
-    drawn from the scene and its seed. ``trajectory``/``every``: snapshot
+    database. ``state``: an explicit initial state, else one is drawn from the scene and its
+    seed (:func:`gaz_cli.scene.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
-    engine's periodic diagnostics (a dict). Raises
+    engine's periodic diagnostics (a dict). ``write_scene``: write the scene file of the run
+    (with its seed) to this path before running. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
     interrupted, saying what was left on disk.
     """
@@ -138,7 +139,12 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     run = engine_run(scene.engine)
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
+    _check_writable(write_scene, "--write-scene")
     check_outputs(scene, trajectory, every)
+    if write_scene:
+        from gaz_cli import scenefile
+
+        scenefile.write(write_scene, scene)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
