@@ -238,15 +238,15 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
       gaz simulate examples/exam.toml --seed 7 --write-scene run.toml
     """
-    from gaz_cli import options as opts, runner
+    from gaz_cli import api, options as opts, runner
 
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else (db or outputs.get("db") or "gaz.db")
     trajectory = trajectory or outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
     save_state = save_state or outputs.get("save_state")
-    summary = runner.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
-                              diagnostics=_print_diagnostic, write_scene=write_scene)
+    summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
+                           diagnostics=_print_diagnostic, write_scene=write_scene).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:
@@ -308,11 +308,11 @@ def analyse(db, sim, fmt, plot, table):
       gaz analyse --db gaz.db --sim 1 --format json
       gaz analyse --db gaz.db --sim 1 --format csv --table q36 > walls.csv
     """
-    from gaz_cli import analysis
+    from gaz_cli import analysis, api
 
     if table is not None and table not in analysis.TABLES:
         raise click.BadParameter(f"{table!r} is not one of {', '.join(analysis.TABLES)}", param_hint="--table")
-    frames = analysis.report(db, sim=sim, plot_dir=plot)
+    frames = api.analyse(db, sim=sim, plot=plot)
     if table is not None:
         title = analysis.TABLES[table]
         if title not in frames:
