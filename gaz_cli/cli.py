@@ -23,9 +23,9 @@ FORMATS = ("table", "csv", "json")
 
 
 # --- shared options -----------------------------------------------------------
-def db_option(default: str | None = "gaz.db"):
+def db_option(default: str | None = "gaz.db", note: str = ""):
     return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL",
-                        help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz).")
+                        help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 
 def seed_option(f):
@@ -176,7 +176,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--temperature", type=float, default=None,
               help="Temperature of the Maxwell-Boltzmann velocities, K.  [default: 300]")
 @seed_option
-@db_option(default=None)
+@db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--no-db", is_flag=True, help="Write no database (summary only).")
 @click.option("--engine", type=click.Choice(["event", "reference", "step"]), default=None,
               help="event: fast exact event-driven engine; reference: the exam's algorithm "
