@@ -1,3 +1,32 @@
-"""gaz: hard-sphere gases in a box, every wall bounce in a SQL database."""
+"""gaz: hard-sphere gases in a box, every wall bounce in a SQL database.
+
+The Python API (README "From Python"): :func:`make_scene`, :func:`load_scene`,
+:func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, and the types
+:class:`Scene`, :class:`Species`, :class:`State`. They load on first use (PEP 562), so
+``import gaz_cli`` itself imports nothing heavy (no numpy, pandas, SQLAlchemy, matplotlib).
+"""
 
 __version__ = "0.1.0"
+
+_LAZY = {
+    "make_scene": "gaz_cli.api", "load_scene": "gaz_cli.api", "write_scene": "gaz_cli.api",
+    "scene_text": "gaz_cli.api", "simulate": "gaz_cli.api", "open_store": "gaz_cli.api",
+    "analyse": "gaz_cli.api", "Run": "gaz_cli.runner", "Scene": "gaz_cli.scene", "State": "gaz_cli.scene",
+    "Species": "gaz_cli.species", "GazError": "gaz_cli.errors", "SceneError": "gaz_cli.errors",
+}
+__all__ = ["__version__", *_LAZY]
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'gaz_cli' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

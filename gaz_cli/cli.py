@@ -23,9 +23,9 @@ FORMATS = ("table", "csv", "json")
 
 
 # --- shared options -----------------------------------------------------------
-def db_option(default: str | None = "gaz.db"):
+def db_option(default: str | None = "gaz.db", note: str = ""):
     return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL",
-                        help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz).")
+                        help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 
 def seed_option(f):
@@ -164,6 +164,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 
 # --- simulate -----------------------------------------------------------------
 @cli.command()
+@click.argument("scene_file", metavar="[SCENE.toml]", required=False, type=click.Path(dir_okay=False))
 @click.option("--dim", type=int, default=None, help="Dimension of space: 1, 2 or 3.")
 @click.option("--n", "n", type=int, default=None, help="Number of particles (or give counts in --species).")
 @click.option("--length", type=float, default=None, help="Box side L, m.")
@@ -172,41 +173,46 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
               help="Built-in gas (He Ne Ar Kr Xe H2 N2 O2 CO2 CH4; default Ar) or a mixture Ar:500,He:500.")
 @click.option("--radius", type=float, default=None, help="Custom particle radius, m (with --mass).")
 @click.option("--mass", type=float, default=None, help="Custom particle mass, kg (with --radius).")
-@click.option("--temperature", type=float, default=300.0, show_default=True,
-              help="Temperature of the Maxwell-Boltzmann velocities, K.")
+@click.option("--temperature", type=float, default=None,
+              help="Temperature of the Maxwell-Boltzmann velocities, K.  [default: 300]")
 @seed_option
-@db_option()
+@db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--no-db", is_flag=True, help="Write no database (summary only).")
-@click.option("--engine", type=click.Choice(["event", "reference", "step"]), default="event", show_default=True,
+@click.option("--engine", type=click.Choice(["event", "reference", "step"]), default=None,
               help="event: fast exact event-driven engine; reference: the exam's algorithm "
-                   "(slow, the specification); step: fixed time step (needs --dt).")
-@click.option("--boundary", type=click.Choice(["walls", "periodic"]), default="walls", show_default=True,
-              help="Hard walls (the exam) or a periodic box (pressure from the collision virial).")
-@click.option("--gravity", type=float, default=0.0, show_default=True,
-              help="Uniform gravity g, m/s^2, pulling towards 0 along the last axis.")
-@click.option("--restitution", type=float, default=1.0, show_default=True,
-              help="Coefficient of restitution of particle collisions (1 = elastic).")
+                   "(slow, the specification); step: fixed time step (needs --dt).  [default: event]")
+@click.option("--boundary", type=click.Choice(["walls", "periodic"]), default=None,
+              help="Hard walls (the exam) or a periodic box (pressure from the collision virial).  [default: walls]")
+@click.option("--gravity", type=float, default=None,
+              help="Uniform gravity g, m/s^2, pulling towards 0 along the last axis.  [default: 0]")
+@click.option("--restitution", type=float, default=None,
+              help="Coefficient of restitution of particle collisions (1 = elastic).  [default: 1]")
 @click.option("--tc", type=float, default=None,
               help="TC model contact time, s: collisions within tc of a previous one are elastic "
                    "(guards against inelastic collapse). Default: 1e-4 of the mean free time when "
                    "--restitution < 1.")
-@click.option("--record", type=click.Choice(["none", "bounces", "all"]), default="bounces", show_default=True,
+@click.option("--record", type=click.Choice(["none", "bounces", "all"]), default=None,
               help="What goes to the database: nothing but the summary, wall bounces (REBOND), "
-                   "or also particle collisions (table CHOC).")
+                   "or also particle collisions (table CHOC).  [default: bounces]")
 @click.option("--method", "placement", type=click.Choice(["auto", "rejection", "rapid", "lattice", "grow"]),
-              default="auto", show_default=True, help="Placement method (see gaz place --help).")
+              default=None, help="Placement method (see gaz place --help).  [default: auto]")
 @click.option("--dt", type=float, default=None, help="Time step, s (--engine step).")
-@click.option("--drag", type=float, default=0.0, show_default=True, help="Linear friction gamma, 1/s (--engine step).")
-@click.option("--pair-gravity", type=float, default=0.0, show_default=True,
-              help="Newtonian attraction between bodies with this G, m^3/(kg s^2) (--engine step).")
-@click.option("--softening", type=float, default=0.0, show_default=True, help="Plummer softening length, m.")
-@click.option("--wall-restitution", type=float, default=1.0, show_default=True,
-              help="Restitution of the walls (1 = elastic; --engine step).")
+@click.option("--drag", type=float, default=None, help="Linear friction gamma, 1/s (--engine step).  [default: 0]")
+@click.option("--pair-gravity", type=float, default=None,
+              help="Newtonian attraction between bodies with this G, m^3/(kg s^2) (--engine step).  [default: 0]")
+@click.option("--softening", type=float, default=None,
+              help="Plummer softening length, m (--engine step).  [default: 0]")
+@click.option("--wall-restitution", type=float, default=None,
+              help="Restitution of the walls (1 = elastic; --engine step).  [default: 1]")
 @click.option("--plane", "planes", multiple=True, metavar="X,Y[,Z]:NX,NY[,NZ][:E]",
               help="Extra plane wall: a point, its inward normal, optional restitution (--engine step). Repeatable.")
-@click.option("--print-every", type=click.IntRange(0), default=0, show_default=True,
-              help="Diagnostics on stderr every this many steps (--engine step).")
-@click.option("--preset", default=None, help="A ready-made scene of the seeds: comet (003), marbles (002).")
+@click.option("--print-every", type=click.IntRange(0), default=None,
+              help="Diagnostics on stderr every this many steps (--engine step).  [default: 0]")
+@click.option("--preset", default=None,
+              help="A packaged scene file: comet (seed 003), marbles (seed 002). Flags given with it "
+                   "override it, or are refused when its initial state depends on them.")
+@click.option("--write-scene", type=click.Path(dir_okay=False), default=None,
+              help="Write the run's scene file (seed and tc as used) to FILE.toml.")
 @click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
               help="Write snapshots to FILE.h5 (HDF5, H5MD layout) or FILE.pvd (VTK for ParaView).")
 @click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
@@ -219,21 +225,28 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
                    "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
                    "space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
-def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, **options):
+def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
+
+    The scene comes from the options, or from SCENE.toml (a scene file, docs/scenes.md) or
+    --preset NAME with the options given overriding it.
 
     \b
     Examples:
       gaz simulate --dim 3 --n 1000 --length 1e-7 --duration 1e-9 --seed 1
       gaz simulate --dim 2 --species Ar:500,He:500 --length 2e-7 --duration 1e-9 --json
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
+      gaz simulate examples/exam.toml --seed 7 --write-scene run.toml
     """
-    from gaz_cli import runner, scene as scene_mod
+    from gaz_cli import api, options as opts, runner
 
-    scene, state = scene_mod.from_options(preset=preset, planes=planes, **options)
-    summary = runner.simulate(scene, db=None if no_db else db, save_state=save_state,
-                              state=state, trajectory=trajectory, every=every,
-                              diagnostics=_print_diagnostic)
+    scene, outputs = opts.from_options(scene_file=scene_file, **options)
+    db = None if no_db else (db or outputs.get("db") or "gaz.db")
+    trajectory = trajectory or outputs.get("trajectory")
+    every = every if every is not None else outputs.get("every")
+    save_state = save_state or outputs.get("save_state")
+    summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
+                           diagnostics=_print_diagnostic, write_scene=write_scene).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:
@@ -243,6 +256,22 @@ def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, 
         click.echo(f"gaz simulate: warning: {overlapping} collisions found their pair already "
                    "overlapping: the start overlapped, or a collision was missed (please report "
                    "it with the command line if the start did not overlap)", err=True)
+
+
+@cli.command("scene")
+@click.argument("si_num", type=int)
+@db_option()
+def scene_command(si_num, db):
+    """Print the scene file of stored simulation SI_NUM, to run it again (same seed, same rows).
+
+    \b
+    Example:
+      gaz scene 1 --db gaz.db > again.toml
+      gaz simulate again.toml --db again.db
+    """
+    from gaz_cli import scenefile
+
+    click.echo(scenefile.stored(db, si_num), nl=False)
 
 
 def _print_diagnostic(values: dict) -> None:
@@ -279,11 +308,11 @@ def analyse(db, sim, fmt, plot, table):
       gaz analyse --db gaz.db --sim 1 --format json
       gaz analyse --db gaz.db --sim 1 --format csv --table q36 > walls.csv
     """
-    from gaz_cli import analysis
+    from gaz_cli import analysis, api
 
     if table is not None and table not in analysis.TABLES:
         raise click.BadParameter(f"{table!r} is not one of {', '.join(analysis.TABLES)}", param_hint="--table")
-    frames = analysis.report(db, sim=sim, plot_dir=plot)
+    frames = api.analyse(db, sim=sim, plot=plot)
     if table is not None:
         title = analysis.TABLES[table]
         if title not in frames:
@@ -412,7 +441,9 @@ def main(argv=None) -> None:
         click.echo(f"{prog}: error: {exc.format_message()}", err=True)
         sys.exit(exc.exit_code)
     except GazError as exc:
-        click.echo(f"{prog}: error: {exc}", err=True)
+        from gaz_cli.options import message
+
+        click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)
     except BrokenPipeError:
         sys.exit(0)

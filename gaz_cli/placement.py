@@ -33,17 +33,12 @@ import numpy as np
 
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.numba_config import njit
-from gaz_cli.scene import ball_volume
+from gaz_cli.geometry import packing_fraction
 
 METHODS = ("auto", "rejection", "rapid", "lattice", "grow")
 
 RSA_COMFORT = {1: 0.60, 2: 0.45, 3: 0.30}
 """Packing below which 'auto' uses rejection (RSA jamming: 0.7476, 0.547, 0.384)."""
-
-
-def _packing(dim: int, radii: np.ndarray, length: float) -> float:
-    """Packing fraction of particles of ``radii`` in [0, length]^dim."""
-    return float(np.sum(ball_volume(dim, radii)) / length ** dim)
 
 
 def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -65,7 +60,7 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
         return np.zeros((0, dim))
     if method == "rapid" and dim != 1:
         raise SceneError("--method rapid works in 1D only (the exam's Q10); use rejection, grow or lattice")
-    eta = _packing(dim, radii, length)
+    eta = packing_fraction(dim, radii, length)
     if dim == 1 and method in ("auto", "grow"):
         method = "rapid"
     chosen_by_auto = method == "auto"
@@ -299,7 +294,7 @@ def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generat
                                     np.zeros(3, dtype=np.int64), np.empty(dim))
         spent += used
         if status == 2 or spent >= budget:
-            eta = _packing(dim, radii, length)
+            eta = packing_fraction(dim, radii, length)
             raise PlacementError(
                 f"random placement stuck after {spent} candidates with {placed} of {n} particles "
                 f"placed (packing fraction {eta:.3g}); use --method lattice, lower --n or raise --length")
@@ -790,7 +785,7 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     status, f, events = _ls_grow(x, v, R, float(Ls), bool(periodic), float(rate), 1.0, nc,
                                  int(budget), int(2 * n))
     if status != 0:
-        eta = _packing(dim, radii, length)
+        eta = packing_fraction(dim, radii, length)
         raise PlacementError(
             f"growth jammed at {f ** dim * eta:.3g} of packing fraction {eta:.3g} after {events} "
             f"events; use --method lattice, lower --n or raise --length")

@@ -68,7 +68,8 @@ import numpy as np
 from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
 from gaz_cli.recording import Recorder, RunStats
-from gaz_cli.scene import DENSEST, State, ball_volume
+from gaz_cli.geometry import DENSEST, packing_fraction
+from gaz_cli.scene import State
 from gaz_cli.species import BUILTIN
 
 MAX_RESTARTS = 10_000
@@ -203,7 +204,7 @@ def placement(D: int, N: int, R: float, L: float, *, rng=None,
         raise PlacementError(f"placement: D = {D} is not 1, 2 or 3")
     if N < 0 or R < 0 or L <= 0:
         raise PlacementError(f"placement needs N >= 0, R >= 0, L > 0; got N={N}, R={R}, L={L}")
-    eta = N * float(ball_volume(D, R)) / L ** D
+    eta = packing_fraction(D, R, L, N)
     if 2 * R > L or (N > 1 and eta >= DENSEST[D]):
         raise PlacementError(f"{N} spheres of radius {R:g} fill {eta:.3g} of the box of side {L:g}, "
                              f"at or above the densest packing {DENSEST[D]:.4g}: no placement exists; "

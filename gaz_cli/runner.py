@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import contextlib
 import importlib
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
-from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.recording import MemoryRecorder, Recorder, RunStats
 from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
 ENGINES = {
@@ -121,24 +121,56 @@ def _check_writable(path: str | None, option: str) -> None:
             raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
 
 
+@dataclass
+class Run:
+    """What :func:`run_scene` returns: the summary (a dict, JSON-ready; what ``gaz simulate
+    --json`` prints), and on request the final state and the events, as arrays."""
+
+    summary: dict
+    state: State | None = None
+    """The final positions and velocities (with ``keep_state``)."""
+    bounces: dict | None = None
+    """Wall bounces: arrays t, particle, wall, speed, vperp (with ``keep_bounces``)."""
+    collisions: dict | None = None
+    """Particle collisions: arrays t, i, j, impulse (with ``keep_collisions``)."""
+
+
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
-             every: float | None = None, diagnostics=None) -> dict:
-    """Run one simulation; return its summary (a dict, JSON-ready).
+             every: float | None = None, diagnostics=None, write_scene: str | None = None) -> dict:
+    """Run one simulation; return its summary (a dict, JSON-ready). See :func:`run_scene`."""
+    return run_scene(scene, db=db, save_state=save_state, state=state, trajectory=trajectory, every=every,
+                     diagnostics=diagnostics, write_scene=write_scene).summary
+
+
+def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None,
+              state: State | None = None, trajectory: str | None = None,
+              every: float | None = None, diagnostics=None, write_scene: str | None = None,
+              keep_state: bool = False, keep_bounces: bool = False, keep_collisions: bool = False) -> Run:
+    """Run one simulation; return its :class:`Run` (summary, and what ``keep_*`` asks for).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
-    database. ``state``: an explicit initial state (presets), else one is
-    drawn from the scene and its seed. ``trajectory``/``every``: snapshot
+    database. ``state``: an explicit initial state, else one is drawn from the scene and its
+    seed (:func:`gaz_cli.scene.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
-    engine's periodic diagnostics (a dict). Raises
+    engine's periodic diagnostics (a dict). ``write_scene``: write the scene file of the run
+    (with its seed) to this path before running. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
-    interrupted, saying what was left on disk.
+    interrupted, saying what was left on disk. ``keep_state``, ``keep_bounces``,
+    ``keep_collisions``: return the final state, the wall bounces, the collisions as arrays
+    (no database needed; the bounces and collisions are kept in memory, whatever
+    ``scene.record`` says).
     """
     scene = prepare(scene)
     run = engine_run(scene.engine)
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
+    _check_writable(write_scene, "--write-scene")
     check_outputs(scene, trajectory, every)
+    if write_scene:
+        from gaz_cli import scenefile
+
+        scenefile.write(write_scene, scene)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
@@ -157,7 +189,10 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
                 from gaz_cli.trajectory import open_trajectory
                 traj = stack.enter_context(open_trajectory(trajectory, every, scene))
             diag = Diagnostics(diagnostics) if diagnostics else None
-            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag))
+            memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
+            if memory is not None:
+                memory.want_bounces = keep_bounces
+            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag, memory))
             ke_end = stats.final.kinetic_energy(masses)
             # everything that can fail comes before the commit (the end of this block)
             if traj is not None:
@@ -177,7 +212,8 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
             raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
         raise
     out["si_num"] = None if writer is None else writer.si_num
-    return out
+    return Run(out, stats.final if keep_state else None,
+               memory.bounces() if keep_bounces else None, memory.collisions() if keep_collisions else None)
 
 
 def _remove(path: str) -> None:

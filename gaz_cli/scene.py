@@ -8,9 +8,10 @@ velocities; it depends on the scene and its seed only, never on the engine.
 
 from __future__ import annotations
 
-import inspect
 import math
+import numbers
 import os
+import re
 import sys
 from dataclasses import dataclass, field, replace
 
@@ -18,13 +19,19 @@ import numpy as np
 
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
+from gaz_cli.geometry import DENSEST, DENSEST_NAME, ball_volume, packing_fraction  # noqa: F401 (re-exported)
 from gaz_cli.species import Species
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
-
-DENSEST = {1: 1.0, 2: math.pi / math.sqrt(12.0), 3: math.pi / math.sqrt(18.0)}
-"""Close-packing fraction per dimension (rods, hexagonal disks, FCC spheres)."""
+ENGINES = ("event", "reference", "step")
+PLACEMENTS = ("auto", "rejection", "rapid", "lattice", "grow")
+"""Placement methods (gaz_cli.placement.METHODS; placement is not imported here)."""
+INITIAL_KINDS = ("explicit", "upper-half")
+"""Initial states other than placement + Maxwell velocities (Scene.initial['kind'])."""
+STEP_ONLY = {"dt": None, "drag": 0.0, "pair_gravity": 0.0, "softening": 0.0, "wall_restitution": 1.0,
+             "planes": (), "print_every": 0}
+"""The step engine's options and their values when they do not apply (other engines)."""
 
 # --- what double precision carries through the formulas --------------------------------------
 HEADROOM = 1e16
@@ -62,11 +69,6 @@ MiB); reference engine about 700 B (N = 100 -> 1000: 126.8 -> 127.4 MiB). 1D and
 less."""
 
 
-def ball_volume(dim: int, radius):
-    """Volume of a D-ball of ``radius`` (length in 1D, area in 2D)."""
-    return {1: 2.0, 2: math.pi, 3: 4.0 * math.pi / 3.0}[dim] * np.asarray(radius) ** dim
-
-
 @dataclass(frozen=True)
 class Scene:
     """Everything that defines one run. SI units throughout.
@@ -100,6 +102,11 @@ class Scene:
     """Step engine: diagnostics every this many steps (0: none)."""
     force: bool = False
     """Run even when the estimated work (events, steps, snapshots) is beyond its bound."""
+    initial: dict | None = field(default=None, hash=False)
+    """An initial state other than placement + Maxwell velocities: {'kind': 'explicit',
+    'positions': (N, D), 'velocities': (N, D)} or {'kind': 'upper-half', 'velocity_sd': s}
+    (random sequential addition in the upper half of the box along the last axis, velocity
+    components normal with standard deviation s m/s, the marbles of seed 002)."""
     extras: dict = field(default_factory=dict, compare=False)
 
     # --- derived quantities -------------------------------------------------
@@ -133,8 +140,8 @@ class Scene:
     @property
     def packing_fraction(self) -> float:
         """Fraction of the box covered by the particles (eta)."""
-        return float(sum(k * ball_volume(self.dim, s.radius) for s, k in self.components)
-                     / self.volume)
+        return packing_fraction(self.dim, [s.radius for s, _ in self.components], self.length,
+                                [k for _, k in self.components])
 
     def with_seed(self, seed: int) -> "Scene":
         return replace(self, seed=seed)
@@ -156,78 +163,243 @@ class State:
         return State(self.positions.copy(), self.velocities.copy(), self.kinds.copy())
 
 
+_MARK = re.compile(r"`([^`]+)`")
+
+
+def field_error(marked: str) -> SceneError:
+    """A SceneError whose message names scene fields between backquotes: `drag`.
+
+    ``str()`` shows the field names as they are (the keys of a scene file, the arguments of
+    :class:`Scene`); ``err.marked`` keeps the marks, so that the CLI can show its flags
+    instead (gaz_cli.options.FLAGS, in one place).
+    """
+    err = SceneError(_MARK.sub(r"\1", marked))
+    err.marked = marked
+    return err
+
+
+def render(err: BaseException, names: dict) -> str:
+    """The message of ``err`` with each marked field renamed through ``names`` (others kept)."""
+    marked = getattr(err, "marked", None)
+    if marked is None:
+        return str(err)
+    return _MARK.sub(lambda m: names.get(m.group(1), m.group(1)), marked)
+
+
+def _real(name: str, value) -> bool:
+    """A real number (int or float, not bool)?"""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _number(name: str, value, unit: str = "") -> None:
+    if not _real(name, value):
+        raise field_error(f"`{name}` {value!r} is not a number" + (f" ({unit})" if unit else ""))
+
+
 def _positive(name: str, value, hint: str = "") -> None:
-    if value is None or not np.isfinite(value) or value <= 0:
-        raise SceneError(f"{name} must be a positive number, got {value}{hint}")
+    _number(name, value)
+    if not np.isfinite(value) or value <= 0:
+        raise field_error(f"`{name}` must be a positive number, got {value}{hint}")
+
+
+def _at_least_zero(name: str, value, unit: str) -> None:
+    _number(name, value, unit)
+    if not math.isfinite(value) or value < 0:
+        raise field_error(f"`{name}` {value} is outside [0, inf) {unit}; give a finite number >= 0")
+
+
+def _unit_interval(name: str, value, what: str) -> None:
+    _number(name, value)
+    if not 0.0 <= value <= 1.0:
+        raise field_error(f"`{name}` {value} is outside [0, 1] ({what}: 1 elastic, 0 fully damped)")
+
+
+def _one_of(name: str, value, allowed) -> None:
+    if value not in allowed:
+        raise field_error(f"`{name}` {value!r} is not one of {', '.join(allowed)}")
 
 
 def validate(scene: Scene) -> Scene:
-    """Check a scene; raise :class:`SceneError` naming the problem and the fix.
+    """Check everything a scene holds; raise :class:`SceneError` naming the field, the value,
+    the allowed range and the fix. The one door: the CLI, scene files, presets and Python
+    callers all come through here, and the engines assume a valid scene.
 
-    In order: dimension; counts, box, duration, temperature, masses and radii positive and
-    within what double precision carries through the formulas (:func:`check_magnitudes`);
-    boundary, recording, restitutions, gravity; packing fraction below close packing; the
-    memory the run needs against this machine's (:func:`memory_needed`); unless
-    ``scene.force``, the run's work (:func:`work_estimate`) below MAX_EVENTS (or the step
-    and reference engines' bounds).
+    In order: dimension, engine, placement; counts, species, box, duration, temperature;
+    boundary, recording, restitutions, gravity, seed, tc; the step engine's options (dt,
+    drag, pair_gravity, softening, wall_restitution, planes, print_every: checked with
+    ``engine = "step"``, refused with any other engine, where they would be ignored); what the
+    reference engine handles; the initial state; the magnitudes double precision carries
+    (:func:`check_magnitudes`); packing fraction below close packing; the memory the run
+    needs (:func:`memory_needed`); unless ``scene.force``, the run's work
+    (:func:`work_estimate`) below its bound.
     """
-    if scene.dim not in (1, 2, 3):
-        raise SceneError(f"--dim {scene.dim} is not 1, 2 or 3")
+    if not isinstance(scene, Scene):
+        raise SceneError(f"expected a Scene, got {type(scene).__name__}")
+    if isinstance(scene.dim, bool) or scene.dim not in (1, 2, 3):
+        raise field_error(f"`dim` {scene.dim!r} is not 1, 2 or 3")
+    _one_of("engine", scene.engine, ENGINES)
+    _one_of("placement", scene.placement, PLACEMENTS)
+    if scene.placement == "rapid" and scene.dim != 1:
+        raise field_error("`placement` rapid works in 1D only (the exam's Q10); use rejection, grow or lattice")
+    if not isinstance(scene.components, (tuple, list)) or not scene.components:
+        raise field_error("no particles: give `n` and `species` (or `radius` and `mass`)")
+    for item in scene.components:
+        if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], Species)):
+            raise field_error(f"`species` entry {item!r} is not a (Species, count) pair")
+        check_count(item[1])
+    _positive("length", scene.length, " (m)")
+    _positive("duration", scene.duration, " (simulated seconds)")
+    _positive("temperature", scene.temperature, " (kelvin)")
     for sp, k in scene.components:
-        check_count(k)
-    _positive("--length", scene.length)
-    _positive("--duration", scene.duration, " (simulated seconds)")
-    _positive("--temperature", scene.temperature, " (kelvin)")
-    if not scene.components:
-        raise SceneError("no particles: give --n and --species (or --radius and --mass)")
-    for sp, k in scene.components:
-        _positive(f"mass of {sp.name}", sp.mass, " (kg)")
+        if not _real("mass", sp.mass) or not np.isfinite(sp.mass) or sp.mass <= 0:
+            raise field_error(f"`mass` of {sp.name} must be a positive number, got {sp.mass!r} (kg)")
+        _number("radius", sp.radius, "m")
         if not np.isfinite(sp.radius) or sp.radius < 0:
-            raise SceneError(f"radius of {sp.name} must be >= 0, got {sp.radius}")
+            raise field_error(f"`radius` of {sp.name} must be >= 0, got {sp.radius}")
         if 2 * sp.radius >= scene.length:
-            raise SceneError(f"a {sp.name} particle (diameter {2 * sp.radius:g} m) does not fit in "
-                             f"the box of side {scene.length:g} m; raise --length")
-    if scene.boundary not in BOUNDARIES:
-        raise SceneError(f"--boundary {scene.boundary!r} is not one of {', '.join(BOUNDARIES)}")
-    if scene.record not in RECORD_LEVELS:
-        raise SceneError(f"--record {scene.record!r} is not one of {', '.join(RECORD_LEVELS)}")
-    if not 0.0 <= scene.restitution <= 1.0:
-        raise SceneError(f"--restitution {scene.restitution} is outside [0, 1]")
-    if not 0.0 <= scene.wall_restitution <= 1.0:
-        raise SceneError(f"--wall-restitution {scene.wall_restitution} is outside [0, 1]")
+            raise field_error(f"a {sp.name} particle (diameter {2 * sp.radius:g} m) does not fit in "
+                              f"the box of side {scene.length:g} m; raise `length`")
+    _one_of("boundary", scene.boundary, BOUNDARIES)
+    _one_of("record", scene.record, RECORD_LEVELS)
+    _unit_interval("restitution", scene.restitution, "particle collisions")
+    _number("gravity", scene.gravity, "m/s^2")
     if not np.isfinite(scene.gravity) or scene.gravity < 0:
-        raise SceneError(f"--gravity {scene.gravity} must be >= 0 (m/s^2, pulling towards -axis {scene.dim - 1})")
+        raise field_error(f"`gravity` {scene.gravity} must be >= 0 (m/s^2, pulling towards -axis {scene.dim - 1})")
     if scene.gravity > 0 and scene.boundary == "periodic":
-        raise SceneError("--gravity needs hard walls; drop --boundary periodic")
-    if scene.seed is not None and not 0 <= scene.seed < 2 ** 63:
-        raise SceneError(f"--seed {scene.seed} must be between 0 and 2^63 - 1")
+        raise field_error("`gravity` needs hard walls; drop `boundary` periodic")
+    if scene.seed is not None:
+        if not isinstance(scene.seed, numbers.Integral) or isinstance(scene.seed, bool):
+            raise field_error(f"`seed` {scene.seed!r} is not a whole number")
+        if not 0 <= scene.seed < 2 ** 63:
+            raise field_error(f"`seed` {scene.seed} must be between 0 and 2^63 - 1")
+    _at_least_zero("tc", scene.tc, "s")
+    if not isinstance(scene.force, bool):
+        raise field_error(f"`force` {scene.force!r} is not true or false")
+    _check_engine_options(scene)
+    _check_initial(scene)
     check_magnitudes(scene)
     eta = scene.packing_fraction
     densest = DENSEST[scene.dim]
     if eta >= densest:
-        what = {1: "the segment is full", 2: "the densest disk packing", 3: "the densest sphere packing"}
-        raise SceneError(f"packing fraction {eta:.3g} is at or above {densest:.4g}, {what[scene.dim]}; "
-                         "lower --n or raise --length")
+        raise field_error(f"packing fraction {eta:.3g} is at or above {densest:.4g}, {DENSEST_NAME[scene.dim]}; "
+                          "lower `n` or raise `length`")
     check_memory(scene.n, scene.engine, scene.dim)
     if not scene.force:
         check_work(scene)
     return scene
 
 
+def _check_engine_options(scene: Scene) -> None:
+    """The step engine's options: in range with ``engine = "step"``, absent otherwise."""
+    if scene.engine != "step":
+        for name, unused in STEP_ONLY.items():
+            value = getattr(scene, name)
+            if value is not unused and value != unused:
+                raise field_error(f"`{name}` {value!r} applies to `engine` step only (the {scene.engine} "
+                                  f"engine would ignore it); set `engine` step, or drop `{name}`")
+    else:
+        if scene.dt is None:
+            raise field_error("`engine` step needs a time step `dt` (seconds)")
+        _positive("dt", scene.dt, " (seconds)")
+        if scene.dt > scene.duration:
+            raise field_error(f"`dt` {scene.dt:g} s is longer than `duration` {scene.duration:g} s; "
+                              "lower `dt` or raise `duration`")
+        if scene.boundary != "walls":
+            raise field_error("`engine` step works with hard walls only; drop `boundary` periodic "
+                              "or use `engine` event")
+        _at_least_zero("drag", scene.drag, "1/s")
+        _at_least_zero("pair_gravity", scene.pair_gravity, "m^3/(kg s^2)")
+        _at_least_zero("softening", scene.softening, "m")
+        _unit_interval("wall_restitution", scene.wall_restitution, "the walls")
+        if isinstance(scene.print_every, bool) or not isinstance(scene.print_every, numbers.Integral) \
+                or scene.print_every < 0:
+            raise field_error(f"`print_every` {scene.print_every!r} is not a whole number >= 0 (steps)")
+        for plane in scene.planes:
+            check_plane(plane, scene.dim)
+    if scene.engine == "reference":
+        why = None
+        if scene.boundary != "walls":
+            why = f"`boundary` {scene.boundary}"
+        elif scene.gravity != 0.0:
+            why = f"`gravity` {scene.gravity:g}"
+        elif scene.restitution != 1.0:
+            why = f"`restitution` {scene.restitution:g}"
+        if why is not None:
+            raise field_error(f"`engine` reference (the exam's algorithm) handles hard elastic walls "
+                              f"without gravity only, not {why}; use `engine` event")
+    if scene.engine == "event" and scene.boundary == "periodic" and scene.n > 1:
+        rmax = max(sp.radius for sp, _ in scene.components)
+        if rmax > 0 and 4.0 * rmax >= scene.length:
+            raise field_error(f"a periodic box must be wider than two particle diameters "
+                              f"({4 * rmax:g} m), got `length` {scene.length:g}; raise `length`")
+
+
+def check_plane(plane, dim: int) -> None:
+    """One extra wall of the step engine: (point (D,), inward normal (D,) not zero, restitution in [0, 1])."""
+    try:
+        point, normal, e = plane
+        point, normal = [float(c) for c in point], [float(c) for c in normal]
+    except (TypeError, ValueError):
+        raise field_error(f"`planes` entry {plane!r} is not (point, normal, restitution)") from None
+    if len(point) != dim or len(normal) != dim:
+        raise field_error(f"`planes` entry {plane!r} needs {dim} coordinates for its point and its normal")
+    if not all(math.isfinite(c) for c in point + normal):
+        raise field_error(f"`planes` entry {plane!r} holds a non-finite coordinate")
+    if not any(normal):
+        raise field_error(f"`planes` entry {plane!r} has a zero normal; give the inward normal of the wall")
+    if not _real("restitution", e) or not 0.0 <= e <= 1.0:
+        raise field_error(f"`planes` entry {plane!r}: restitution {e!r} is outside [0, 1] (1 elastic, 0 fully damped)")
+
+
+def _check_initial(scene: Scene) -> None:
+    """Scene.initial: its kind and arrays (an explicit state must match the scene's N and D)."""
+    init = scene.initial
+    if init is None:
+        return
+    if not isinstance(init, dict) or init.get("kind") not in INITIAL_KINDS:
+        kind = init.get("kind") if isinstance(init, dict) else init
+        raise field_error(f"`initial` kind {kind!r} is not one of {', '.join(INITIAL_KINDS)}")
+    allowed = {"explicit": {"kind", "positions", "velocities"}, "upper-half": {"kind", "velocity_sd"}}[init["kind"]]
+    extra = sorted(set(init) - allowed)
+    if extra:
+        raise field_error(f"`initial` key {extra[0]!r} does not belong to kind {init['kind']!r}; "
+                          f"its keys: {', '.join(sorted(allowed))}")
+    if init["kind"] == "explicit":
+        for key in ("positions", "velocities"):
+            try:
+                arr = np.asarray(init.get(key), dtype=float)
+            except (TypeError, ValueError):
+                raise field_error(f"`initial` {key} is not an array of numbers") from None
+            if arr.shape != (scene.n, scene.dim):
+                raise field_error(f"`initial` {key} has shape {arr.shape}, the scene needs "
+                                  f"({scene.n}, {scene.dim}) (n particles, dim coordinates)")
+            if not np.all(np.isfinite(arr)):
+                raise field_error(f"`initial` {key} holds a non-finite number")
+        pos, r = np.asarray(init["positions"], dtype=float), scene.radii()[:, None]
+        if np.any(pos < r) or np.any(pos > scene.length - r):
+            raise field_error("`initial` positions put a particle outside the box [R, L - R]")
+    else:
+        sd = init.get("velocity_sd")
+        if not _real("velocity_sd", sd) or not math.isfinite(sd) or sd < 0:
+            raise field_error(f"`initial` velocity_sd {sd!r} is outside [0, inf) m/s")
+
+
 # --- the checks validate() composes --------------------------------------------------------------
 def check_count(n) -> None:
     """A particle count is an integer in [1, MAX_COUNT]."""
+    if isinstance(n, bool) or not isinstance(n, numbers.Integral):
+        raise field_error(f"`n` {n!r} is not a whole number")
     if n < 1:
-        raise SceneError(f"--n must be at least 1, got {n}")
+        raise field_error(f"`n` must be at least 1, got {n}")
     if n > MAX_COUNT:
-        raise SceneError(f"--n {n} is above {MAX_COUNT:.3g} (2^63 - 1), the largest count the "
-                         "engines' int64 indices hold; lower --n")
+        raise field_error(f"`n` {n} is above {MAX_COUNT:.3g} (2^63 - 1), the largest count the "
+                          "engines' int64 indices hold; lower `n`")
 
 
 def _outside(what: str, value: float, lo: float, hi: float, unit: str, why: str, fix: str) -> None:
     if not lo <= value <= hi:
         side = "below" if value < lo else "above"
-        raise SceneError(f"{what} {value:.3g} {unit} is {side} the range [{lo:.2g}, {hi:.2g}] {unit} {why}; {fix}")
+        raise field_error(f"{what} {value:.3g} {unit} is {side} the range [{lo:.2g}, {hi:.2g}] {unit} {why}; {fix}")
 
 
 def length_range(dim: int) -> tuple[float, float]:
@@ -264,8 +436,8 @@ def check_magnitudes(scene: Scene) -> None:
     SPEED_TAIL sqrt(k_B T / m) plus a fall across the box sqrt(2 g L).
     """
     lo, hi = length_range(scene.dim)
-    _outside("--length", scene.length, lo, hi, "m",
-             f"where L^{scene.dim} and |dr|^2 stay within double precision", "change --length")
+    _outside("`length`", scene.length, lo, hi, "m",
+             f"where L^{scene.dim} and |dr|^2 stay within double precision", "change `length`")
     rlo, rhi = radius_range()
     mlo, mhi = mass_range()
     for sp, _ in scene.components:
@@ -280,13 +452,13 @@ def check_magnitudes(scene: Scene) -> None:
     masses = [sp.mass for sp, _ in scene.components]
     # k_B T / m between vlo^2 (heaviest) and (vhi / SPEED_TAIL)^2 (lightest)
     tlo, thi = max(masses) * vlo ** 2 / K_B, min(masses) * (vhi / SPEED_TAIL) ** 2 / K_B
-    _outside("--temperature", scene.temperature, tlo, thi, "K",
+    _outside("`temperature`", scene.temperature, tlo, thi, "K",
              f"where the particles' speeds (times the box, {scene.length:.3g} m) stay within double "
-             "precision", "change --temperature")
+             "precision", "change `temperature`")
     ghi = (vhi / SPEED_TAIL) ** 2 / (2.0 * scene.length)
     if scene.gravity > ghi:
-        _outside("--gravity", scene.gravity, 0.0, ghi, "m/s^2",
-                 "where the speed of a fall across the box stays within double precision", "lower --gravity")
+        _outside("`gravity`", scene.gravity, 0.0, ghi, "m/s^2",
+                 "where the speed of a fall across the box stays within double precision", "lower `gravity`")
 
 
 def physical_memory() -> int | None:
@@ -317,10 +489,10 @@ def check_memory(n: int, engine: str, dim: int = 3) -> None:
     have = physical_memory()
     need = memory_needed(n, engine, dim)
     if have is not None and need > have:
-        raise SceneError(f"N = {n:.3g} needs about {_bytes(need)} of memory ({engine} engine); this "
-                         f"machine has {_bytes(have)}; lower --n" if engine != "place" else
+        raise field_error(f"N = {n:.3g} needs about {_bytes(need)} of memory ({engine} engine); this "
+                         f"machine has {_bytes(have)}; lower `n`" if engine != "place" else
                          f"placing N = {n:.3g} particles needs about {_bytes(need)} of memory; this "
-                         f"machine has {_bytes(have)}; lower --n")
+                         f"machine has {_bytes(have)}; lower `n`")
 
 
 def work_estimate(scene: Scene) -> dict:
@@ -360,23 +532,23 @@ def work_estimate(scene: Scene) -> dict:
         pairs = scene.pair_gravity > 0
         return {"events_per_s": rate, "events": events, "steps": steps, "work": work, "limit": MAX_STEP_WORK,
                 "what": f"{steps:.3g} steps x {n} particles" + (f" x {n / 2:g} pairs" if pairs else ""),
-                "fix": "raise --dt, or lower --duration or --n"}
+                "fix": "raise `dt`, or lower `duration` or `n`"}
     if scene.engine == "reference":
         return {"events_per_s": rate, "events": events, "work": events * n + n * n, "limit": MAX_REFERENCE_WORK,
                 "what": f"{events:.3g} events x {n} particles + {n}^2 for the initial catalogue (the "
                         "reference engine updates every particle's catalogue entry at each event)",
-                "fix": "use --engine event, or lower --duration or --n"}
+                "fix": "use `engine` event, or lower `duration` or `n`"}
     return {"events_per_s": rate, "events": events, "work": events, "limit": MAX_EVENTS,
             "what": f"{events:.3g} events ({rate:.3g} per simulated second over {scene.duration:.3g} s)",
-            "fix": "lower --duration, --n, --temperature" + (" or --gravity" if scene.gravity > 0 else "")}
+            "fix": "lower `duration`, `n`, `temperature`" + (" or `gravity`" if scene.gravity > 0 else "")}
 
 
 def check_work(scene: Scene) -> None:
     """Refuse a run whose estimated work is beyond its bound (unless scene.force)."""
     est = work_estimate(scene)
     if not est["work"] <= est["limit"]:
-        raise SceneError(f"this run would take about {est['what']}, beyond the {est['limit']:.0e} allowed "
-                         f"without --force; {est['fix']}, or add --force to run it anyway")
+        raise field_error(f"this run would take about {est['what']}, beyond the {est['limit']:.0e} allowed "
+                         f"without `force`; {est['fix']}, or add `force` to run it anyway")
 
 
 def maxwell_velocities(rng: np.random.Generator, masses: np.ndarray, dim: int,
@@ -391,13 +563,22 @@ def initial_state(scene: Scene) -> State:
 
     Positions come from :func:`gaz_cli.placement.place`, then velocities are
     drawn from the same generator. With periodic boundaries the total
-    momentum is removed.
+    momentum is removed. A scene with ``initial`` (the presets) takes its state from there:
+    explicit arrays, or the marbles' upper half (:func:`upper_half`).
     """
-    from gaz_cli import placement
-
     if scene.seed is None:
-        raise SceneError("initial_state needs a seed; Scene.seed is None")
+        raise field_error("initial_state needs a seed; `seed` is None")
     rng = np.random.default_rng(scene.seed)
+    if scene.initial is not None:
+        if scene.initial["kind"] == "explicit":
+            positions = np.array(scene.initial["positions"], dtype=np.float64)
+            velocities = np.array(scene.initial["velocities"], dtype=np.float64)
+        else:  # upper-half
+            positions = upper_half(rng, scene.radii(), scene.length, scene.dim)
+            velocities = rng.normal(0.0, scene.initial["velocity_sd"], size=(scene.n, scene.dim))
+        return State(positions, velocities, scene.kinds())
+    from gaz_cli import placement  # one way: placement imports geometry, never the scene
+
     positions = placement.place(scene.dim, scene.radii(), scene.length, rng,
                                 method=scene.placement, periodic=scene.boundary == "periodic")
     masses = scene.masses()
@@ -407,116 +588,33 @@ def initial_state(scene: Scene) -> State:
     return State(positions, velocities, scene.kinds())
 
 
+def upper_half(rng: np.random.Generator, radii: np.ndarray, length: float, dim: int = 3) -> np.ndarray:
+    """(N, D) non-overlapping centres in the upper half of the box (last axis in [L/2, L - R]).
+
+    Random sequential addition with an O(N^2) check: meant for a few hundred dilute marbles
+    (seed 002's preset).
+    """
+    from gaz_cli.errors import PlacementError
+
+    n = radii.size
+    out = np.empty((n, dim))
+    k = 0
+    for _ in range(1000 * n):
+        if k == n:
+            break
+        r = radii[k]
+        p = rng.uniform([r] * (dim - 1) + [0.5 * length], [length - r] * dim)
+        if k == 0 or np.all(np.sum((out[:k] - p) ** 2, axis=1) >= (radii[:k] + r) ** 2):
+            out[k] = p
+            k += 1
+    if k < n:
+        raise PlacementError(f"could place only {k} of {n} particles in the upper half of the box")
+    return out
+
+
 def fresh_seed() -> int:
     """A random seed from the operating system, to be recorded so the run can be repeated."""
     return int(np.random.SeedSequence().generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
-
-
-def parse_plane(text: str, dim: int) -> tuple:
-    """Parse ``--plane X,Y[,Z]:NX,NY[,NZ][:E]`` into (point, unit inward normal, restitution)."""
-    parts = text.split(":")
-    try:
-        point = tuple(float(v) for v in parts[0].split(","))
-        normal = tuple(float(v) for v in parts[1].split(","))
-        restitution = float(parts[2]) if len(parts) > 2 else 1.0
-    except (IndexError, ValueError):
-        raise SceneError(f"--plane {text!r} is not X,Y[,Z]:NX,NY[,NZ][:E]") from None
-    if len(point) != dim or len(normal) != dim or len(parts) > 3:
-        raise SceneError(f"--plane {text!r} needs {dim} coordinates for the point and the normal")
-    norm = math.sqrt(sum(c * c for c in normal))
-    if norm == 0 or not math.isfinite(norm):
-        raise SceneError(f"--plane {text!r} has a zero normal")
-    if not 0.0 <= restitution <= 1.0:
-        raise SceneError(f"--plane {text!r}: restitution {restitution} is outside [0, 1]")
-    return point, tuple(c / norm for c in normal), restitution
-
-
-def from_options(*, dim=None, n=None, length=None, duration=None, species=None, radius=None,
-                 mass=None, temperature=300.0, seed=None, engine="event", boundary="walls",
-                 gravity=0.0, restitution=1.0, tc=None, record="bounces", placement="auto",
-                 dt=None, drag=0.0, pair_gravity=0.0, softening=0.0, wall_restitution=1.0,
-                 print_every=0, planes=(), preset=None, force=False):
-    """Build and validate a Scene from command-line options; returns (scene, state or None).
-
-    With ``preset`` the scene and its initial state come from
-    :mod:`gaz_cli.stepper.presets`, made with the given seed (and count, for presets that take
-    one); duration, dt, print_every and force override the preset's; options that a preset
-    fixes (dimension, box, species) are refused, never silently ignored. ``force``: run even when the estimated work is beyond
-    its bound (see :func:`check_work`).
-    """
-    from gaz_cli.species import DEFAULT_SPECIES, Species, lookup, parse_mixture
-
-    if preset is not None:
-        from gaz_cli.stepper.presets import PRESETS
-
-        if preset not in PRESETS:
-            raise SceneError(f"--preset {preset!r} is not one of {', '.join(PRESETS)}")
-        fixed = [flag for flag, value in (("--dim", dim), ("--length", length), ("--species", species),
-                                          ("--radius", radius), ("--mass", mass)) if value is not None]
-        factory = PRESETS[preset]
-        takes = inspect.signature(factory).parameters
-        if n is not None and "n" not in takes:
-            fixed.insert(0, "--n")
-        if fixed:
-            raise SceneError(f"--preset {preset} sets {', '.join(fixed)} itself; drop "
-                             f"{'it' if len(fixed) == 1 else 'them'}, or describe the scene "
-                             "with options instead of a preset")
-        made = {k: v for k, v in (("n", n), ("seed", seed)) if v is not None}
-        scene, state = factory(**made)  # placed with the seed the database records
-        changes = {k: v for k, v in (("duration", duration), ("dt", dt)) if v is not None}
-        changes["force"] = bool(force)
-        if print_every:
-            changes["print_every"] = print_every
-        return validate(replace(scene, **changes)), state
-    missing = [name for name, value in (("--dim", dim), ("--length", length), ("--duration", duration))
-               if value is None]
-    if missing:
-        raise SceneError(f"missing {', '.join(missing)}; e.g. gaz simulate --dim 3 --n 1000 "
-                         "--length 1e-7 --duration 1e-9")
-    if (radius is None) != (mass is None):
-        raise SceneError("--radius and --mass go together (a custom particle); or use --species")
-    if radius is not None:
-        if species is not None:
-            raise SceneError("give either --species or --radius with --mass, not both")
-        if n is None:
-            raise SceneError("--n is required with --radius and --mass")
-        components = ((Species("custom", float(mass), float(radius)), int(n)),)
-    else:
-        if species is None:
-            if n is None:
-                raise SceneError("--n is required (or give counts, e.g. --species Ar:500,He:500)")
-            components = ((lookup(DEFAULT_SPECIES), int(n)),)
-        else:
-            components = tuple(parse_mixture(species, n))
-    if dim not in (1, 2, 3):
-        raise SceneError(f"--dim {dim} is not 1, 2 or 3")
-    if engine == "step" and dt is None:
-        raise SceneError("--engine step needs a time step --dt (seconds)")
-    if engine != "step":
-        used = [name for name, value, default in (("--dt", dt, None), ("--drag", drag, 0.0),
-                                                   ("--pair-gravity", pair_gravity, 0.0),
-                                                   ("--plane", planes, ()), ("--wall-restitution", wall_restitution, 1.0))
-                if value not in (default, None) and value != default]
-        if used:
-            raise SceneError(f"{used[0]} applies to --engine step only; add --engine step")
-    plane_tuples = tuple(parse_plane(p, dim) for p in planes)
-    scene = Scene(dim=int(dim), length=float(length), duration=float(duration),
-                  components=components, temperature=float(temperature), seed=seed,
-                  boundary=boundary, gravity=float(gravity), restitution=float(restitution),
-                  tc=0.0 if tc is None else float(tc), engine=engine, placement=placement,
-                  record=record, dt=dt, drag=float(drag), pair_gravity=float(pair_gravity),
-                  softening=float(softening), wall_restitution=float(wall_restitution),
-                  planes=plane_tuples, print_every=int(print_every), force=bool(force))
-    scene = validate(scene)
-    if tc is None and scene.restitution < 1.0:
-        scene = replace(scene, tc=default_tc(scene))
-    if scene.dt is not None and not (math.isfinite(scene.dt) and scene.dt > 0):
-        raise SceneError(f"--dt must be a positive number of seconds, got {scene.dt}")
-    for name, value in (("--drag", scene.drag), ("--pair-gravity", scene.pair_gravity),
-                        ("--softening", scene.softening), ("--tc", scene.tc)):
-        if not math.isfinite(value) or value < 0:
-            raise SceneError(f"{name} must be >= 0, got {value}")
-    return scene, None
 
 
 def default_tc(scene: Scene) -> float:
@@ -545,22 +643,22 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
 
     suffix = os.path.splitext(str(trajectory))[1].lower()
     if suffix not in FORMATS:
-        raise SceneError(f"--trajectory {str(trajectory)!r}: unknown extension {suffix!r}; "
+        raise field_error(f"`trajectory` {str(trajectory)!r}: unknown extension {suffix!r}; "
                          "use .h5 (HDF5/H5MD) or .pvd (VTK for ParaView)")
     if scene.engine == "reference":
-        raise SceneError("--engine reference (the exam's algorithm) writes no trajectory; "
-                         "use --engine event with --trajectory")
+        raise field_error("`engine` reference (the exam's algorithm) writes no trajectory; "
+                          "use `engine` event with `trajectory`")
     if every is None:
-        raise SceneError("--trajectory needs --every DT, the simulated time between snapshots (s)")
-    if not (math.isfinite(every) and every > 0):
-        raise SceneError(f"--every must be a positive number of simulated seconds, got {every}")
+        raise field_error("`trajectory` needs `every` DT, the simulated time between snapshots (s)")
+    if not (_real("every", every) and math.isfinite(every) and every > 0):
+        raise field_error(f"`every` must be a positive number of simulated seconds, got {every}")
     snapshots = math.floor(scene.duration / every) + 1
     if scene.force:
         return
     if snapshots > MAX_SNAPSHOTS:
-        raise SceneError(f"--every {every:g} s over --duration {scene.duration:g} s makes {snapshots:.3g} "
-                         f"snapshots, more than the {MAX_SNAPSHOTS:.0e} allowed without --force; raise "
-                         "--every, or add --force to write them anyway")
+        raise field_error(f"`every` {every:g} s over `duration` {scene.duration:g} s makes {snapshots:.3g} "
+                         f"snapshots, more than the {MAX_SNAPSHOTS:.0e} allowed without `force`; raise "
+                         "`every`, or add `force` to write them anyway")
     size = snapshots * scene.n * scene.dim * 16.0
     try:
         import shutil
@@ -569,22 +667,22 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     except OSError:
         return
     if size > free:
-        raise SceneError(f"--trajectory {str(trajectory)!r} would take about {_bytes(size)} "
+        raise field_error(f"`trajectory` {str(trajectory)!r} would take about {_bytes(size)} "
                          f"({snapshots:.3g} snapshots of {scene.n} particles); its disk has {_bytes(free)} "
-                         "free; raise --every or free some space (or add --force)")
+                         "free; raise `every` or free some space (or add `force`)")
 
 
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:
     """The door of ``gaz place``: count, radius and box in range, memory, before any allocation."""
     if dim not in (1, 2, 3):
-        raise SceneError(f"--dim {dim} is not 1, 2 or 3")
+        raise field_error(f"`dim` {dim} is not 1, 2 or 3")
     check_count(n)
-    _positive("--radius", radius, " (m)")
-    _positive("--length", length, " (m)")
+    _positive("radius", radius, " (m)")
+    _positive("length", length, " (m)")
     lo, hi = length_range(dim)
-    _outside("--length", length, lo, hi, "m", f"where L^{dim} and |dr|^2 stay within double precision",
-             "change --length")
+    _outside("`length`", length, lo, hi, "m", f"where L^{dim} and |dr|^2 stay within double precision",
+             "change `length`")
     rlo, rhi = radius_range()
-    _outside("--radius", radius, rlo, rhi, "m", "where the contact distance squared stays within double "
-             "precision", "change --radius")
+    _outside("`radius`", radius, rlo, rhi, "m", "where the contact distance squared stays within double "
+             "precision", "change `radius`")
     check_memory(n, "place", dim)

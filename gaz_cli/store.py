@@ -64,6 +64,7 @@ from gaz_cli import __version__, interrupts, staging
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene
+from gaz_cli import scenefile
 from gaz_cli.species import BUILTIN, Species
 
 metadata = sa.MetaData()
@@ -543,7 +544,7 @@ def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime) -> tuple[i
         sc_wall_restitution=float(scene.wall_restitution),
         sc_dt=None if scene.dt is None else float(scene.dt), sc_drag=float(scene.drag),
         sc_pair_gravity=float(scene.pair_gravity), sc_placement=scene.placement,
-        sc_record=scene.record, sc_version=__version__))
+        sc_record=scene.record, sc_version=__version__, sc_file=scenefile.dumps(scene)))
     return si_num, nums
 
 

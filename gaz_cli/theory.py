@@ -33,7 +33,7 @@ import numpy as np
 
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
-from gaz_cli.scene import ball_volume
+from gaz_cli.geometry import ball_volume
 
 __all__ = [
     "KOLAFA_ROTTNER_MAX_PACKING", "KLM_MAX_PACKING", "MODELS", "BEST_MODEL",

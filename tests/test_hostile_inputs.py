@@ -87,6 +87,14 @@ CASES = [
     ("negative --dt", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--engine", "step",
                        "--dt", "-1"], 1, "--dt"),
     ("--dim not a number", [*SIM, "--dim", "three", "--n", "10", "--length", "1e-7"], 2, "--dim"),
+    ("step option with the event engine", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--drag", "0.5"],
+     1, "--drag 0.5 applies to --engine step only"),
+    ("a preset with a flag its state depends on", ["simulate", "--preset", "marbles", "--n", "10", "--dim", "2"],
+     1, "--preset marbles sets --dim itself"),
+    ("scene file with an unknown key", ["simulate", "{tmp}/bad.toml"], 1, "unknown key 'colour' (= 3)"),
+    ("scene file out of range", ["simulate", "{tmp}/range.toml"], 1, "range.toml: restitution 2.0 is outside [0, 1]"),
+    ("scene file that is not TOML", ["simulate", "{tmp}/run.h5"], 1, "not valid TOML"),
+    ("scene file missing", ["simulate", "{tmp}/none.toml"], 1, "cannot read scene file"),
     ("place: N = 10^12", ["place", "--dim", "3", "--n", "1000000000000", "--radius", "1e-10",
                           "--length", "1e-3"], 1, "memory"),
     ("place: N = 10^20", ["place", "--dim", "3", "--n", "100000000000000000000", "--radius", "1e-10",
@@ -120,6 +128,9 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     db = tmp_path / "gaz.db"
     shutil.copyfile(db_source, db)
     (tmp_path / "run.h5").write_bytes(b"not an HDF5 file\n")
+    scene = 'dim = 2\nlength = 1e-7\nduration = 1e-10\n{}\n[[species]]\nname = "Ar"\ncount = 10\n'
+    (tmp_path / "bad.toml").write_text(scene.format("colour = 3"))
+    (tmp_path / "range.toml").write_text(scene.format("restitution = 2.0"))
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]

@@ -7,7 +7,8 @@ import pytest
 
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
-from gaz_cli.scene import from_options, initial_state, validate
+from gaz_cli.options import from_options
+from gaz_cli.scene import initial_state, validate
 from gaz_cli.species import BUILTIN, lookup, parse_mixture
 
 
@@ -32,9 +33,9 @@ def test_mixture_parsing():
 
 @pytest.mark.parametrize("kw, message", [
     (dict(dim=4), "not 1, 2 or 3"),
-    (dict(length=-1.0), "--length"),
-    (dict(duration=0.0), "--duration"),
-    (dict(temperature=-3.0), "--temperature"),
+    (dict(length=-1.0), "^length"),
+    (dict(duration=0.0), "^duration"),
+    (dict(temperature=-3.0), "^temperature"),
     (dict(restitution=1.5), "restitution"),
     (dict(length=1e-9), "packing fraction|does not fit"),
 ])
@@ -171,6 +172,6 @@ def test_work_estimate_follows_the_event_engine_and_force_lifts_the_bound(make_s
     events = runner.simulate(sc, db=None)["events"]
     assert 1 / 1.5 < est / events < 1.5, (est, events)
     long_run = sc.__class__(**{**sc.__dict__, "duration": 2 * MAX_EVENTS / work_estimate(sc)["events_per_s"]})
-    with pytest.raises(SceneError, match=r"about 2e\+11 events .*--force"):
+    with pytest.raises(SceneError, match=r"about 2e\+11 events .*add force"):
         validate(long_run)
     validate(long_run.__class__(**{**long_run.__dict__, "force": True}))

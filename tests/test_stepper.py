@@ -358,7 +358,7 @@ def test_caller_state_untouched_and_errors():
     assert np.array_equal(st.positions, before[0]) and np.array_equal(st.velocities, before[1])
     with pytest.raises(SceneError, match="periodic"):
         stepper.run(replace(sc, boundary="periodic"), st, Recorder())
-    with pytest.raises(SceneError, match="--dt"):
+    with pytest.raises(SceneError, match="time step dt"):
         stepper.run(replace(sc, dt=None), st, Recorder())
     with pytest.raises(SceneError, match="detection"):
         stepper.run(sc, st, Recorder(), detection="nope")
@@ -368,7 +368,7 @@ def test_caller_state_untouched_and_errors():
 def test_presets_run():
     """comet: one orbit conserves energy to 1e-6; marbles: lose energy, stay in the box above the ramp."""
     sc, st = PRESETS["comet"]()
-    period = sc.extras["period"]
+    period = sc.duration / 3  # comet.toml: three orbits
     sc = replace(sc, duration=sc.dt * round(period / sc.dt), print_every=0)
     rs = stepper.run(sc, st, Recorder())
     e0, e1 = sum(stepper.energies(sc, st.positions, st.velocities)), sum(
@@ -495,11 +495,14 @@ def test_a_preset_is_placed_with_the_seed_given_and_refuses_what_it_fixes():
     records), so the stored scene repeats the run; --n sets the number of marbles; flags a
     preset fixes are refused in one line instead of being silently ignored."""
     from gaz_cli.errors import SceneError
-    from gaz_cli.scene import from_options
+    from gaz_cli.options import from_options
+    from gaz_cli.scene import initial_state
 
-    scene, state = from_options(preset="marbles", seed=5, n=40)
+    scene, _ = from_options(preset="marbles", seed=5, n=40)
+    state = initial_state(scene)
     again, same = PRESETS["marbles"](n=40, seed=5)
-    default_scene, default_state = from_options(preset="marbles", n=40)
+    default_scene, _ = from_options(preset="marbles", n=40)
+    default_state = initial_state(default_scene)
     assert scene.seed == 5 and scene.n == 40
     assert np.array_equal(state.positions, same.positions)
     assert np.array_equal(state.velocities, same.velocities)

@@ -36,6 +36,7 @@ are taken up by the next step.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import time
 import warnings
 
@@ -45,7 +46,7 @@ import numpy as np
 from gaz_cli.errors import EngineError, GazWarning, SceneError
 from gaz_cli.interrupts import interrupt_in
 from gaz_cli.recording import Recorder, RunStats
-from gaz_cli.scene import Scene, State
+from gaz_cli.scene import Scene, State, validate
 from gaz_cli.stepper import kernels as _k
 
 DETECTIONS = ("overlap", "swept")
@@ -98,24 +99,9 @@ def forces(scene: Scene) -> tuple[str, ...]:
 
 
 def check(scene: Scene) -> None:
-    """Raise SceneError when the step engine cannot run ``scene``."""
-    if scene.dt is None or not (math.isfinite(scene.dt) and scene.dt > 0):
-        raise SceneError(f"--engine step needs a positive time step --dt (seconds), got {scene.dt}")
-    if scene.boundary != "walls":
-        raise SceneError("--engine step works with hard walls only; drop --boundary periodic "
-                         "or use --engine event")
-    if scene.dt > scene.duration:
-        raise SceneError(f"--dt {scene.dt:g} s is longer than --duration {scene.duration:g} s")
-    for name, value in (("--drag", scene.drag), ("--pair-gravity", scene.pair_gravity),
-                        ("--softening", scene.softening), ("--tc", scene.tc)):
-        if not (math.isfinite(value) and value >= 0):
-            raise SceneError(f"{name} must be >= 0, got {value}")
-    for plane in scene.planes:
-        point, normal, e = plane
-        if len(point) != scene.dim or len(normal) != scene.dim:
-            raise SceneError(f"a plane needs {scene.dim} coordinates for its point and normal")
-        if not 0.0 <= e <= 1.0:
-            raise SceneError(f"plane restitution {e} is outside [0, 1]")
+    """Raise SceneError when the step engine cannot run ``scene``: the one door,
+    :func:`gaz_cli.scene.validate` (its work bound aside: the caller chose the run)."""
+    validate(replace(scene, force=True))
 
 
 def planes_array(scene: Scene) -> np.ndarray:

@@ -1,0 +1,88 @@
+"""The Python API: what the command line calls, for notebooks and scripts.
+
+Exposed at the package's top level (``import gaz_cli as gaz``; see README "From Python")::
+
+    scene = gaz.make_scene(dim=2, species={"Ar": 100}, length=1e-7, duration=1e-10, seed=1)
+    run = gaz.simulate(scene, keep_state=True, keep_bounces=True)    # no database
+    run.summary["pressure"], run.state.positions, run.bounces["t"]
+    gaz.simulate(scene, db="gaz.db"); frames = gaz.analyse("gaz.db", sim=1)
+
+Every scene goes through :func:`gaz_cli.scene.validate`, as it does from the command line.
+"""
+
+from __future__ import annotations
+
+from gaz_cli import scenefile
+from gaz_cli.errors import SceneError
+from gaz_cli.runner import Run, run_scene
+from gaz_cli.scene import Scene
+
+__all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", "open_store", "analyse", "Run"]
+
+
+def make_scene(*, species, **keys) -> Scene:
+    """A validated Scene from the keys of a scene file (docs/scenes.md), SI units.
+
+    ``species``: ``{"Ar": 500, "He": 500}`` (built-in gases and counts), ``"Ar:500,He:500"``,
+    or a list of scene-file tables (``[{"name": "bead", "count": 10, "mass": 1e-3,
+    "radius": 1e-3}]``). ``keys``: ``dim``, ``duration``, ``length`` or ``packing``, and any
+    other key (``temperature``, ``seed``, ``boundary``, ``engine``, ``dt``...). ``planes``:
+    a list of ``{"point", "normal", "restitution"}`` tables.
+    """
+    if isinstance(species, str):
+        from gaz_cli.species import parse_mixture
+
+        entries = [{"name": sp.name, "count": k} for sp, k in parse_mixture(species, None)]
+    elif isinstance(species, dict):
+        entries = [{"name": name, "count": count} for name, count in species.items()]
+    else:
+        entries = [dict(t) for t in species]
+    scene, outputs = scenefile.build({**keys, "species": entries})
+    if outputs:
+        raise SceneError("make_scene takes no [output] table; pass db, trajectory... to simulate()")
+    return scene
+
+
+def load_scene(path) -> Scene:
+    """The validated Scene of a scene file (its [output] table is for ``gaz simulate``)."""
+    return scenefile.load(path)[0]
+
+
+def write_scene(path, scene: Scene) -> None:
+    """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly."""
+    scenefile.write(path, scene)
+
+
+def scene_text(scene: Scene) -> str:
+    """The scene file of ``scene``, as text."""
+    return scenefile.dumps(scene)
+
+
+def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,
+             keep_collisions: bool = False, trajectory: str | None = None, every: float | None = None,
+             save_state: str | None = None, write_scene: str | None = None, diagnostics=None) -> Run:
+    """Run ``scene``; returns a :class:`~gaz_cli.runner.Run`: ``summary`` (dict), and the final
+    ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
+
+    ``db``: store the run there (a path or SQLAlchemy URL; None: no database). A scene
+    without a seed gets a fresh one, recorded in the summary.
+    """
+    return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
+                     keep_collisions=keep_collisions, trajectory=trajectory, every=every,
+                     save_state=save_state, write_scene=write_scene, diagnostics=diagnostics)
+
+
+def open_store(db: str, create: bool = False):
+    """The results database ``db`` (:class:`gaz_cli.store.Store`; a context manager).
+    ``create=False`` refuses to make a new one."""
+    from gaz_cli.store import Store
+
+    return Store(db, create=create)
+
+
+def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
+    """What ``gaz analyse`` prints: table title -> pandas DataFrame (or dict of scalars).
+    ``plot``: a folder for PNG figures."""
+    from gaz_cli import analysis
+
+    return analysis.report(db, sim=sim, plot_dir=plot)

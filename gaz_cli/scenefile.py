@@ -1,0 +1,313 @@
+"""Scene files: a run described in TOML, read and written; the packaged presets.
+
+A scene file holds everything ``gaz simulate`` takes (docs/scenes.md)::
+
+    dim = 2
+    length = 1e-7          # m (or: packing = 0.3, the length then follows)
+    duration = 1e-9        # simulated s
+    temperature = 300.0    # K
+    seed = 1
+    [[species]]
+    name = "Ar"
+    count = 100
+
+Top-level keys are the fields of :class:`gaz_cli.scene.Scene`; ``[[species]]`` (name,
+count, and mass and radius for a custom species), ``[[planes]]`` (point, normal,
+restitution), ``[initial]`` (an explicit or preset initial state) and ``[output]`` (db,
+trajectory, every, save_state) are tables. Reading checks the keys and their types
+(unknown key, wrong type: one line naming the key, the value and what is allowed), then
+builds the scene and passes it through :func:`gaz_cli.scene.validate`, the one door.
+
+Writing uses a small writer of our own (:func:`dumps`): a scene is flat tables of scalars
+and arrays, and our writer puts the unit of each key in a comment beside it, which the
+TOML writing libraries (tomli-w) do not; :func:`loads` of :func:`dumps` gives the scene
+back exactly (floats are written with ``repr``, which round-trips).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+import sys
+from dataclasses import fields, replace
+from importlib import resources
+from pathlib import Path
+
+from gaz_cli.errors import SceneError
+from gaz_cli.geometry import ball_volume
+from gaz_cli.scene import Scene, default_tc, field_error, validate
+from gaz_cli.species import BUILTIN, Species, lookup
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
+
+SCALARS = {
+    # key: (type, unit or allowed values, for the comment beside it)
+    "dim": (INT, "1, 2 or 3"),
+    "length": (REAL, "m, box side"),
+    "packing": (REAL, "packing fraction; the box side follows from it (instead of length)"),
+    "duration": (REAL, "simulated s"),
+    "temperature": (REAL, "K"),
+    "seed": (INT, "same seed, same rows"),
+    "boundary": (STR, "walls | periodic"),
+    "gravity": (REAL, "m/s^2, towards 0 along the last axis"),
+    "restitution": (REAL, "particle collisions, 1 = elastic"),
+    "tc": (REAL, "s, TC-model contact time"),
+    "engine": (STR, "event | reference | step"),
+    "placement": (STR, "auto | rejection | rapid | lattice | grow"),
+    "record": (STR, "none | bounces | all"),
+    "force": (BOOL, "run beyond the work bounds"),
+    "dt": (REAL, "s, time step (step engine)"),
+    "drag": (REAL, "1/s, linear friction (step engine)"),
+    "pair_gravity": (REAL, "m^3/(kg s^2), G between bodies (step engine)"),
+    "softening": (REAL, "m, Plummer softening (step engine)"),
+    "wall_restitution": (REAL, "walls, 1 = elastic (step engine)"),
+    "print_every": (INT, "steps between diagnostics (step engine)"),
+}
+SPECIES_KEYS = {"name": STR, "count": INT, "mass": REAL, "radius": REAL}
+PLANE_KEYS = {"point": "an array of numbers", "normal": "an array of numbers", "restitution": REAL}
+OUTPUT_KEYS = {"db": STR, "trajectory": STR, "every": REAL, "save_state": STR}
+TABLES = ("species", "planes", "initial", "output")
+STEP_KEYS = ("dt", "drag", "pair_gravity", "softening", "wall_restitution", "print_every")
+
+
+# --- reading ---------------------------------------------------------------------------------
+def _type_ok(kind: str, value) -> bool:
+    if kind == REAL:
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if kind == INT:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if kind == STR:
+        return isinstance(value, str)
+    if kind == BOOL:
+        return isinstance(value, bool)
+    return isinstance(value, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
+
+
+def _check_keys(table: dict, allowed: dict, where: str) -> None:
+    for key, value in table.items():
+        if key not in allowed:
+            raise SceneError(f"{where}unknown key {key!r} (= {value!r}); allowed: {', '.join(allowed)}")
+        kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
+        if not _type_ok(kind, value):
+            raise SceneError(f"{where}{key} = {value!r} must be {kind}")
+
+
+def read(path) -> dict:
+    """The parsed TOML of a scene file (a dict); SceneError if unreadable or not TOML."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as err:
+        raise SceneError(f"cannot read scene file {str(path)!r}: {err.strerror}") from None
+    except UnicodeDecodeError:
+        raise SceneError(f"scene file {str(path)!r} is not UTF-8 text") from None
+    return parse(text, str(path))
+
+
+def parse(text: str, name: str = "scene") -> dict:
+    """The parsed TOML of ``text``; SceneError naming the line on a syntax error."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{name} is not valid TOML: {err}") from None
+
+
+def check(doc: dict, where: str = "") -> None:
+    """Unknown keys and wrong types of a scene document (one line naming key and value)."""
+    top = {k: v for k, v in doc.items() if k not in TABLES}
+    _check_keys(top, SCALARS, where)
+    for key in TABLES:
+        if key not in doc:
+            continue
+        value = doc[key]
+        if key in ("species", "planes"):
+            if not (isinstance(value, list) and all(isinstance(t, dict) for t in value)):
+                raise SceneError(f"{where}{key} must be an array of tables ([[{key}]])")
+            for k, t in enumerate(value):
+                _check_keys(t, SPECIES_KEYS if key == "species" else PLANE_KEYS, f"{where}{key}[{k}]: ")
+        elif not isinstance(value, dict):
+            raise SceneError(f"{where}{key} must be a table ([{key}])")
+        elif key == "output":
+            _check_keys(value, OUTPUT_KEYS, f"{where}output: ")
+
+
+def _components(entries: list, where: str) -> tuple:
+    if not entries:
+        raise SceneError(f"{where}no [[species]]: give at least one, e.g. name = \"Ar\", count = 100")
+    out = []
+    for k, t in enumerate(entries):
+        if "name" not in t or "count" not in t:
+            raise SceneError(f"{where}species[{k}] needs a name and a count")
+        custom = [key for key in ("mass", "radius") if key in t]
+        if len(custom) == 1:
+            raise SceneError(f"{where}species[{k}] ({t['name']}): mass and radius go together (a custom "
+                             "species), or give neither for a built-in one")
+        sp = Species(t["name"], float(t["mass"]), float(t["radius"])) if custom else lookup(t["name"])
+        out.append((sp, t["count"]))
+    names = [sp.name for sp, _ in out]
+    if len(set(names)) != len(names):
+        raise SceneError(f"{where}a species appears twice in [[species]]; merge the counts")
+    return tuple(out)
+
+
+def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
+    """(Scene, outputs) of a scene document (a parsed file, with any overrides merged in),
+    validated by :func:`gaz_cli.scene.validate`. ``where`` prefixes the messages."""
+    check(doc, where)
+    for key in ("dim", "duration"):
+        if key not in doc:
+            raise SceneError(f"{where}missing {key}; a scene needs dim, duration, [[species]], and length or packing")
+    components = _components(doc.get("species", []), where)
+    values = {k: v for k, v in doc.items() if k in SCALARS and k != "packing"}
+    if "packing" in doc:
+        if "length" in doc:
+            raise SceneError(f"{where}give length or packing, not both")
+        eta = doc["packing"]
+        if not (math.isfinite(eta) and eta > 0) or doc["dim"] not in (1, 2, 3):
+            raise SceneError(f"{where}packing = {eta!r} must be a positive number (and dim 1, 2 or 3)")
+        covered = sum(k * float(ball_volume(doc["dim"], sp.radius)) for sp, k in components)
+        values["length"] = (covered / eta) ** (1.0 / doc["dim"])
+    elif "length" not in doc:
+        raise SceneError(f"{where}missing length (or packing)")
+    planes = tuple((tuple(p.get("point", ())), tuple(p.get("normal", ())), p.get("restitution", 1.0))
+                   for p in doc.get("planes", []))
+    for key in ("length", "duration", "temperature", "gravity", "restitution", "tc", "dt", "drag",
+                "pair_gravity", "softening", "wall_restitution"):
+        if key in values:
+            values[key] = float(values[key])
+    initial = doc.get("initial")
+    scene = Scene(components=components, planes=planes, initial=dict(initial) if initial else None, **values)
+    try:
+        scene = validate(scene)
+        if "tc" not in doc and scene.restitution < 1.0:
+            scene = replace(scene, tc=default_tc(scene))
+    except SceneError as err:
+        if where:
+            raise field_error(where + getattr(err, "marked", str(err))) from None
+        raise
+    return scene, dict(doc.get("output", {}))
+
+
+def load(path) -> tuple[Scene, dict]:
+    """(Scene, outputs) of the scene file at ``path``."""
+    return build(read(path), f"{path}: ")
+
+
+def loads(text: str) -> tuple[Scene, dict]:
+    """(Scene, outputs) of scene-file text."""
+    return build(parse(text), "")
+
+
+# --- presets: packaged scene files -------------------------------------------------------------
+def presets() -> list[str]:
+    """Names of the packaged scene files (``gaz simulate --preset NAME``)."""
+    return sorted(p.name[:-5] for p in resources.files("gaz_cli.scenes").iterdir() if p.name.endswith(".toml"))
+
+
+def preset_doc(name: str) -> dict:
+    """The parsed packaged scene file ``name``; SceneError naming the presets if unknown."""
+    names = presets()
+    if name not in names:
+        raise SceneError(f"--preset {name!r} is not one of {', '.join(names)}")
+    return parse(resources.files("gaz_cli.scenes").joinpath(f"{name}.toml").read_text(encoding="utf-8"),
+                 f"preset {name}")
+
+
+# --- writing ---------------------------------------------------------------------------------
+def to_doc(scene: Scene, outputs: dict | None = None) -> dict:
+    """The scene document of ``scene`` (what :func:`build` turns back into the same scene).
+
+    The step engine's keys are written only with ``engine = "step"``; a built-in species
+    by its name, a custom one with its mass and radius.
+    """
+    doc = {}
+    for f in fields(Scene):
+        if f.name in ("components", "planes", "initial", "extras"):
+            continue
+        value = getattr(scene, f.name)
+        if f.name in STEP_KEYS and scene.engine != "step":
+            continue
+        if value is None:
+            continue
+        doc[f.name] = value
+    doc["species"] = [{"name": sp.name, "count": int(k)} if BUILTIN.get(sp.name) == sp else
+                      {"name": sp.name, "count": int(k), "mass": sp.mass, "radius": sp.radius}
+                      for sp, k in scene.components]
+    if scene.planes:
+        doc["planes"] = [{"point": list(p), "normal": list(n), "restitution": e} for p, n, e in scene.planes]
+    if scene.initial:
+        doc["initial"] = {k: (_listed(v) if not isinstance(v, str) else v) for k, v in scene.initial.items()}
+    if outputs:
+        doc["output"] = {k: v for k, v in outputs.items() if v is not None}
+    return doc
+
+
+def _listed(v):
+    try:
+        import numpy as np
+
+        return np.asarray(v).tolist()
+    except Exception:  # noqa: BLE001 - a scalar
+        return v
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        v = float(v)
+        return repr(v) if math.isfinite(v) else ("nan" if math.isnan(v) else ("inf" if v > 0 else "-inf"))
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # a JSON string is a TOML basic string
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {v!r} in a scene file")
+
+
+def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None) -> str:
+    """The scene file of ``scene`` (and its outputs), units in comments."""
+    doc = to_doc(scene, outputs)
+    lines = [f"# {line}" for line in (comment or "gaz scene file (docs/scenes.md)").splitlines()]
+    lines.append(f"# packing fraction {scene.packing_fraction:.6g}, {scene.n} particles")
+    for key, value in doc.items():
+        if key in TABLES:
+            continue
+        unit = SCALARS[key][1]
+        lines.append(f"{key} = {_value(value)}  # {unit}")
+    for key in ("species", "planes"):
+        for table in doc.get(key, []):
+            lines += ["", f"[[{key}]]"] + [f"{k} = {_value(v)}" for k, v in table.items()]
+    for key in ("initial", "output"):
+        if key in doc:
+            lines += ["", f"[{key}]"] + [f"{k} = {_value(v)}" for k, v in doc[key].items()]
+    return "\n".join(lines) + "\n"
+
+
+def write(path, scene: Scene, outputs: dict | None = None) -> None:
+    """Write the scene file of ``scene`` to ``path``; SceneError if it cannot be written."""
+    try:
+        Path(path).write_text(dumps(scene, outputs), encoding="utf-8")
+    except OSError as err:
+        raise SceneError(f"cannot write scene file {str(path)!r}: {err.strerror}") from None
+
+
+def stored(db: str, si_num: int) -> str:
+    """The scene file stored with simulation ``si_num`` in ``db`` (SCENE.SC_FILE; sql/scene_file.sql)."""
+    from gaz_cli import queries
+    from gaz_cli.errors import StoreError
+
+    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])
+    if frame.empty:
+        raise StoreError(f"no simulation {si_num} in {db!r}; gaz analyse --db {db} lists them")
+    text = frame.iloc[0, 1]
+    if not isinstance(text, str) or not text:
+        raise StoreError(f"simulation {si_num} was stored without its scene file (before schema version 3 "
+                         "or by an older gaz); its SCENE row holds the options that were recorded then")
+    return text

@@ -1,0 +1,236 @@
+"""Scene files (TOML): written and read back exactly, checked at the one door, presets as
+packaged scene files, every stored simulation re-runnable from its SC_FILE, the examples."""
+
+from __future__ import annotations
+
+import json
+import math
+import sqlite3
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import invoke
+
+from gaz_cli import scenefile
+from gaz_cli.errors import SceneError
+from gaz_cli.scene import Scene, initial_state, validate
+from gaz_cli.species import BUILTIN, Species
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def _rows(db) -> list:
+    with sqlite3.connect(db) as conn:
+        return conn.execute("SELECT RE_NUM, PA_NUM, RE_T, RE_DIR, RE_VIT, RE_VP FROM REBOND "
+                            "ORDER BY SI_NUM, RE_NUM").fetchall()
+
+
+# --- the module graph -------------------------------------------------------------------------
+def test_importing_the_scene_imports_neither_placement_nor_theory_nor_an_engine():
+    """The scene is a description: it must not pull in what it describes (no cycle back)."""
+    code = ("import sys, gaz_cli.scene; print(sorted(m for m in sys.modules if m.startswith('gaz_cli')))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    for module in ("gaz_cli.placement", "gaz_cli.theory", "gaz_cli.stepper", "gaz_cli.engine",
+                   "gaz_cli.reference", "gaz_cli.options"):
+        assert f"'{module}'" not in loaded, loaded
+
+
+def test_one_copy_of_the_packing_fraction():
+    """Scene, geometry and placement agree on eta (one formula: geometry.packing_fraction)."""
+    from gaz_cli import geometry
+
+    ar, he = BUILTIN["Ar"], BUILTIN["He"]
+    sc = Scene(dim=2, length=2e-8, duration=1e-12, components=((ar, 30), (he, 20)), seed=1)
+    by_hand = (30 * math.pi * ar.radius ** 2 + 20 * math.pi * he.radius ** 2) / 2e-8 ** 2
+    assert sc.packing_fraction == pytest.approx(by_hand, rel=1e-14)  # round-off of a few products
+    assert geometry.packing_fraction(2, sc.radii(), sc.length) == pytest.approx(by_hand, rel=1e-14)
+
+
+# --- write, read back -------------------------------------------------------------------------
+def _scenes():
+    ar = BUILTIN["Ar"]
+    yield Scene(dim=3, length=3.4e-8, duration=1e-8, components=((ar, 1000),), seed=1)
+    yield Scene(dim=2, length=1e-7, duration=1e-9, components=((ar, 10), (BUILTIN["He"], 7)), seed=2 ** 62,
+                boundary="periodic", restitution=0.9, tc=1.2345678901234567e-15, record="all", placement="grow")
+    yield Scene(dim=2, length=1.0 / 3.0, duration=0.1, components=((Species("bead", 1e-3 / 7, 1e-3 / 3), 5),),
+                seed=3, engine="step", dt=1e-3, drag=0.1, gravity=9.81, wall_restitution=0.75,
+                planes=(((0.0, 0.1), (0.6, 0.8), 0.5),), print_every=7, force=True)
+
+
+@pytest.mark.parametrize("scene", list(_scenes()), ids=["exam", "periodic-mixture", "step-custom"])
+def test_a_written_scene_reads_back_the_same(scene):
+    """dumps then loads: the same Scene, field for field (floats bit for bit: repr round-trips)."""
+    back, outputs = scenefile.loads(scenefile.dumps(scene, {"db": "x.db", "every": 1e-3}))
+    assert back == scene
+    assert outputs == {"db": "x.db", "every": 1e-3}
+
+
+def test_an_explicit_initial_state_reads_back_bit_for_bit():
+    sc, _ = scenefile.build(scenefile.preset_doc("comet"))
+    back, _ = scenefile.loads(scenefile.dumps(sc))
+    a, b = initial_state(sc), initial_state(back)
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.velocities, b.velocities)
+
+
+# --- one door: Python, files and the CLI meet the same checks ---------------------------------
+@pytest.mark.parametrize("changes, field", [
+    (dict(drag=-1.0), "drag"), (dict(drag=0.5), "drag"),
+    (dict(planes=(((0.0, 0.0), (0.0, 1.0), 1.0),)), "planes"),
+    (dict(dt=1e-12), "dt"), (dict(softening=1e-9), "softening"), (dict(wall_restitution=0.5), "wall_restitution"),
+])
+def test_step_options_given_to_the_event_engine_are_refused_not_ignored(changes, field):
+    """Scene(..., drag=-1) built in Python used to pass and be silently ignored by the event engine."""
+    sc = Scene(dim=2, length=1e-7, duration=1e-10, components=((BUILTIN["Ar"], 10),), seed=1, **changes)
+    with pytest.raises(SceneError, match=rf"^{field} .*applies to engine step only"):
+        validate(sc)
+
+
+@pytest.mark.parametrize("changes, words", [
+    (dict(drag=-1.0), "drag -1.0 is outside [0, inf)"),
+    (dict(wall_restitution=1.5), "wall_restitution 1.5 is outside [0, 1]"),
+    (dict(dt=1.0), "dt 1 s is longer than duration"),
+    (dict(planes=(((0.0, 0.0), (0.0, 0.0), 1.0),)), "zero normal"),
+    (dict(planes=(((0.0,), (1.0,), 1.0),)), "needs 2 coordinates"),
+    (dict(print_every=-3), "print_every -3"),
+    (dict(boundary="periodic"), "hard walls only"),
+])
+def test_step_options_out_of_range_name_field_value_and_range(changes, words):
+    sc = Scene(dim=2, length=1e-7, duration=1e-10, components=((BUILTIN["Ar"], 10),), seed=1, engine="step",
+               dt=1e-12)
+    with pytest.raises(SceneError) as info:
+        validate(replace(sc, **changes))
+    assert words in str(info.value)
+
+
+def test_the_library_names_fields_and_the_cli_its_flags(tmp_path):
+    """One message, three voices: Python (field), the CLI (flag), a scene file (key, with the file)."""
+    sc = Scene(dim=2, length=1e-7, duration=1e-10, components=((BUILTIN["Ar"], 10),), seed=1,
+               pair_gravity=1.0)
+    with pytest.raises(SceneError, match=r"^pair_gravity 1.0 applies to engine step only"):
+        validate(sc)
+    code, out, err = invoke(["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "1e-10",
+                             "--pair-gravity", "1", "--no-db"])
+    assert code == 1 and err.strip() == ("gaz: error: --pair-gravity 1.0 applies to --engine step only (the event "
+                                         "engine would ignore it); set --engine step, or drop --pair-gravity")
+    path = tmp_path / "s.toml"
+    path.write_text(scenefile.dumps(Scene(dim=2, length=1e-7, duration=1e-10,
+                                          components=((BUILTIN["Ar"], 10),), seed=1)) + "")
+    text = path.read_text().replace("record = ", "pair_gravity = 1.0\nrecord = ")
+    path.write_text(text)
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    assert code == 1 and err.startswith(f"gaz: error: {path}: pair_gravity 1.0 applies to engine step only")
+
+
+@pytest.mark.parametrize("line, words", [
+    ("colour = 3", ["unknown key 'colour'", "= 3", "allowed: dim"]),
+    ('dim = "two"', ["dim = 'two'", "whole number"]),
+    ("length = -1.0", ["length must be a positive number, got -1.0"]),
+    ("temperature = 1e300", ["temperature 1e+300 K is above the range"]),
+    ('boundary = "sphere"', ["boundary 'sphere' is not one of walls, periodic"]),
+    ("restitution = 2.0", ["restitution 2.0 is outside [0, 1]"]),
+    ("dim = 3\ndim = 2", ["not valid TOML"]),
+])
+def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line, words):
+    path = tmp_path / "bad.toml"
+    good = "dim = 2\nduration = 1e-10\nlength = 1e-7\nseed = 1\n"
+    keys = {ln.split(" =")[0] for ln in line.splitlines()}
+    body = "".join(ln + "\n" for ln in good.splitlines() if ln.split(" =")[0] not in keys)
+    path.write_text(f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n")
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and out == "", err
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
+# --- presets ----------------------------------------------------------------------------------
+def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
+    """`--preset marbles --n 10 --dim 2` ran 300 marbles in 3D, silently."""
+    code, out, err = invoke(["simulate", "--preset", "marbles", "--n", "10", "--dim", "2", "--no-db"])
+    assert code == 1 and out == "" and len(err.strip().splitlines()) == 1
+    assert "--preset marbles sets --dim itself" in err
+
+
+def test_a_preset_with_a_seed_is_placed_with_it_and_reruns_from_the_database(tmp_path):
+    """--preset marbles --seed 5: placed with seed 5 (the seed SCENE records); `gaz scene` prints a
+    file that runs again to the same REBOND rows, bit for bit."""
+    db, again = tmp_path / "a.db", tmp_path / "b.db"
+    args = ["--preset", "marbles", "--n", "30", "--duration", "0.05", "--print-every", "0"]
+    code, out, err = invoke(["simulate", *args, "--seed", "5", "--db", str(db), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["seed"] == 5
+    scene_file = tmp_path / "again.toml"
+    code, out, err = invoke(["scene", "1", "--db", str(db)])
+    assert code == 0, err
+    scene_file.write_text(out)
+    stored, _ = scenefile.load(scene_file)
+    assert stored.seed == 5 and stored.n == 30 and stored.initial["kind"] == "upper-half"
+    made, _ = scenefile.build({**scenefile.preset_doc("marbles"), "seed": 5, "duration": 0.05, "print_every": 0,
+                               "species": [{**scenefile.preset_doc("marbles")["species"][0], "count": 30}]})
+    assert np.array_equal(initial_state(stored).positions, initial_state(made).positions)
+    code, out, err = invoke(["simulate", str(scene_file), "--db", str(again)])
+    assert code == 0, err
+    first = _rows(db)
+    assert len(first) > 5 and first == _rows(again)
+
+
+def test_a_stored_event_run_reruns_to_the_same_rows_and_write_scene_agrees(tmp_path):
+    db, again, written = tmp_path / "a.db", tmp_path / "b.db", tmp_path / "w.toml"
+    code, out, err = invoke(["simulate", "--dim", "2", "--species", "Ar:20,He:10", "--length", "1e-7",
+                             "--duration", "3e-10", "--restitution", "0.8", "--db", str(db),
+                             "--write-scene", str(written)])
+    assert code == 0, err
+    code, stored, err = invoke(["scene", "1", "--db", str(db)])
+    assert code == 0 and stored == written.read_text()
+    assert scenefile.loads(stored)[0].tc > 0  # the default tc was computed and is stored
+    code, out, err = invoke(["simulate", str(written), "--db", str(again)])
+    assert code == 0, err
+    assert len(_rows(db)) > 10 and _rows(db) == _rows(again)
+
+
+def test_flags_override_a_scene_file(tmp_path):
+    code, out, err = invoke(["simulate", str(EXAMPLES / "mixture.toml"), "--duration", "1e-11",
+                             "--temperature", "600", "--seed", "9", "--no-db", "--write-scene",
+                             str(tmp_path / "w.toml")])
+    assert code == 0, err
+    sc, _ = scenefile.load(tmp_path / "w.toml")
+    assert (sc.duration, sc.temperature, sc.seed, sc.n) == (1e-11, 600.0, 9, 1000)
+
+
+# --- the examples -----------------------------------------------------------------------------
+EXAMPLE_RUNS = {
+    # name: (flags making it short, check on the summary)
+    "exam": (["--duration", "2e-11"], lambda s: s["wall_bounces"] > 0 and s["dim"] == 3 and s["n"] == 1000),
+    "periodic_fluid": (["--duration", "2e-13"], lambda s: abs(s["packing_fraction"] - 0.30) < 1e-12
+                       and s["collisions"] > 0),
+    "mixture": (["--duration", "2e-11"], lambda s: s["n"] == 1000 and s["events"] > 0),
+    "isotherm_2d": (["--duration", "1e-11"], lambda s: abs(s["packing_fraction"] - 0.30) < 1e-12
+                    and s["collisions"] > 0),
+    "marbles": (["--duration", "0.02", "--n", "20", "--print-every", "0"],
+                lambda s: s["kinetic_energy_end"] < s["kinetic_energy_start"] + 20 * 5.36e-3 * 9.81 * 0.5),
+    "comet": (["--duration", "6000", "--print-every", "0"], lambda s: s["n"] == 2 and s["collisions"] == 0),
+}
+
+
+@pytest.mark.parametrize("name", sorted(EXAMPLE_RUNS))
+def test_every_example_runs(name, tmp_path):
+    """Each example runs (shortened); elastic event-engine runs keep their kinetic energy to round-off."""
+    flags, ok = EXAMPLE_RUNS[name]
+    code, out, err = invoke(["simulate", str(EXAMPLES / f"{name}.toml"), *flags, "--seed", "1",
+                             "--db", str(tmp_path / "x.db"), "--json"])
+    assert code == 0, err
+    summary = json.loads(out)
+    assert ok(summary), summary
+    if summary["engine"] == "event":  # elastic: each collision conserves energy to ~1e-16 relative
+        ks, ke = summary["kinetic_energy_start"], summary["kinetic_energy_end"]
+        assert abs(ke - ks) / ks < 1e-10 * max(1, summary["events"]) ** 0.5
+
+
+def test_every_example_is_tested_and_the_presets_are_the_examples():
+    assert {p.stem for p in EXAMPLES.glob("*.toml")} == set(EXAMPLE_RUNS)
+    for name in scenefile.presets():
+        assert scenefile.load(EXAMPLES / f"{name}.toml")[0] == scenefile.build(scenefile.preset_doc(name))[0]
