@@ -1,7 +1,8 @@
 """gaz: hard-sphere gases in a box, every wall bounce in a SQL database.
 
 The Python API (README "From Python"): :func:`make_scene`, :func:`load_scene`,
-:func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, and the types
+:func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, :func:`sweep`,
+:func:`versus`, and the types
 :class:`Scene`, :class:`Species`, :class:`State`. They load on first use (PEP 562), so
 ``import gaz_cli`` itself imports nothing heavy (no numpy, pandas, SQLAlchemy, matplotlib).
 """
@@ -11,7 +12,7 @@ __version__ = "0.1.0"
 _LAZY = {
     "make_scene": "gaz_cli.api", "load_scene": "gaz_cli.api", "write_scene": "gaz_cli.api",
     "scene_text": "gaz_cli.api", "simulate": "gaz_cli.api", "open_store": "gaz_cli.api",
-    "analyse": "gaz_cli.api", "Run": "gaz_cli.runner", "Scene": "gaz_cli.scene", "State": "gaz_cli.scene",
+    "analyse": "gaz_cli.api", "sweep": "gaz_cli.api", "versus": "gaz_cli.api", "Run": "gaz_cli.runner", "Scene": "gaz_cli.scene", "State": "gaz_cli.scene",
     "Species": "gaz_cli.species", "GazError": "gaz_cli.errors", "SceneError": "gaz_cli.errors",
 }
 __all__ = ["__version__", *_LAZY]

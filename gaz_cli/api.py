@@ -17,7 +17,8 @@ from gaz_cli.errors import SceneError
 from gaz_cli.runner import Run, run_scene
 from gaz_cli.scene import Scene
 
-__all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", "open_store", "analyse", "Run"]
+__all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", "open_store", "analyse",
+           "sweep", "versus", "Run"]
 
 
 def make_scene(*, species, **keys) -> Scene:
@@ -86,3 +87,27 @@ def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
     from gaz_cli import analysis
 
     return analysis.report(db, sim=sim, plot_dir=plot)
+
+
+def sweep(scene_file, vary: list[str], seeds: int = 1, db: str = "gaz.db", workers: int | None = None,
+          scheduler: str | None = None, progress: bool | None = None):
+    """Run a sweep (``gaz sweep``): the scene file with each ``vary`` (``"KEY=V1,V2"`` or
+    ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``.
+    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed)."""
+    from gaz_cli import sweeps
+
+    scene_of, base_seed = sweeps.scenes_of_file(scene_file)
+    points = sweeps.plan([sweeps.parse_vary(v) for v in vary], seeds, base_seed)
+    return sweeps.run(points, scene_of, None, db, workers=workers, scheduler=scheduler, progress=progress)
+
+
+def versus(db: str, key: str, plot: str | None = None):
+    """What ``gaz analyse --vs KEY`` prints: per value of ``key`` the mean over the runs (seeds),
+    its standard error and theory (a DataFrame); ``plot``: a folder for the figures."""
+    from gaz_cli import studies
+
+    with open_store(db) as store:
+        table = studies.versus(store, key)
+    if plot:
+        studies.plot(table, key, plot)
+    return table

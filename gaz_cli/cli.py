@@ -178,9 +178,13 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @seed_option
 @db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--no-db", is_flag=True, help="Write no database (summary only).")
-@click.option("--engine", type=click.Choice(["event", "reference", "step"]), default=None,
-              help="event: fast exact event-driven engine; reference: the exam's algorithm "
-                   "(slow, the specification); step: fixed time step (needs --dt).  [default: event]")
+@click.option("--engine", type=click.Choice(["auto", "event", "ideal", "reference", "step"]), default=None,
+              help="auto: the cheapest exact path for the scene, named with its reason in the summary "
+                   "(ideal when no two particles can meet, step for drag, pair gravity, planes or damped "
+                   "walls, event otherwise); event: fast exact event-driven engine; ideal: closed-form "
+                   "wall bounces, no queue (point particles, or one); reference: the exam's algorithm "
+                   "(slow, the specification); step: fixed time step (--dt, or auto picks one).  "
+                   "[default: auto]")
 @click.option("--boundary", type=click.Choice(["walls", "periodic"]), default=None,
               help="Hard walls (the exam) or a periodic box (pressure from the collision virial).  [default: walls]")
 @click.option("--gravity", type=float, default=None,
@@ -288,7 +292,10 @@ def _print_diagnostic(values: dict) -> None:
 @click.option("--table", "table", default=None, metavar="NAME",
               help="Print only this table (csv: one table, readable by pandas.read_csv). NAME: "
                    "q34, q35, q36, overview, simulation, pressure, collisions, speed, gravity, cooling, figures.")
-def analyse(db, sim, fmt, plot, table):
+@click.option("--vs", "vs", default=None, metavar="KEY",
+              help="Across runs: the pressure, Z = PV/(NkT) and collision rate against KEY (packing, "
+                   "temperature, n, length, density), averaged over seeds, beside theory (with a sweep).")
+def analyse(db, sim, fmt, plot, table, vs):
     """Run the packaged SQL queries (Q34, Q35, Q36, pressure) and compare with theory.
 
     Without --sim: one line per simulation, measured pressure beside the ideal
@@ -307,9 +314,15 @@ def analyse(db, sim, fmt, plot, table):
       gaz analyse --db gaz.db
       gaz analyse --db gaz.db --sim 1 --format json
       gaz analyse --db gaz.db --sim 1 --format csv --table q36 > walls.csv
+      gaz analyse --db iso.db --vs packing --plot figs      # after gaz sweep
     """
     from gaz_cli import analysis, api
 
+    if vs is not None:
+        if sim is not None or table is not None:
+            raise click.UsageError("--vs tabulates across runs; drop --sim and --table")
+        emit_frames({f"against {vs}": api.versus(db, vs, plot=plot)}, fmt)
+        return
     if table is not None and table not in analysis.TABLES:
         raise click.BadParameter(f"{table!r} is not one of {', '.join(analysis.TABLES)}", param_hint="--table")
     frames = api.analyse(db, sim=sim, plot=plot)
@@ -330,6 +343,53 @@ def analyse(db, sim, fmt, plot, table):
         click.echo("gaz analyse: several tables, each after a '# name' line; pick one with --table NAME "
                    "for pandas.read_csv", err=True)
     emit_frames(frames, fmt)
+
+
+# --- sweep --------------------------------------------------------------------
+@cli.command()
+@click.argument("scene_file", type=click.Path(exists=True, dir_okay=False))
+@click.option("--vary", multiple=True, required=True, metavar="KEY=V1,V2,...|KEY=START:STOP:COUNT",
+              help="A key of the scene file and its values (COUNT values from START to STOP, both "
+                   "included); 'count' varies the number of particles. Repeat for a grid.")
+@click.option("--seeds", type=click.IntRange(1), default=1, show_default=True,
+              help="Runs per point, seeds from the file's seed on (1 if it has none).")
+@click.option("--workers", type=click.IntRange(1), default=None,
+              help="Worker processes of the local Dask cluster.  [default: the core count]")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on an existing Dask cluster (e.g. tcp://host:8786) instead of a local one.")
+@db_option()
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@format_option
+def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
+    """Run a scene file over a grid of values and seeds, on Dask; every run stored in --db.
+
+    The runs go to a Dask cluster (a local one with --workers processes, or
+    --scheduler's); workers send their results back and this process alone
+    writes them, so a SQLite file works. A run already stored (same scene,
+    same seed) is skipped: the same command finishes an interrupted sweep. A
+    failing run is reported and the others go on (exit 1 if any failed). A
+    progress bar on a terminal shows runs done, running, failed and the time left.
+
+    \b
+    Examples:
+      gaz sweep examples/isotherm_2d.toml --vary packing=0.1:0.6:6 --seeds 3 --db iso.db
+      gaz analyse --db iso.db --vs packing --plot figs
+      gaz sweep scene.toml --vary temperature=100,300,1000 --vary count=100,400 --db t.db
+    """
+    import pandas as pd
+
+    from gaz_cli import api
+
+    report = api.sweep(scene_file, list(vary), seeds=seeds, db=db, workers=workers, scheduler=scheduler,
+                       progress=False if quiet else None)
+    rows = [{**dict(p.values), "SEED": p.seed, "STATUS": status,
+             "SI_NUM": si_num if si_num is not None else pd.NA, "NOTE": why}
+            for p, status, si_num, why in report.rows]
+    emit_frames({"runs": pd.DataFrame(rows)}, fmt)
+    counts = ", ".join(f"{report.count(s)} {s}" for s in ("stored", "skipped", "failed"))
+    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {db})", err=True)
+    if report.failed:
+        raise SystemExit(1)
 
 
 # --- query --------------------------------------------------------------------

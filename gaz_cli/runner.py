@@ -17,7 +17,6 @@ keeps the snapshots written so far, and the
 from __future__ import annotations
 
 import contextlib
-import importlib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -28,19 +27,7 @@ from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import MemoryRecorder, Recorder, RunStats
 from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
-ENGINES = {
-    "event": "gaz_cli.engine",
-    "reference": "gaz_cli.reference",
-    "step": "gaz_cli.stepper",
-}
-"""Engine name -> module exposing ``run(scene, state, recorder) -> RunStats``."""
-
-
-def engine_run(name: str):
-    """The ``run`` function of the engine called ``name``."""
-    if name not in ENGINES:
-        raise SceneError(f"--engine {name!r} is not one of {', '.join(ENGINES)}")
-    return importlib.import_module(ENGINES[name]).run
+from gaz_cli.engines import ENGINES, engine_run  # noqa: F401 (re-exported)
 
 
 class Tee(Recorder):
@@ -133,6 +120,10 @@ class Run:
     """Wall bounces: arrays t, particle, wall, speed, vperp (with ``keep_bounces``)."""
     collisions: dict | None = None
     """Particle collisions: arrays t, i, j, impulse (with ``keep_collisions``)."""
+    stats: RunStats | None = None
+    """What the engine returned (counts, virial, final state): what a store's writer needs."""
+    scene: Scene | None = None
+    """The scene as run: validated, its engine resolved, its seed fixed."""
 
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
@@ -213,7 +204,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
         raise
     out["si_num"] = None if writer is None else writer.si_num
     return Run(out, stats.final if keep_state else None,
-               memory.bounces() if keep_bounces else None, memory.collisions() if keep_collisions else None)
+               memory.bounces() if keep_bounces else None, memory.collisions() if keep_collisions else None,
+               stats, scene)
 
 
 def _remove(path: str) -> None:
@@ -247,6 +239,7 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
     out = {
         "si_num": si_num,
         "engine": scene.engine,
+        "engine_reason": scene.extras.get("engine_reason") if scene.extras else None,
         "dim": scene.dim,
         "n": scene.n,
         "length": scene.length,
@@ -306,6 +299,8 @@ def describe(summary: dict) -> str:
     where = f"simulation {summary['si_num']}" if summary["si_num"] is not None else "simulation (not stored)"
     lines.append(f"{where}: {summary['n']} particles in {summary['dim']}D, L = {summary['length']:g} m, "
                  f"T = {summary['duration']:g} s, engine {summary['engine']}, seed {summary['seed']}")
+    if summary.get("engine_reason"):
+        lines.append(f"  engine {summary['engine']}: {summary['engine_reason']}")
     lines.append(f"  packing fraction {summary['packing_fraction']:.4g}, boundary {summary['boundary']}")
     lines.append(f"  events {summary['events']}  wall bounces {summary['wall_bounces']}  "
                  f"collisions {summary['collisions']}")

@@ -24,7 +24,8 @@ from gaz_cli.species import Species
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
-ENGINES = ("event", "reference", "step")
+ENGINES = ("auto", "event", "ideal", "reference", "step")
+"""What `engine` may say; validate resolves "auto" to one of the others (:mod:`gaz_cli.engines`)."""
 PLACEMENTS = ("auto", "rejection", "rapid", "lattice", "grow")
 """Placement methods (gaz_cli.placement.METHODS; placement is not imported here)."""
 INITIAL_KINDS = ("explicit", "upper-half")
@@ -59,7 +60,7 @@ MAX_REFERENCE_WORK = 1e10
 events x particles run without --force."""
 MAX_SNAPSHOTS = 1e6
 """Largest number of trajectory snapshots written without --force."""
-BYTES_PER_PARTICLE = {"event": 480, "step": 370, "reference": 700, "place": 90}
+BYTES_PER_PARTICLE = {"event": 480, "step": 370, "reference": 700, "ideal": 200, "place": 90}
 """Peak memory per particle of a run (placement, state and the engine's arrays), bytes.
 
 Measured as the growth of the peak resident memory between two runs (3D, packing 0.05,
@@ -87,7 +88,7 @@ class Scene:
     gravity: float = 0.0
     restitution: float = 1.0
     tc: float = 0.0
-    engine: str = "event"
+    engine: str = "auto"
     placement: str = "auto"
     record: str = "bounces"
     # time-stepped engine only
@@ -275,6 +276,7 @@ def validate(scene: Scene) -> Scene:
     _at_least_zero("tc", scene.tc, "s")
     if not isinstance(scene.force, bool):
         raise field_error(f"`force` {scene.force!r} is not true or false")
+    scene = _resolve_engine(scene)
     _check_engine_options(scene)
     _check_initial(scene)
     check_magnitudes(scene)
@@ -287,6 +289,24 @@ def validate(scene: Scene) -> Scene:
     if not scene.force:
         check_work(scene)
     return scene
+
+
+def _resolve_engine(scene: Scene) -> Scene:
+    """``engine = "auto"`` replaced by the path the scene needs (:func:`gaz_cli.engines.choose`);
+    the reason, in one line, goes to ``extras['engine_reason']`` for the run's summary."""
+    from gaz_cli import engines
+
+    if scene.extras.get("engine_reason") and scene.engine != "auto":
+        return scene  # resolved before (validate is idempotent)
+    chosen, reason = engines.choose(scene)
+    if chosen.engine == "ideal" and scene.engine == "ideal":
+        from gaz_cli import ideal
+
+        why = ideal.reason_not(scene)
+        if why is not None:
+            raise field_error(f"`engine` ideal (closed-form bounces) cannot run this scene: {why}; "
+                              "use `engine` event or auto")
+    return replace(chosen, extras={**scene.extras, "engine_reason": reason})
 
 
 def _check_engine_options(scene: Scene) -> None:

@@ -58,7 +58,7 @@ SCALARS = {
     "gravity": (REAL, "m/s^2, towards 0 along the last axis"),
     "restitution": (REAL, "particle collisions, 1 = elastic"),
     "tc": (REAL, "s, TC-model contact time"),
-    "engine": (STR, "event | reference | step"),
+    "engine": (STR, "auto | event | ideal | reference | step"),
     "placement": (STR, "auto | rejection | rapid | lattice | grow"),
     "record": (STR, "none | bounces | all"),
     "force": (BOOL, "run beyond the work bounds"),

@@ -48,6 +48,8 @@ def test_the_api_goes_through_the_one_door():
     import gaz_cli as gaz
 
     with pytest.raises(gaz.SceneError, match="^drag -1.0 applies to engine step only"):
+        gaz.make_scene(dim=2, species={"Ar": 10}, length=1e-7, duration=1e-10, drag=-1.0, engine="event")
+    with pytest.raises(gaz.SceneError, match="drag"):  # auto takes the step engine for drag: out of range
         gaz.make_scene(dim=2, species={"Ar": 10}, length=1e-7, duration=1e-10, drag=-1.0)
     with pytest.raises(AttributeError):
         gaz.no_such_thing  # noqa: B018

@@ -87,7 +87,7 @@ CASES = [
     ("negative --dt", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--engine", "step",
                        "--dt", "-1"], 1, "--dt"),
     ("--dim not a number", [*SIM, "--dim", "three", "--n", "10", "--length", "1e-7"], 2, "--dim"),
-    ("step option with the event engine", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--drag", "0.5"],
+    ("step option with the event engine", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--engine", "event", "--drag", "0.5"],
      1, "--drag 0.5 applies to --engine step only"),
     ("a preset with a flag its state depends on", ["simulate", "--preset", "marbles", "--n", "10", "--dim", "2"],
      1, "--preset marbles sets --dim itself"),

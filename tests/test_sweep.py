@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gaz_cli import sweep
+from gaz_cli import sweeps as sweep
 from gaz_cli.errors import SceneError
 from gaz_cli.runner import simulate
 from gaz_cli.scene import Scene
@@ -16,6 +16,15 @@ from gaz_cli.species import BUILTIN
 from gaz_cli.store import Store, rebond
 
 pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """One real Dask cluster (a worker process) for the tests that do not test the local default."""
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
+        yield c.scheduler_address
 
 BASE = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=7)
 
@@ -87,7 +96,7 @@ def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
         assert len(rows) > 0 and np.array_equal(rows, _rows(str(tmp_path / "alone.db"), alone["si_num"]))
 
 
-def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path):
+def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
     """A run that raises inside the worker (an engine the runner does not know) fails alone."""
     db = str(tmp_path / "sweep.db")
 
@@ -96,23 +105,70 @@ def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path):
         return replace(scene, engine="warp") if overrides["n"] == 20 else scene
 
     report = sweep.run(sweep.plan([("n", [10, 20])], seeds=1, base_seed=3), broken_or_not, key_of,
-                       db, workers=1, progress=False)
+                       db, scheduler=cluster, progress=False)
     status = {p.overrides()["n"]: (s, why) for p, s, _, why in report.rows}
     assert status[10][0] == "stored"
     assert status[20][0] == "failed" and "warp" in status[20][1] and "\n" not in status[20][1]
 
 
-def test_a_sweep_runs_on_an_existing_scheduler(tmp_path):
-    from dask.distributed import LocalCluster
-
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                      dashboard_address=":0") as cluster:
-        report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
-                           str(tmp_path / "s.db"), scheduler=cluster.scheduler_address, progress=False)
+def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
+    report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
+                       str(tmp_path / "s.db"), scheduler=cluster, progress=False)
     assert report.count("stored") == 2
 
 
-def test_an_unreachable_scheduler_is_one_line(tmp_path):
+def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
     with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
         sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
                   scheduler="tcp://127.0.0.1:9", progress=False)
+
+
+# --- from the command line ------------------------------------------------------------
+RODS = """dim = 1
+packing = 0.3
+duration = 1e-11
+seed = 5
+[[species]]
+name = "Ar"
+count = 20
+"""
+
+
+def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
+    """gaz sweep over a scene file: every run stored once with the file's seeds; the same
+    command again stores nothing (each run recognised by its scene file); analyse --vs reads it."""
+    from click.testing import CliRunner
+
+    from gaz_cli.cli import cli
+
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    db = str(tmp_path / "rods.db")
+    args = ["sweep", str(scene), "--vary", "packing=0.2,0.4", "--seeds", "2", "--scheduler", cluster,
+            "--db", db, "--format", "csv", "--quiet"]
+    first = CliRunner().invoke(cli, args)
+    assert first.exit_code == 0, first.output
+    assert first.output.count(",stored,") == 4
+    with Store(db, create=False) as store:
+        seeds = sorted(store.read_sql("SELECT SC_SEED FROM SCENE").SC_SEED)
+    assert seeds == [5, 5, 6, 6]
+    again = CliRunner().invoke(cli, args)
+    assert again.exit_code == 0 and again.output.count(",skipped,") == 4
+    with Store(db, create=False) as store:
+        assert len(store.simulation_numbers()) == 4
+    table = CliRunner().invoke(cli, ["analyse", "--db", db, "--vs", "packing", "--format", "csv"])
+    assert table.exit_code == 0 and "0.2," in table.output and "0.4," in table.output
+
+
+def test_gaz_sweep_reports_an_impossible_point_and_exits_1(tmp_path, cluster):
+    from click.testing import CliRunner
+
+    from gaz_cli.cli import cli
+
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    result = CliRunner().invoke(cli, ["sweep", str(scene), "--vary", "packing=0.3,1.5", "--scheduler", cluster,
+                                      "--db", str(tmp_path / "r.db"), "--quiet"])
+    assert result.exit_code == 1
+    assert "stored" in result.output and "failed" in result.output

@@ -32,6 +32,9 @@ from typing import Any, Callable
 from gaz_cli import interrupts
 from gaz_cli.errors import GazError, Interrupted, SceneError
 
+SCHEDULER_TIMEOUT_S = 10
+"""How long to wait for an existing Dask scheduler to answer, s."""
+
 MAX_POINTS = 100_000
 """A sweep larger than this is refused (a typo in START:STOP:COUNT, most likely)."""
 
@@ -111,37 +114,64 @@ def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = Non
             for combo in itertools.product(*(v for _, v in varies)) for k in range(seeds)]
 
 
+# --- a scene file's points -----------------------------------------------------
+def scenes_of_file(path) -> tuple[Callable[[dict], Any], int | None]:
+    """The scene builder of a sweep over the scene file ``path``, and the file's seed.
+
+    A point's overrides set top-level keys of the file (``packing``, ``temperature``,
+    ``length``, ``duration``, ``seed``...), or ``count`` -- the count of the file's one
+    species (several species: ``count.NAME``). Each scene goes through the same door as
+    ``gaz simulate FILE`` (:func:`gaz_cli.scenefile.build`).
+    """
+    from gaz_cli import scenefile
+
+    doc = scenefile.read(path)
+    where = f"{path}: "
+
+    def scene_of(overrides: dict):
+        point = {k: v for k, v in doc.items() if k != "output"}
+        point["species"] = [dict(t) for t in doc.get("species", [])]
+        for key, value in overrides.items():
+            if key == "count" or key.startswith("count."):
+                _set_count(point["species"], key, value, where)
+            else:
+                if key == "packing":
+                    point.pop("length", None)
+                elif key == "length":
+                    point.pop("packing", None)
+                point[key] = value
+        return scenefile.build(point, where)[0]
+
+    seed = doc.get("seed")
+    return scene_of, seed if isinstance(seed, int) and not isinstance(seed, bool) else None
+
+
+def _set_count(species: list, key: str, value, where: str) -> None:
+    name = key.partition(".")[2]
+    chosen = [t for t in species if not name or t.get("name") == name]
+    if not name and len(species) != 1:
+        raise SceneError(f"{where}--vary count needs one species; with several, vary count.NAME "
+                         f"({', '.join(str(t.get('name')) for t in species)})")
+    if not chosen:
+        raise SceneError(f"{where}--vary {key}: no species named {name!r} in the file")
+    chosen[0]["count"] = value
+
+
+def key_of(scene) -> str:
+    """How a run is recognised in the database: its scene file, seed included (SCENE.SC_FILE)."""
+    from gaz_cli import scenefile
+
+    return scenefile.dumps(scene)
+
+
 # --- one run, on a worker -------------------------------------------------------
-@dataclass
-class Outcome:
-    """What a worker sends back: everything the client needs to store the run."""
+def simulate_in_memory(scene):
+    """Run one scene without a database; return its :class:`~gaz_cli.runner.Run` with the
+    arrays the store needs (the worker's task)."""
+    from gaz_cli.runner import run_scene
 
-    scene: Any
-    stats: Any
-    ke_start: float
-    ke_end: float
-    bounces: dict
-    collisions: dict
-    summary: dict = field(default_factory=dict)
-
-
-def simulate_in_memory(scene) -> Outcome:
-    """Run one scene without a database; return its arrays (the worker's task)."""
-    from gaz_cli.recording import MemoryRecorder
-    from gaz_cli.runner import Tee, WallMomentum, engine_run, prepare, summary
-    from gaz_cli.scene import initial_state
-
-    scene = prepare(scene)
-    keep = MemoryRecorder(collisions=scene.record == "all")
-    keep.want_bounces = scene.record in ("bounces", "all")
-    tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
-    state = initial_state(scene)
-    masses = scene.masses()
-    ke_start = state.kinetic_energy(masses)
-    stats = engine_run(scene.engine)(scene, state, Tee(keep, tally))
-    ke_end = stats.final.kinetic_energy(masses)
-    out = summary(scene, stats, None, ke_start, ke_end, None if tally is None else tally.momentum)
-    return Outcome(scene, stats, ke_start, ke_end, keep.bounces(), keep.collisions(), out)
+    return run_scene(scene, keep_bounces=scene.record in ("bounces", "all"),
+                     keep_collisions=scene.record == "all")
 
 
 # --- the sweep, on the client ----------------------------------------------------
@@ -159,32 +189,34 @@ class Report:
         return self.count("failed")
 
 
-def run(points: list[Point], scene_of: Callable[[dict], Any], key_of: Callable[[Any], str],
+def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any], str] | None,
         db: str, workers: int | None = None, scheduler: str | None = None,
         progress: bool | None = None) -> Report:
     """Run every point not already in ``db``; store each as it finishes; return the report.
 
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
-    ``key_of(scene)`` is the text stored in SCENE.SC_FILE, by which a run
-    already stored is recognised. ``workers``: LocalCluster size (default the
+    ``key(scene)`` is the text by which a run already stored is recognised among
+    SCENE.SC_FILE's (default :func:`key_of`, the scene file itself). ``workers``: LocalCluster size (default the
     core count); ``scheduler``: address of an existing Dask scheduler instead.
     ``progress``: a progress bar on stderr (default: when stderr is a terminal).
     Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
     was stored.
     """
+    from gaz_cli.runner import prepare
     from gaz_cli.store import Store
 
+    key = key or key_of
     report = Report()
     todo = []
     with Store(db) as store:
         done = set(store.scene_files())
     for point in points:
         try:
-            scene = scene_of(point.overrides())
+            scene = prepare(scene_of(point.overrides()))
         except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
             report.rows.append((point, "failed", None, str(err)))
             continue
-        if key_of(scene) in done:
+        if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))
         else:
             todo.append((point, scene))
@@ -232,15 +264,15 @@ def _run_all(client, store, todo, report, bar) -> None:
         bar.update(done=stored, failed=failed, running=_running(client, pending))
 
 
-def _store(store, outcome: Outcome) -> int:
+def _store(store, run) -> int:
     """Write one run's arrays through the store's ordinary writer (one short transaction)."""
-    with store.simulation(outcome.scene) as writer:
-        b, c = outcome.bounces, outcome.collisions
-        if writer.want_bounces and len(b["t"]):
+    with store.simulation(run.scene) as writer:
+        b, c = run.bounces, run.collisions
+        if writer.want_bounces and b is not None and len(b["t"]):
             writer.add_bounces(b["t"], b["particle"], b["wall"], b["speed"], b["vperp"])
-        if writer.want_collisions and len(c["t"]):
+        if writer.want_collisions and c is not None and len(c["t"]):
             writer.add_collisions(c["t"], c["i"], c["j"], c["impulse"])
-        writer.finish(outcome.stats, outcome.ke_start, outcome.ke_end)
+        writer.finish(run.stats, run.summary["kinetic_energy_start"], run.summary["kinetic_energy_end"])
     return writer.si_num
 
 
@@ -278,7 +310,7 @@ class _client:
                            "pip install 'gaz[sweep]' (or pip install 'dask[distributed]')") from None
         if self.scheduler:
             try:
-                self.client = Client(self.scheduler, timeout="10s")
+                self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
             except (OSError, TimeoutError) as err:
                 raise GazError(f"--scheduler {self.scheduler!r}: cannot reach the Dask scheduler "
                                f"({' '.join(str(err).split()) or type(err).__name__}); "
