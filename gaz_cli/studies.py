@@ -196,22 +196,32 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
     written = []
     col = key.upper()
     for (dim, boundary), g in table.groupby(["DIM", "BOUNDARY"]):
-        fig, ax = plt.subplots(figsize=(6, 4.2))
+        fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True,
+                                      gridspec_kw={"height_ratios": [3, 1.3]})
+        lo, hi = int(g.RUNS.min()), int(g.RUNS.max())
+        seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
         ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color="C0", capsize=3,
-                    label=f"measured (mean of {int(g.RUNS.min())}-{int(g.RUNS.max())} seeds, ±1σ)")
+                    label=f"measured (mean of {seeds} seeds, ±1σ)")
         ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color="C1", label="theory for each scene")
         if key == "packing":
             eta = np.linspace(0.0, float(g[col].max()) * 1.05, 200)
             model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[int(dim)]
             ax.plot(eta, theory.compressibility_factor(int(dim), eta), "-", color="C1", lw=1,
                     label=f"{model} (bulk)")
-            ax.set_xlabel("packing fraction η")
+            dev.set_xlabel("packing fraction η")
         else:
-            ax.set_xlabel(f"{key} ({KEYS[key]})")
+            dev.set_xlabel(f"{key} ({KEYS[key]})")
         ax.axhline(1.0, color="grey", ls="--", lw=1, label="ideal gas")
         ax.set_ylabel("Z = P V / (N k_B T)")
         ax.set_title(f"{int(dim)}D, {boundary}: compressibility factor against {key}")
         ax.legend(fontsize=8)
+        dev.axhspan(-3, 3, color="C2", alpha=0.12, lw=0, label="±3σ")
+        dev.axhline(0.0, color="grey", lw=0.8)
+        dev.plot(g[col], g.Z_DEV_SIGMA, "o", color="C0")
+        dev.set_ylabel("(Z − theory)/σ")
+        top = float(np.nanmax(np.abs(g.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
+        dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
+        dev.legend(fontsize=8, loc="upper right")
         fig.tight_layout()
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
         fig.savefig(path, dpi=120)
