@@ -9,7 +9,9 @@
    drag, gravity between particles, extra planes, damped walls. Without a
    time step it picks one from the scene: :data:`STEPS_PER_FLIGHT` steps per
    mean free time, or per box crossing when that is shorter (said in the reason);
-3. ``event`` otherwise: hard spheres, with at most uniform gravity, exactly
+3. ``reference`` for a tiny run (:data:`TINY_WORK`): the exam's exact engine needs
+   no compiled code, whose loading would cost more than the run;
+4. ``event`` otherwise: hard spheres, with at most uniform gravity, exactly
    (in 1D it follows each rod's two neighbours only).
 
 The choice and its reason go to the run's summary (``engine``, ``engine_reason``).
@@ -33,6 +35,11 @@ ENGINES = {
 
 CHOICES = ("auto", *ENGINES)
 """What a scene's ``engine`` may say."""
+
+TINY_WORK = 2e4
+"""A run of at most this many events x particles (estimated) is tiny: ``auto`` gives it to the
+exam's engine, which needs no compiled code -- loading the event engine's costs about a
+second, the reference engine spends about 1e-5 s per event and particle."""
 
 STEPS_PER_FLIGHT = 50
 """Steps per mean free time (or per box crossing, if shorter) when ``auto`` picks the step engine's dt."""
@@ -68,9 +75,27 @@ def choose(scene):
     if ideal.reason_not(scene) is None:
         why = "one particle" if scene.n == 1 else "point particles"
         return replace(scene, engine="ideal"), f"{why} never collide: wall bounces in closed form, no event queue"
+    tiny = _tiny_work(scene)
+    if tiny is not None:
+        return replace(scene, engine="reference"), (
+            f"a tiny run (about {tiny:.0f} events x particles): the exam's exact engine, "
+            "no compiled code to load")
     if scene.dim == 1:
         return replace(scene, engine="event"), "hard rods: exact events, each rod against its two neighbours"
     return replace(scene, engine="event"), "hard spheres: exact event-driven dynamics"
+
+
+def _tiny_work(scene) -> float | None:
+    """Events x particles of a run the reference engine can take, if at most TINY_WORK; else None."""
+    if scene.boundary != "walls" or scene.gravity != 0.0 or scene.restitution != 1.0 or scene.initial:
+        return None
+    from gaz_cli.scene import work_estimate
+
+    try:
+        work = float(work_estimate(scene)["events"]) * scene.n
+    except Exception:  # noqa: BLE001 - an estimate that fails only means "not tiny"
+        return None
+    return work if work <= TINY_WORK else None
 
 
 def step_for(scene) -> tuple[float, str]:

@@ -306,7 +306,8 @@ def _resolve_engine(scene: Scene) -> Scene:
         if why is not None:
             raise field_error(f"`engine` ideal (closed-form bounces) cannot run this scene: {why}; "
                               "use `engine` event or auto")
-    return replace(chosen, extras={**scene.extras, "engine_reason": reason})
+    return replace(chosen, extras={**scene.extras, "engine_reason": reason,
+                                   "engine_auto": scene.engine == "auto"})
 
 
 def _check_engine_options(scene: Scene) -> None:

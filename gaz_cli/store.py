@@ -52,11 +52,11 @@ import contextlib
 import datetime as _dt
 import re
 import sqlite3
+import sys
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
@@ -174,6 +174,28 @@ CONNECT_TIMEOUT_S = 10
 _PG_SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
 
 
+def _pandas():
+    """pandas, imported when a read needs it: a run that only writes does not pay its import
+    (a third of a tiny run's start-up, issue 15)."""
+    import pandas
+
+    return pandas
+
+
+
+
+def _unwrapped(err: BaseException) -> BaseException:
+    """The driver's error inside pandas' DatabaseError (an OSError quoting the whole SQL);
+    any other error as it is. pandas is looked up, not imported: loaded only if a read ran."""
+    pandas = sys.modules.get("pandas")
+    if pandas is None or not isinstance(err, pandas.errors.DatabaseError):
+        return err
+    orig = err.__cause__
+    if isinstance(orig, sa_exc.DBAPIError) and orig.orig is not None:
+        orig = orig.orig
+    return orig if orig is not None else err
+
+
 # --- URLs -----------------------------------------------------------------------
 def url_for(db: str) -> sa.URL:
     """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://`` uses psycopg 3),
@@ -272,13 +294,8 @@ class Store:
             raise StoreError(f"--db {self.shown!r} is not a valid path or SQLAlchemy URL ({err})") from None
         except sa_exc.DBAPIError as err:
             raise StoreError(self._explain(err.orig if err.orig is not None else err)) from None
-        except pd.errors.DatabaseError as err:  # pandas' wrapper (an OSError) quotes the whole SQL
-            orig = err.__cause__
-            if isinstance(orig, sa_exc.DBAPIError) and orig.orig is not None:
-                orig = orig.orig
-            raise StoreError(self._explain(orig if orig is not None else err)) from None
         except (sqlite3.Error, OSError) as err:
-            raise StoreError(self._explain(err)) from None
+            raise StoreError(self._explain(_unwrapped(err))) from None
         except Exception as err:
             if type(err).__module__.startswith("psycopg"):
                 raise StoreError(self._explain(err)) from None
@@ -398,14 +415,14 @@ class Store:
             raise
 
     # --- reading ------------------------------------------------------------
-    def read_sql(self, sql: str, **params) -> pd.DataFrame:
+    def read_sql(self, sql: str, **params) -> "pd.DataFrame":
         """Run one SQL statement (text with :named parameters) into a DataFrame."""
         with self._errors(), self.engine.connect() as conn:
-            frame = pd.read_sql_query(sa.text(sql), conn, params=params or None)
+            frame = _pandas().read_sql_query(sa.text(sql), conn, params=params or None)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
 
-    def query(self, name: str, **params) -> pd.DataFrame:
+    def query(self, name: str, **params) -> "pd.DataFrame":
         """Run a packaged SQL file by name."""
         return self.read_sql(query_text(name), **params)
 
@@ -419,13 +436,13 @@ class Store:
         with self._errors(), self.engine.connect() as conn:
             return [int(r[0]) for r in conn.execute(sa.select(simulation.c.si_num).order_by(simulation.c.si_num))]
 
-    def table(self, table: sa.Table, si_num: int | None = None) -> pd.DataFrame:
+    def table(self, table: sa.Table, si_num: int | None = None) -> "pd.DataFrame":
         """A whole table (optionally one simulation's rows) as a DataFrame, upper-case columns."""
         stmt = sa.select(table)
         if si_num is not None and "si_num" in table.c:
             stmt = stmt.where(table.c.si_num == si_num)
         with self._errors(), self.engine.connect() as conn:
-            frame = pd.read_sql_query(stmt, conn)
+            frame = _pandas().read_sql_query(stmt, conn)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
 

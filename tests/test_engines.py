@@ -45,3 +45,36 @@ def test_auto_picks_a_step_from_the_mean_free_time():
     scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9))
     assert "box crossing" in reason
     assert scene.dt == pytest.approx(1e-6 / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
+
+
+def test_a_tiny_run_loads_no_compiled_engine():
+    """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code;
+    the process imports neither the event engine nor pandas, SQLAlchemy, matplotlib, h5py."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom gaz_cli.cli import main\n"
+            "try:\n    main(['simulate', '--dim', '3', '--n', '100', '--length', '1e-8', '--duration', '1e-12',"
+            " '--seed', '1', '--no-db', '--json'])\nexcept SystemExit:\n    pass\n"
+            "heavy = ('gaz_cli.engine', 'pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask')\n"
+            "print(sorted(m for m in heavy if m in sys.modules), file=sys.stderr)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert '"engine": "reference"' in out.stdout, out.stdout + out.stderr
+    assert out.stderr.strip().splitlines()[-1] == "[]", out.stderr
+
+
+def test_a_tiny_run_places_as_the_compiled_kernel_does():
+    """The interpreted placement of small scenes gives the compiled kernel's positions."""
+    import numpy as np
+
+    from gaz_cli import placement
+
+    radii = np.full(200, ARGON.radius)
+    interpreted = placement.rejection(3, radii, 1e-8, np.random.default_rng(3))
+    saved = placement.INTERPRETED_MAX
+    try:
+        placement.INTERPRETED_MAX = 0
+        compiled = placement.rejection(3, radii, 1e-8, np.random.default_rng(3))
+    finally:
+        placement.INTERPRETED_MAX = saved
+    assert np.array_equal(interpreted, compiled)
