@@ -34,8 +34,9 @@ SCALAR_FLAGS = ("dim", "length", "duration", "temperature", "seed", "boundary", 
                 "wall_restitution", "print_every")
 """Flags that set the scene key of the same name."""
 
-FIXED_BY_INITIAL = ("dim", "length", "species", "radius", "mass")
-"""What a scene with an explicit or preset initial state fixes (its state depends on them)."""
+FIXED_BY_INITIAL = ("dim", "length", "species", "radius", "mass", "temperature", "placement")
+"""What a scene with an explicit or preset initial state fixes: its state depends on them, or
+ignores them (temperature, placement: the state's velocities and positions come from it)."""
 
 
 def message(err: BaseException, given=None) -> str:

@@ -380,6 +380,9 @@ def _check_initial(scene: Scene) -> None:
     if not isinstance(init, dict) or init.get("kind") not in INITIAL_KINDS:
         kind = init.get("kind") if isinstance(init, dict) else init
         raise field_error(f"`initial` kind {kind!r} is not one of {', '.join(INITIAL_KINDS)}")
+    if scene.placement != "auto":
+        raise field_error(f"`placement` {scene.placement} does not apply with an `initial` state "
+                          f"({init['kind']}), which places the particles itself; drop `placement`")
     allowed = {"explicit": {"kind", "positions", "velocities"}, "upper-half": {"kind", "velocity_sd"}}[init["kind"]]
     extra = sorted(set(init) - allowed)
     if extra:

@@ -153,6 +153,8 @@ def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
     code, out, err = invoke(["simulate", "--preset", "marbles", "--n", "10", "--dim", "2", "--no-db"])
     assert code == 1 and out == "" and len(err.strip().splitlines()) == 1
     assert "--preset marbles sets --dim itself" in err
+    code, out, err = invoke(["simulate", "--preset", "marbles", "--temperature", "500", "--no-db"])
+    assert code == 1 and "--preset marbles sets --temperature itself" in err  # it would be ignored
 
 
 def test_a_preset_with_a_seed_is_placed_with_it_and_reruns_from_the_database(tmp_path):
