@@ -35,7 +35,7 @@ from importlib import resources
 from pathlib import Path
 
 from gaz_cli.errors import SceneError
-from gaz_cli.geometry import ball_volume
+from gaz_cli.geometry import packing_fraction
 from gaz_cli.scene import Scene, default_tc, field_error, validate
 from gaz_cli.species import BUILTIN, Species, lookup
 
@@ -170,7 +170,8 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
         eta = doc["packing"]
         if not (math.isfinite(eta) and eta > 0) or doc["dim"] not in (1, 2, 3):
             raise SceneError(f"{where}packing = {eta!r} must be a positive number (and dim 1, 2 or 3)")
-        covered = sum(k * float(ball_volume(doc["dim"], sp.radius)) for sp, k in components)
+        covered = packing_fraction(doc["dim"], [sp.radius for sp, _ in components], 1.0,
+                                   [k for _, k in components])  # in a box of side 1 m: the volume, m^D
         values["length"] = (covered / eta) ** (1.0 / doc["dim"])
     elif "length" not in doc:
         raise SceneError(f"{where}missing length (or packing)")
