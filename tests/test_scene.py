@@ -50,7 +50,7 @@ def test_from_options_errors():
     with pytest.raises(SceneError, match="--radius and --mass"):
         from_options(dim=2, n=10, length=1.0, duration=1.0, radius=0.1)
     with pytest.raises(SceneError, match="engine step"):
-        from_options(dim=2, n=10, length=1e-6, duration=1.0, drag=1.0)
+        from_options(dim=2, n=10, length=1e-6, duration=1.0, drag=1.0, engine="event")
     with pytest.raises(SceneError, match="needs a time step"):
         from_options(dim=2, n=10, length=1e-6, duration=1.0, engine="step")
 
