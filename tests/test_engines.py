@@ -35,16 +35,20 @@ def test_auto_takes_the_path_the_scene_needs(kw, engine, words):
 
 
 def test_auto_picks_a_step_from_the_mean_free_time():
-    dense = _scene(length=5e-9, components=((ARGON, 200),), drag=1e9)
+    dense = _scene(length=2.52e-9, components=((ARGON, 200),), drag=1e9)
     scene, reason = engines.choose(dense)
     speed = theory.mean_speed(3, dense.temperature, ARGON.mass)
-    free_time = theory.mean_free_path(3, 200 / 5e-9 ** 3, 2 * ARGON.radius) / speed
+    free_time = theory.mean_free_path(3, 200 / 2.52e-9 ** 3, 2 * ARGON.radius) / speed
     assert scene.engine == "step" and "mean free time" in reason
     assert scene.dt == pytest.approx(free_time / engines.STEPS_PER_FLIGHT, rel=1e-12)
-    # a dilute gas crosses the box before it meets anyone: the crossing time sets the step
-    scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9))
+    # a dilute gas of point-like particles crosses the box before it meets anyone
+    scene, reason = engines.choose(_scene(length=1e-6, components=((POINT, 10),), drag=1e9))
     assert "box crossing" in reason
     assert scene.dt == pytest.approx(1e-6 / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
+    # dilute spheres: a step must not let two of them pass through each other
+    scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9))
+    assert "diameter crossing" in reason
+    assert scene.dt == pytest.approx(2 * ARGON.radius / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
 
 
 def test_a_tiny_run_loads_no_compiled_engine():
