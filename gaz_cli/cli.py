@@ -213,13 +213,16 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+@click.option("--quiet", is_flag=True,
+              help="No progress bar and no compile notice on stderr (shown only on a terminal, "
+                   "for runs longer than about a second).")
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
                    "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
                    "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
                    "space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
-def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, **options):
+def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, quiet, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
     \b
@@ -228,12 +231,12 @@ def simulate(as_json, db, no_db, save_state, trajectory, every, preset, planes, 
       gaz simulate --dim 2 --species Ar:500,He:500 --length 2e-7 --duration 1e-9 --json
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
     """
-    from gaz_cli import runner, scene as scene_mod
+    from gaz_cli import progress, runner, scene as scene_mod
 
     scene, state = scene_mod.from_options(preset=preset, planes=planes, **options)
     summary = runner.simulate(scene, db=None if no_db else db, save_state=save_state,
                               state=state, trajectory=trajectory, every=every,
-                              diagnostics=_print_diagnostic)
+                              diagnostics=_print_diagnostic, progress=progress.wanted(quiet))
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:

@@ -50,6 +50,7 @@ class Tee(Recorder):
         self.recorders = [r for r in recorders if r is not None]
         self.want_bounces = any(r.want_bounces for r in self.recorders)
         self.want_collisions = any(r.want_collisions for r in self.recorders)
+        self.wants_progress = any(r.wants_progress for r in self.recorders)
         everies = [r.snapshot_every for r in self.recorders if r.snapshot_every]
         self.snapshot_every = min(everies) if everies else None
 
@@ -75,6 +76,10 @@ class Tee(Recorder):
         interrupts.check()
         for r in self.recorders:
             r.diagnostic(values)
+
+    def progress(self, t, events):
+        for r in self.recorders:
+            r.progress(t, events)
 
 
 def prepare(scene: Scene) -> Scene:
@@ -123,14 +128,15 @@ def _check_writable(path: str | None, option: str) -> None:
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
-             every: float | None = None, diagnostics=None) -> dict:
+             every: float | None = None, diagnostics=None, progress: bool = False) -> dict:
     """Run one simulation; return its summary (a dict, JSON-ready).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
     database. ``state``: an explicit initial state (presets), else one is
     drawn from the scene and its seed. ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
-    engine's periodic diagnostics (a dict). Raises
+    engine's periodic diagnostics (a dict). ``progress``: draw a progress bar (and a
+    notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
     interrupted, saying what was left on disk.
     """
@@ -157,7 +163,14 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
                 from gaz_cli.trajectory import open_trajectory
                 traj = stack.enter_context(open_trajectory(trajectory, every, scene))
             diag = Diagnostics(diagnostics) if diagnostics else None
-            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag))
+            bar = None
+            if progress:
+                from gaz_cli.progress import Progress
+                bar = Progress(scene.duration)
+                stack.callback(bar.close)  # the bar's line ends before anything else is said
+            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag, bar))
+            if bar is not None:
+                bar.close(complete=True)
             ke_end = stats.final.kinetic_energy(masses)
             # everything that can fail comes before the commit (the end of this block)
             if traj is not None:
