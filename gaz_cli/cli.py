@@ -208,7 +208,8 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
               help="Diagnostics on stderr every this many steps (--engine step).")
 @click.option("--preset", default=None, help="A ready-made scene of the seeds: comet (003), marbles (002).")
 @click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
-              help="Write snapshots to FILE.h5 (HDF5, H5MD layout) or FILE.pvd (VTK for ParaView).")
+              help="Write snapshots to FILE.h5 (HDF5, H5MD 1.1: MDAnalysis), FILE.gsd (GSD: OVITO, "
+                   "HOOMD; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
 @click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
@@ -360,7 +361,7 @@ def query(name, db, params, fmt, list_only):
               help="GIF file to write, FILE.gif (default: the trajectory's name with .gif).")
 @click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
 def animate(trajectory, output, fps):
-    """Render a 1D or 2D trajectory (FILE.h5 from --trajectory) to an animated GIF.
+    """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
     \b
     Example:

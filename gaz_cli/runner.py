@@ -145,6 +145,9 @@ def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
     check_outputs(scene, trajectory, every)
+    if trajectory:
+        from gaz_cli.trajectory import check_frames
+        check_frames(scene, every)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
