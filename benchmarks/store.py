@@ -5,6 +5,12 @@ Not a test: it prints numbers. Run from the repository root:
     python benchmarks/store.py                                  # SQLite, in a temporary folder
     python benchmarks/store.py --db postgresql://gaz@/gaz?host=/tmp/pg --rows 1000000
     python benchmarks/store.py --db URL_1 --db URL_2 --repeat 5
+    python benchmarks/store.py --db postgresql://plain@/plaindb?host=/tmp/pg --explain
+
+--explain (PostgreSQL) adds the server's side of the cost: EXPLAIN ANALYZE of
+one INSERT ... SELECT of --rows rows into REBOND (foreign-key triggers as the
+role's own COPY would run them, each trigger's time per row) and into a
+key-less copy of it (PRIMARY KEY index only), in a transaction rolled back.
 
 Each round writes one simulation of --rows wall bounces (random rows in the
 engine's chunk size, 2^16) through the store's own writer
@@ -77,11 +83,39 @@ def describe(db: str) -> str:
     return f"PostgreSQL {version} (binary COPY; {how})"
 
 
+def explain(db: str, rows: int) -> None:
+    """Print where the server spends a bulk insert's time (see the module docstring)."""
+    import json
+
+    with st.Store(db) as store, store.engine.connect() as conn:
+        si = conn.exec_driver_sql("SELECT max(si_num) FROM simulation").scalar()
+        pa = conn.exec_driver_sql("SELECT min(pa_num) FROM particule").scalar()
+        conn.exec_driver_sql(
+            "CREATE TEMP TABLE bench_src AS SELECT si_num, re_num, pa_num, re_t, re_dir, re_vit, re_vp "
+            "FROM rebond LIMIT 0")
+        conn.exec_driver_sql(
+            f"INSERT INTO bench_src SELECT {si}, 1000000000 + g, {pa}, random(), 1 + mod(g, 3), random(), "
+            f"random() FROM generate_series(1, {rows}) g")
+        conn.exec_driver_sql("CREATE TEMP TABLE bench_keyless (LIKE rebond INCLUDING INDEXES)")
+        for target in ("rebond", "bench_keyless"):
+            plan = conn.exec_driver_sql(f"EXPLAIN (ANALYZE, FORMAT JSON) INSERT INTO {target} "
+                                        "SELECT * FROM bench_src").scalar()
+            plan = (json.loads(plan) if isinstance(plan, str) else plan)[0]
+            total = plan["Execution Time"] / 1e3
+            triggers = "; ".join(f"{t['Trigger Name']} {t['Time'] / t['Calls'] * 1e3:.1f} us/row"
+                                 for t in plan.get("Triggers", []))
+            print(f"  server, INSERT ... SELECT of {rows:,} rows into {target}: {total:.2f} s, "
+                  f"{rows / total:,.0f} rows/s" + (f" (key triggers: {triggers})" if triggers else ""))
+        conn.rollback()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--db", action="append", help="database path or URL (repeatable); default a temporary SQLite file")
     ap.add_argument("--rows", type=int, default=1_000_000, help="REBOND rows per round (default 10^6)")
     ap.add_argument("--repeat", type=int, default=3, help="rounds per database (default 3)")
+    ap.add_argument("--explain", action="store_true",
+                    help="PostgreSQL: also time the server's side (key triggers or not) by EXPLAIN ANALYZE")
     args = ap.parse_args()
     load = os.getloadavg()
     print(f"gaz store benchmark: {os.cpu_count()} cores, load average {load[0]:.2f}; "
@@ -98,6 +132,8 @@ def main():
                 print(f"  SI_NUM {si}: {total:.2f} s, {args.rows / total:,.0f} rows/s (commit {commit:.2f} s)")
             print(f"  median {statistics.median(rates):,.0f} rows/s, fastest {max(rates):,.0f} rows/s; "
                   f"commit median {statistics.median(commits):.2f} s")
+            if args.explain and "://" in db:
+                explain(db, args.rows)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Animated GIF of a trajectory (the animation of seed 003), with matplotlib.
 
-:func:`render_gif` reads an H5MD file written by
-:mod:`gaz_cli.trajectory` and draws every particle as a disk of its true
+:func:`render_gif` reads a trajectory written by :mod:`gaz_cli.trajectory`
+(H5MD, GSD or VTK: :func:`~gaz_cli.trajectory.read_trajectory`) and draws every particle as a disk of its true
 radius in the box, coloured by species, one frame per snapshot. 1D rods are
 drawn on a line; 3D runs are drawn as their side view (x horizontal, the
 gravity axis z vertical). Particles smaller than about a pixel get a dot so
@@ -73,7 +73,7 @@ def _figure(data: dict, size_px: int, dpi: int):
 def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, fps: int = 20,
                max_frames: int = MAX_FRAMES, size_px: int = 600, dpi: int = 100, trail: int = 0,
                frame_png: str | os.PathLike | None = None) -> int:
-    """Render the H5MD trajectory ``trajectory_path`` to the animated GIF ``gif_path``.
+    """Render the trajectory ``trajectory_path`` (.h5, .gsd or .pvd) to the animated GIF ``gif_path``.
 
     fps: frames per second of the GIF; max_frames: subsample longer
     trajectories; size_px: width of the image in pixels; trail: number of
@@ -85,12 +85,10 @@ def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, 
     from matplotlib.animation import FuncAnimation, PillowWriter
     from matplotlib.collections import EllipseCollection
 
-    from gaz_cli.trajectory import read_h5md
+    from gaz_cli.trajectory import read_trajectory
 
     check_output(gif_path)
-    if str(trajectory_path).lower().endswith((".pvd", ".vtu")):
-        raise SceneError("gaz animate reads HDF5 trajectories (.h5); write one with --trajectory run.h5")
-    data = read_h5md(trajectory_path)
+    data = read_trajectory(trajectory_path)
     count = data["positions"].shape[0]
     if count == 0:
         raise SceneError(f"trajectory {str(trajectory_path)!r} holds no snapshot")

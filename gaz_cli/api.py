@@ -61,16 +61,19 @@ def scene_text(scene: Scene) -> str:
 
 def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,
              keep_collisions: bool = False, trajectory: str | None = None, every: float | None = None,
-             save_state: str | None = None, write_scene: str | None = None, diagnostics=None) -> Run:
+             save_state: str | None = None, write_scene: str | None = None, diagnostics=None,
+             progress: bool = False) -> Run:
     """Run ``scene``; returns a :class:`~gaz_cli.runner.Run`: ``summary`` (dict), and the final
     ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
 
     ``db``: store the run there (a path or SQLAlchemy URL; None: no database). A scene
-    without a seed gets a fresh one, recorded in the summary.
+    without a seed gets a fresh one, recorded in the summary. ``progress``: a progress bar
+    on stderr (``gaz simulate`` draws one when stderr is a terminal).
     """
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
-                     save_state=save_state, write_scene=write_scene, diagnostics=diagnostics)
+                     save_state=save_state, write_scene=write_scene, diagnostics=diagnostics,
+                     progress=progress)
 
 
 def open_store(db: str, create: bool = False):

@@ -218,18 +218,22 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--write-scene", type=click.Path(dir_okay=False), default=None,
               help="Write the run's scene file (seed and tc as used) to FILE.toml.")
 @click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
-              help="Write snapshots to FILE.h5 (HDF5, H5MD layout) or FILE.pvd (VTK for ParaView).")
+              help="Write snapshots to FILE.h5 (HDF5, H5MD 1.1: MDAnalysis), FILE.gsd (GSD: OVITO, "
+                   "HOOMD; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
 @click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
+@click.option("--quiet", is_flag=True,
+              help="No progress bar and no compile notice on stderr (shown only on a terminal, "
+                   "for runs longer than about a second).")
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
                    "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
                    "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
                    "space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
-def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, **options):
+def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
     The scene comes from the options, or from SCENE.toml (a scene file, docs/scenes.md) or
@@ -242,7 +246,7 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
       gaz simulate examples/exam.toml --seed 7 --write-scene run.toml
     """
-    from gaz_cli import api, options as opts, runner
+    from gaz_cli import api, options as opts, progress, runner
 
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else (db or outputs.get("db") or "gaz.db")
@@ -250,7 +254,8 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
     every = every if every is not None else outputs.get("every")
     save_state = save_state or outputs.get("save_state")
     summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
-                           diagnostics=_print_diagnostic, write_scene=write_scene).summary
+                           diagnostics=_print_diagnostic, write_scene=write_scene,
+                           progress=progress.wanted(quiet)).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:
@@ -446,7 +451,7 @@ def query(name, db, params, fmt, list_only):
               help="GIF file to write, FILE.gif (default: the trajectory's name with .gif).")
 @click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
 def animate(trajectory, output, fps):
-    """Render a 1D or 2D trajectory (FILE.h5 from --trajectory) to an animated GIF.
+    """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
     \b
     Example:

@@ -56,6 +56,15 @@ class Recorder:
     def diagnostic(self, values: dict) -> None:
         """Periodic diagnostics of a run (time, energies, largest speed, counts...)."""
 
+    wants_progress = False
+    """Whether the engine should report progress often (the event engine then returns from
+    its kernel at least every gaz_cli.progress.EVENTS_PER_REPORT events)."""
+
+    def progress(self, t: float, events: int) -> None:
+        """The run reached simulated time t (s) after ``events`` events (wall bounces and
+        collisions so far). Called once the kernels are compiled (t = the start), then
+        after each kernel call (gaz_cli.progress draws a bar from it)."""
+
 
 class MemoryRecorder(Recorder):
     """Keeps every chunk in memory; for tests and small runs."""

@@ -37,6 +37,7 @@ class Tee(Recorder):
         self.recorders = [r for r in recorders if r is not None]
         self.want_bounces = any(r.want_bounces for r in self.recorders)
         self.want_collisions = any(r.want_collisions for r in self.recorders)
+        self.wants_progress = any(r.wants_progress for r in self.recorders)
         everies = [r.snapshot_every for r in self.recorders if r.snapshot_every]
         self.snapshot_every = min(everies) if everies else None
 
@@ -62,6 +63,10 @@ class Tee(Recorder):
         interrupts.check()
         for r in self.recorders:
             r.diagnostic(values)
+
+    def progress(self, t, events):
+        for r in self.recorders:
+            r.progress(t, events)
 
 
 def prepare(scene: Scene) -> Scene:
@@ -128,16 +133,18 @@ class Run:
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
-             every: float | None = None, diagnostics=None, write_scene: str | None = None) -> dict:
+             every: float | None = None, diagnostics=None, write_scene: str | None = None,
+             progress: bool = False) -> dict:
     """Run one simulation; return its summary (a dict, JSON-ready). See :func:`run_scene`."""
     return run_scene(scene, db=db, save_state=save_state, state=state, trajectory=trajectory, every=every,
-                     diagnostics=diagnostics, write_scene=write_scene).summary
+                     diagnostics=diagnostics, write_scene=write_scene, progress=progress).summary
 
 
 def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None,
               state: State | None = None, trajectory: str | None = None,
               every: float | None = None, diagnostics=None, write_scene: str | None = None,
-              keep_state: bool = False, keep_bounces: bool = False, keep_collisions: bool = False) -> Run:
+              keep_state: bool = False, keep_bounces: bool = False, keep_collisions: bool = False,
+              progress: bool = False) -> Run:
     """Run one simulation; return its :class:`Run` (summary, and what ``keep_*`` asks for).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
@@ -145,7 +152,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     seed (:func:`gaz_cli.scene.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
     engine's periodic diagnostics (a dict). ``write_scene``: write the scene file of the run
-    (with its seed) to this path before running. Raises
+    (with its seed) to this path before running. ``progress``: draw a progress bar (and a
+    notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
     interrupted, saying what was left on disk. ``keep_state``, ``keep_bounces``,
     ``keep_collisions``: return the final state, the wall bounces, the collisions as arrays
@@ -162,6 +170,9 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_writable(trajectory, "--trajectory")
     _check_writable(write_scene, "--write-scene")
     check_outputs(scene, trajectory, every)
+    if trajectory:
+        from gaz_cli.trajectory import check_frames
+        check_frames(scene, every)
     if write_scene:
         from gaz_cli import scenefile
 
@@ -187,7 +198,14 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
             if memory is not None:
                 memory.want_bounces = keep_bounces
-            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag, memory))
+            bar = None
+            if progress:
+                from gaz_cli.progress import Progress
+                bar = Progress(scene.duration)
+                stack.callback(bar.close)  # the bar's line ends before anything else is said
+            stats: RunStats = run(scene, state, Tee(writer, tally, traj, diag, memory, bar))
+            if bar is not None:
+                bar.close(complete=True)
             ke_end = stats.final.kinetic_energy(masses)
             # everything that can fail comes before the commit (the end of this block)
             if traj is not None:

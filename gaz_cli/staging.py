@@ -1,18 +1,28 @@
-"""Where a run's rows wait until its commit: a scratch SQLite file beside the database.
+"""Where a run's rows wait until its commit: in memory up to a bound, then a scratch
+SQLite file beside the database.
 
-A run into a SQLite database streams its REBOND (and CHOC) rows here while
-the engine runs, outside the database's write lock; at the end the store
-moves them in with one ``INSERT ... SELECT`` inside one short transaction
-(:meth:`gaz_cli.store.Store.simulation`). Several runs can thus write one
-file at once, and a run that fails or is interrupted only deletes its
-scratch file.
+A run into a SQLite database hands its REBOND (and CHOC) rows here while the
+engine runs, outside the database's write lock; at the end the store moves
+them in inside one short transaction (:meth:`gaz_cli.store.Store.simulation`).
+Several runs can thus write one file at once, and a run that fails or is
+interrupted only drops its rows.
 
-The scratch file sits in the database's folder (same file system: a full
-disk or a read-only folder shows up at once, not after the run), is named
-``.NAME.PID.XXXX.staging`` and has no journal and no fsync (it is thrown away
-on any failure). One killed by SIGKILL is left behind; the next writer whose
-process id differs removes those of dead processes (:func:`remove_stale`).
-Memory stays bounded by the engine's chunk: nothing accumulates in Python.
+Up to :data:`MEMORY_ROWS` rows the chunks stay as the engine's arrays (copied):
+the commit inserts them straight into the database, one pass, each row
+bound once (:func:`insert_rows`). Beyond it, everything goes to a scratch
+file: in the database's folder (same file system), named
+``.NAME.PID.XXXX.staging``, without journal nor fsync (thrown away on any
+failure), a plain table with no index (rows appended in order); the commit
+then moves them in by one ``INSERT ... SELECT`` from the attached file. A
+scratch file left by a process killed with SIGKILL is removed by the next
+writer whose process id differs (:func:`remove_stale`). Memory stays bounded
+by MEMORY_ROWS rows plus the engine's chunk.
+
+Why this shape (the README example, 178 thousand bounces, CPU seconds on a
+loaded 2-core host; benchmarks/recording.py): binding rows one statement each
+(``executemany``) costs ~2.7 us a row, twice over when rows went to a scratch
+file first and then moved in; :data:`ROWS_PER_STATEMENT` rows per INSERT, bound
+from one flat list, cost ~1.3 us a row, paid once.
 """
 
 from __future__ import annotations
@@ -24,62 +34,121 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-import sqlalchemy as sa
-from sqlalchemy.dialects import sqlite as sqlite_dialect
 
 SUFFIX = ".staging"
 
+MEMORY_ROWS = 1 << 20
+"""Rows (all tables together) kept in memory before the run spills to a scratch file:
+~60 MB of arrays for REBOND's seven columns."""
+
+ROWS_PER_STATEMENT = 64
+"""Rows per INSERT statement (448 parameters for REBOND, far below SQLite's limit)."""
+
+EXACT_INTEGER = 2 ** 53
+"""Integers are bound as float64 (one flat list of floats, the cheapest to bind); SQLite's
+INTEGER affinity stores a whole REAL as an INTEGER, exactly below this bound."""
+
+
+def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns: list,
+                constants: dict[str, int] | None = None) -> None:
+    """INSERT rows given as column arrays into ``table`` on the driver connection ``conn``.
+
+    ``names``/``columns``: the columns bound, one array of k rows each;
+    ``constants``: columns given one value for every row (written in the SQL).
+    Integer columns go through float64 (see :data:`EXACT_INTEGER`). Runs in the
+    connection's current transaction.
+    """
+    k = len(columns[0]) if columns else 0
+    if not k:
+        return
+    constants = constants or {}
+    for column in columns:
+        column = np.asarray(column)
+        if column.dtype.kind in "iu" and np.abs(column).max() >= EXACT_INTEGER:
+            raise ValueError(f"an integer of table {table} is beyond 2^53")
+    flat = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns]).ravel().tolist()
+    order = [*constants, *names]
+    row = "(" + ", ".join([str(int(v)) for v in constants.values()] + ["?"] * len(names)) + ")"
+    head = f"INSERT INTO {table} ({', '.join(order)}) VALUES "
+    width = len(names) * ROWS_PER_STATEMENT
+    full = (k // ROWS_PER_STATEMENT) * width
+    if full:
+        conn.executemany(head + ", ".join([row] * ROWS_PER_STATEMENT),
+                         (flat[i:i + width] for i in range(0, full, width)))
+    if full < len(flat):
+        conn.execute(head + ", ".join([row] * ((len(flat) - full) // len(names))), flat[full:])
+
 
 class Stage:
-    """A scratch SQLite file holding copies of ``tables`` (same columns, same DDL).
+    """Rows of ``tables`` (name -> column names) waiting for the commit; see the module docstring.
 
-    ``database``: path of the SQLite database the rows are meant for; the
-    scratch file is created in its folder. Raises OSError or sqlite3.Error
-    (the store turns them into :class:`~gaz_cli.errors.StoreError`).
+    ``database``: path of the SQLite database the rows are meant for (a scratch
+    file, if needed, goes to its folder). Raises OSError or sqlite3.Error (the
+    store turns them into :class:`~gaz_cli.errors.StoreError`).
     """
 
-    def __init__(self, database: Path, tables: list[sa.Table]):
-        database = Path(database)
-        fd, name = tempfile.mkstemp(prefix=f".{database.name}.{os.getpid()}.", suffix=SUFFIX,
-                                    dir=database.resolve().parent)
-        os.close(fd)
-        self.path = Path(name)
-        self.rows = {t.name: 0 for t in tables}
-        self._sql = {}
-        try:
-            self._conn = sqlite3.connect(self.path, isolation_level=None)
-            self._conn.execute("PRAGMA journal_mode = OFF")
-            self._conn.execute("PRAGMA synchronous = OFF")
-            self._conn.execute("BEGIN")
-            dialect = sqlite_dialect.dialect()
-            for table in tables:
-                self._conn.execute(str(sa.schema.CreateTable(table).compile(dialect=dialect)))
-                names = [c.name for c in table.columns]
-                self._sql[table.name] = (f"INSERT INTO {table.name} ({', '.join(names)}) "
-                                         f"VALUES ({', '.join('?' * len(names))})")
-        except BaseException:
-            self.discard()
-            raise
+    def __init__(self, database: Path, tables: dict[str, list[str]]):
+        self.database = Path(database)
+        self.tables = dict(tables)
+        self.rows = {name: 0 for name in tables}
+        self.path: Path | None = None
+        self._chunks: dict[str, list] | None = {name: [] for name in tables}
+        self._conn = None
+
+    @property
+    def in_memory(self) -> bool:
+        """True while (and if, at the commit) every row is still in memory."""
+        return self._chunks is not None
 
     def add(self, table: str, columns: list) -> None:
         """Append rows given as column arrays (one per column of the table, in order)."""
-        rows = zip(*[np.asarray(c).tolist() for c in columns])
-        self._conn.executemany(self._sql[table], rows)
-        self.rows[table] += len(columns[0])
+        k = len(columns[0])
+        if self._chunks is not None and sum(self.rows.values()) + k > MEMORY_ROWS:
+            self._spill()
+        if self._chunks is not None:
+            self._chunks[table].append([np.array(c, copy=True) for c in columns])
+        else:
+            insert_rows(self._conn, table, self.tables[table], columns)
+        self.rows[table] += k
+
+    def chunks(self, table: str):
+        """The rows kept in memory for ``table``, as lists of column arrays, in order."""
+        return list(self._chunks[table]) if self._chunks is not None else []
+
+    def _spill(self) -> None:
+        """Move the rows kept so far to a new scratch file; later rows go there directly."""
+        fd, name = tempfile.mkstemp(prefix=f".{self.database.name}.{os.getpid()}.", suffix=SUFFIX,
+                                    dir=self.database.resolve().parent)
+        os.close(fd)
+        self.path = Path(name)
+        self._conn = sqlite3.connect(self.path, isolation_level=None)
+        self._conn.execute("PRAGMA journal_mode = OFF")
+        self._conn.execute("PRAGMA synchronous = OFF")
+        self._conn.execute("BEGIN")
+        for table, names in self.tables.items():
+            # no key, no index: rows are appended in order (rowid order = RE_NUM order)
+            self._conn.execute(f"CREATE TABLE {table} ({', '.join(names)})")
+        chunks, self._chunks = self._chunks, None
+        for table, parts in chunks.items():
+            for columns in parts:
+                insert_rows(self._conn, table, self.tables[table], columns)
 
     def seal(self) -> None:
-        """Commit the scratch file's rows so that another connection can ATTACH and read them."""
-        self._conn.execute("COMMIT")
-        self._conn.close()
-        self._conn = None
+        """Commit the scratch file's rows (if any) so that another connection can ATTACH them."""
+        if self._conn is not None:
+            self._conn.execute("COMMIT")
+            self._conn.close()
+            self._conn = None
 
     def discard(self) -> None:
-        """Close and delete the scratch file; idempotent."""
-        conn, self._conn = getattr(self, "_conn", None), None
+        """Drop the rows: close and delete the scratch file, if any; idempotent."""
+        self._chunks = None
+        conn, self._conn = self._conn, None
         if conn is not None:
             conn.close()
-        with contextlib.suppress(OSError):
-            self.path.unlink(missing_ok=True)
+        if self.path is not None:
+            with contextlib.suppress(OSError):
+                self.path.unlink(missing_ok=True)
 
 
 def remove_stale(database: Path) -> None:

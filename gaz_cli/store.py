@@ -33,9 +33,10 @@ transaction).
 A simulation is committed whole or not at all, in one short transaction at
 its end (:meth:`Store.simulation`):
 
-- SQLite (WAL mode, a busy timeout): the run's rows wait in a scratch file
-  (:mod:`gaz_cli.staging`) while the engine runs, and move in by one
-  ``INSERT ... SELECT``; the database's write lock is held for that only, so
+- SQLite (WAL mode, a busy timeout): the run's rows wait in memory, or beyond
+  a bound in a scratch file (:mod:`gaz_cli.staging`), while the engine runs,
+  and move in at the end (many rows per INSERT, or one ``INSERT ... SELECT``
+  from the scratch file); the database's write lock is held for that only, so
   several runs write one file at once and readers read while they do.
 - PostgreSQL (psycopg 3): rows stream by ``COPY`` into the run's open
   transaction; concurrent runs need no lock.
@@ -629,7 +630,7 @@ class _Run(Recorder):
 
 
 class _StagedRun(_Run):
-    """SQLite: rows wait in a scratch file; the commit moves them in in one transaction.
+    """SQLite: rows wait in memory or a scratch file; the commit moves them in in one transaction.
 
     While staged, REBOND.PA_NUM holds the species index (0..) and SI_NUM 0;
     both become the real numbers on the way in.
@@ -640,16 +641,23 @@ class _StagedRun(_Run):
         self._si = 0
         self._pa_of_particle = scene.kinds()
         staging.remove_stale(store.path)
-        self.stage = staging.Stage(store.path, [rebond, choc])
+        self.stage = staging.Stage(store.path, {t.name: [c.name for c in t.columns] for t in (rebond, choc)})
 
     def _add(self, table, columns):
         self.stage.add(table.name, columns)
 
     def commit(self) -> None:
         self.stage.seal()
+        attach = self.stage.path is not None
         with self.store.engine.connect() as conn:
-            raw = conn.connection.driver_connection  # ATTACH and DETACH outside any transaction
-            raw.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
+            raw = conn.connection.driver_connection  # ATTACH, DETACH, PRAGMA outside any transaction
+            if attach:
+                raw.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
+            # no per-row key checks in this transaction (a third of the move-in's time): its
+            # REBOND and CHOC rows hold, by construction, the SI_NUM it has just inserted and
+            # the PA_NUM it has just read or inserted, in the same transaction; the keys stay
+            # declared, and enforced for every other writer (as on PostgreSQL's fast path)
+            raw.execute("PRAGMA foreign_keys = OFF")
             try:
                 with interrupts.held():
                     with conn.execution_options(gaz_write=True).begin():
@@ -659,24 +667,49 @@ class _StagedRun(_Run):
                         conn.execute(resultat.insert().values(_result_row(si_num, *self._result)))
                     self.si_num = si_num
             finally:
-                raw.execute("DETACH DATABASE stage")
+                raw.execute("PRAGMA foreign_keys = ON")
+                if attach:
+                    raw.execute("DETACH DATABASE stage")
         self.stage.discard()
 
     def _move_in(self, conn, table: sa.Table, si_num: int, pa_nums=None) -> None:
+        """The staged rows of ``table`` into the database, under their real SI_NUM and PA_NUM."""
         if not self._n[table.name]:
             return
-        staged = sa.table(table.name, *[sa.column(c.name) for c in table.columns], schema="stage")
         columns = list(table.columns)  # (SQLAlchemy 2.0.0's column collections take no slices)
+        if self.stage.in_memory:  # one pass: each row bound once, straight into the table
+            names = [c.name for c in columns[1:]]
+            constants = {"si_num": si_num}
+            if pa_nums is not None and len(set(pa_nums)) == 1:  # one species: PA_NUM written in the SQL
+                constants["pa_num"] = pa_nums[0]
+            raw = conn.connection.driver_connection  # (inside the transaction begun above)
+            for staged in self.stage.chunks(table.name):
+                staged = dict(zip(names, staged[1:]))
+                if "pa_num" in constants:
+                    del staged["pa_num"]
+                elif pa_nums is not None:
+                    staged["pa_num"] = np.asarray(pa_nums, dtype=np.int64)[staged["pa_num"]]
+                staging.insert_rows(raw, table.name, list(staged), list(staged.values()), constants)
+            return
+        staged = sa.table(table.name, *[sa.column(c.name) for c in table.columns], schema="stage")
         values = [sa.literal(si_num, sa.Integer).label("si_num")]
         for c in columns[1:]:
             col = staged.c[c.name]
             values.append(sa.case({k: n for k, n in enumerate(pa_nums)}, value=col).label(c.name)
                           if c.name == "pa_num" else col)
+        # the scratch table has no index: its rows are in RE_NUM order, the rowid's
         conn.execute(table.insert().from_select(
-            [c.name for c in columns], sa.select(*values).order_by(staged.c[columns[1].name])))
+            [c.name for c in columns], sa.select(*values).order_by(sa.literal_column("rowid"))))
 
     def abort(self) -> None:
         self.stage.discard()
+
+
+_COPY_TYPES = {"int4": ">i4", "int8": ">i8", "float8": ">f8"}
+"""PostgreSQL type -> its binary COPY representation (big-endian, fixed width), numpy dtype."""
+
+_COPY_SIGNATURE = b"PGCOPY\n\xff\r\n\0" + bytes(8)  # signature, flags 0, no header extension
+_COPY_TRAILER = b"\xff\xff"
 
 
 def _pg_type(column_type) -> str:
@@ -690,14 +723,44 @@ def _pg_type(column_type) -> str:
     raise TypeError(f"no COPY type for {column_type!r}")
 
 
+def _copy_block(columns: list, types: list[str]) -> bytes:
+    """Rows in PostgreSQL's binary COPY format, whole: signature, tuples, trailer.
+
+    ``columns``: one array per column (k rows each, no NULL); ``types``: their
+    PostgreSQL types (:data:`_COPY_TYPES`). Each tuple is its field count (int16)
+    then, per field, its byte length (int32) and its big-endian value: a record
+    of fixed width, so numpy fills all of them at once (~3 M rows/s, against
+    ~0.5 M for psycopg's ``write_row`` over Python tuples).
+    """
+    fields = [("count", ">i2")]
+    for j, kind in enumerate(types):
+        fields += [(f"size{j}", ">i4"), (f"value{j}", _COPY_TYPES[kind])]
+    block = np.empty(len(columns[0]), dtype=np.dtype(fields))
+    block["count"] = len(types)
+    for j, (column, kind) in enumerate(zip(columns, types)):
+        column = np.asarray(column)
+        if kind == "int4" and column.size and not (-2**31 <= column.min() and column.max() < 2**31):
+            raise StoreError(f"a value of column {j + 1} does not fit PostgreSQL's int4")
+        block[f"size{j}"] = np.dtype(_COPY_TYPES[kind]).itemsize
+        block[f"value{j}"] = column
+    return b"".join((_COPY_SIGNATURE, block.tobytes(), _COPY_TRAILER))
+
+
 def _may_skip_key_triggers(conn) -> bool:
     """Whether this PostgreSQL role may set session_replication_role (a superuser, or
     since PostgreSQL 15 a role granted SET ON PARAMETER session_replication_role).
 
     With it, COPY runs without the foreign-key triggers, which check each REBOND row
-    with a query of their own (23-33 thousand rows/s against ~200 thousand without,
-    benchmarks/store.py); the writer gives the same guarantee by construction: the
-    PA_NUM it writes are the species rows it has locked, SI_NUM is its own row.
+    with a query of their own; the writer gives the same guarantee by construction:
+    the PA_NUM it writes are the species rows it has locked, SI_NUM is its own row.
+    Without it (an ordinary role) those checks bound the rate, whatever the client
+    sends: ``benchmarks/store.py --explain`` measured 16 us per row for each of the
+    two triggers on a loaded 2-core host (an INSERT ... SELECT of 200,000 rows: 27
+    thousand rows/s into REBOND, 212 thousand into a copy without the keys); a bulk
+    INSERT ... SELECT from a staging table runs the same per-row triggers, so it does
+    not help. A database owner can grant an ordinary role the fast path without
+    making it a superuser (PostgreSQL 15+):
+    ``GRANT SET ON PARAMETER session_replication_role TO role``.
     """
     if conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on":
         return True
@@ -731,20 +794,18 @@ class _DirectRun(_Run):
 
     def _add(self, table, columns):
         names = [c.name for c in table.columns]
-        rows = zip(*[np.asarray(c).tolist() for c in columns])
-        if self._copy:  # binary COPY: ~3x text COPY, 20x executemany (benchmarks/store.py)
+        if self._copy:  # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
             raw = self.conn.connection.driver_connection
             sql = f"COPY {table.name} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
             with raw.cursor() as cur:
                 if self._keys_by_hand:
                     cur.execute("SET LOCAL session_replication_role = replica")
                 with cur.copy(sql) as copy:
-                    copy.set_types([_pg_type(c.type) for c in table.columns])
-                    for row in rows:
-                        copy.write_row(row)
+                    copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
                 if self._keys_by_hand:
                     cur.execute("SET LOCAL session_replication_role = origin")
         else:
+            rows = zip(*[np.asarray(c).tolist() for c in columns])
             self.conn.execute(table.insert(), [dict(zip(names, r)) for r in rows])
 
     def commit(self) -> None:

@@ -1,31 +1,57 @@
-"""Trajectories: snapshots of every particle, for ParaView, h5py and ``gaz animate``.
+"""Trajectories: snapshots of every particle, for MDAnalysis, OVITO, ParaView, h5py and ``gaz animate``.
 
 :func:`open_trajectory` returns a :class:`TrajectoryWriter`, a
 :class:`~gaz_cli.recording.Recorder` that takes only snapshots
 (``snapshot_every`` = the requested interval); every engine calls its
 ``add_snapshot(t, positions, velocities)`` at t = 0, every, 2 every, ...
-The format follows the file's extension:
+At most :data:`MAX_FRAMES` snapshots without ``--force`` (:func:`check_frames`).
+The format follows the file's extension; :func:`read_trajectory` reads each back
+(``gaz animate`` draws any of them).
 
 ``.h5`` / ``.hdf5``
-    HDF5 in the H5MD 1.1 layout (https://www.nongnu.org/h5md/h5md.html), through h5py::
+    HDF5 in the H5MD 1.1 layout (https://www.nongnu.org/h5md/h5md.html), through
+    h5py; MDAnalysis reads it (3D runs: ``Universe.empty(N, trajectory=True)
+    .load_new(path, format="H5MD")``, or with a topology)::
 
-        /h5md                      version [1, 1]; author, creator (gaz)
-        /particles/all/box         attrs dimension, boundary; edges (D,) m
-        /particles/all/position    value (T, N, D) m, time (T,) s, step (T,)
-        /particles/all/velocity    value (T, N, D) m/s, time, step
-        /particles/all/species     (N,) int, index into /parameters species_names
+        /h5md                      version [1, 1]; author (name), creator (name, version)
+        /h5md/modules/units        version [1, 0], system SI: every dataset with a
+                                   dimension carries its unit
+        /particles/all/box         attrs dimension, boundary (periodic | none per axis);
+                                   edges: value (T, D) nm, step, time
+        /particles/all/position    value (T, N, D) nm, step (T,), time (T,) ps
+        /particles/all/velocity    value (T, N, D) nm ps-1, step, time
+        /particles/all/image       periodic box only: value (T, N, D) int32, step, time
+        /particles/all/species     (N,) int32, index into /parameters species_names
         /particles/all/mass        (N,) kg
-        /particles/all/radius      (N,) m (not an H5MD name; read by gaz animate)
-        /parameters                attrs of the scene (dim, length, duration, seed, engine...)
+        /particles/all/radius      (N,) nm (not an H5MD name; read by gaz animate)
+        /parameters                attrs of the scene (dim, length m, duration s, seed...)
 
-    ``step`` is the snapshot index k (t = k * every).
+    ``step`` is the snapshot index k (t = k * every); every element shares one step
+    and one time dataset (hard links). Lengths are in nanometres and times in
+    picoseconds, not metres and seconds: MDAnalysis converts from nm, pm, fm and
+    angstrom only (it refused "m"). Strings are fixed-length ASCII, as H5MD 1.1
+    asks, except the ``unit`` attributes, variable-length: MDAnalysis 2.11 looks a
+    unit up as a Python str and refuses a fixed-length one ("unit 'b'nm'' is not
+    recognized"). In a periodic box, positions are wrapped into [0, L) and
+    ``image`` counts the box crossings, inferred between consecutive snapshots by
+    the minimum image (exact while no particle moves more than half a box between
+    two snapshots): position + image * edges is the unwrapped position.
+
+``.gsd``
+    GSD (HOOMD-blue's format; OVITO, freud and HOOMD read it) through the ``gsd``
+    package (``pip install 'gaz[gsd]'``): one frame per snapshot, HOOMD's
+    conventions: the box centred on the origin (positions shifted by -L/2),
+    float32 positions in nm, velocities in nm/ps, diameters in nm, masses in
+    daltons, particle types named by species; ``configuration.step`` is k and
+    the log entry ``gaz/time_ps`` the time. 1D runs are written as 2D (y = 0)
+    with ``gaz/dimension`` = 1 in the log.
 
 ``.pvd`` / ``.vtu``
     VTK XML for ParaView, written by meshio: one ``STEM_00000.vtu`` per
-    snapshot (points padded to 3D, one vertex cell per particle, point data
-    velocity, species, radius; use a Glyph filter scaled by radius to see
-    the disks) and a ``STEM.pvd`` collection that gives ParaView the times.
-    Open the .pvd.
+    snapshot (points padded to 3D, SI units, one vertex cell per particle, point
+    data velocity, species, radius; use a Glyph filter scaled by radius to see
+    the disks) and a ``STEM.pvd`` collection that gives ParaView the times (and
+    gaz the dimension and the box, in a comment). Open the .pvd.
 """
 
 from __future__ import annotations
@@ -40,8 +66,35 @@ from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene
 
-FORMATS = {".h5": "h5md", ".hdf5": "h5md", ".pvd": "vtk", ".vtu": "vtk"}
+FORMATS = {".h5": "h5md", ".hdf5": "h5md", ".gsd": "gsd", ".pvd": "vtk", ".vtu": "vtk"}
 """File extension -> format."""
+
+MAX_FRAMES = 10_000
+"""Most snapshots a trajectory gets without --force (a run of 10^6 particles at that
+is 0.5 TB of H5MD)."""
+
+NM, PS = 1e-9, 1e-12
+"""The files' units of length and time (nanometre, picosecond), in metres and seconds."""
+
+DALTON = 1.66053906660e-27
+"""kg; GSD's masses are in daltons."""
+
+_LENGTH = {"m": 1.0, "nm": NM, "pm": 1e-12, "fm": 1e-15, "Angstrom": 1e-10, "A": 1e-10, "angstrom": 1e-10}
+_TIME = {"s": 1.0, "ps": PS, "fs": 1e-15, "ns": 1e-9}
+"""Unit strings gaz reads back (files of older gaz versions were in m and s)."""
+
+
+def check_frames(scene: Scene, every: float | None) -> None:
+    """Refuse a trajectory of more than MAX_FRAMES snapshots (unless ``scene.force``),
+    naming the smallest --every that fits."""
+    if every is None or not np.isfinite(every) or every <= 0 or scene.force:
+        return
+    frames = int(np.floor(scene.duration / every)) + 1
+    if frames > MAX_FRAMES:
+        least = scene.duration / (MAX_FRAMES - 1)
+        raise SceneError(f"--every {every:g} s over --duration {scene.duration:g} s makes {frames:,} "
+                         f"snapshots, more than {MAX_FRAMES:,}; use --every {least:.3g} or more, "
+                         "or add --force to write them all")
 
 
 def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> "TrajectoryWriter":
@@ -54,13 +107,13 @@ def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> "Tra
     fmt = FORMATS.get(path.suffix.lower())
     if fmt is None:
         raise SceneError(f"--trajectory {str(path)!r}: unknown extension {path.suffix!r}; "
-                         "use .h5 (HDF5/H5MD) or .pvd (VTK for ParaView)")
+                         "use .h5 (HDF5/H5MD), .gsd (GSD, for OVITO) or .pvd (VTK for ParaView)")
     if every is None or not np.isfinite(every) or every <= 0:
         raise SceneError(f"--every must be a positive number of simulated seconds, got {every}")
     directory = path.resolve().parent
     if not directory.is_dir():
         raise SceneError(f"--trajectory {str(path)!r}: directory {str(directory)!r} does not exist")
-    cls = H5MDWriter if fmt == "h5md" else VTKWriter
+    cls = {"h5md": H5MDWriter, "gsd": GSDWriter, "vtk": VTKWriter}[fmt]
     return cls(path, float(every), scene)
 
 
@@ -121,11 +174,18 @@ def _scene_attributes(scene: Scene) -> dict:
     }
     if scene.dt is not None:
         out["dt"] = scene.dt
-    return out
+    return {k: np.bytes_(v) if isinstance(v, str) else v for k, v in out.items()}  # fixed-length
+
+
+def _text(value) -> str:
+    """An HDF5 string attribute (fixed-length bytes or str) as str."""
+    if isinstance(value, np.ndarray):
+        value = value.item() if value.shape == () else value[0]
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 class H5MDWriter(TrajectoryWriter):
-    """HDF5 file in the H5MD layout (see the module docstring)."""
+    """HDF5 file in the H5MD 1.1 layout (see the module docstring)."""
 
     def __init__(self, path: Path, every: float, scene: Scene):
         super().__init__(path, every, scene)
@@ -143,31 +203,44 @@ class H5MDWriter(TrajectoryWriter):
         f = self.file
         h5md = f.create_group("h5md")
         h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
-        f.create_group("h5md/author").attrs["name"] = "gaz user"
+        f.create_group("h5md/author").attrs["name"] = np.bytes_("gaz user")
         creator = f.create_group("h5md/creator")
-        creator.attrs["name"] = "gaz"
-        creator.attrs["version"] = __version__
+        creator.attrs["name"] = np.bytes_("gaz")
+        creator.attrs["version"] = np.bytes_(__version__)
+        units = f.create_group("h5md/modules/units")
+        units.attrs["version"] = np.array([1, 0], dtype=np.int32)
+        units.attrs["system"] = np.bytes_("SI")
         n, d = scene.n, scene.dim
+        self.periodic = scene.boundary == "periodic"
         part = f.create_group("particles/all")
         box = part.create_group("box")
         box.attrs["dimension"] = np.int32(d)
-        boundary = "periodic" if scene.boundary == "periodic" else "none"
-        box.attrs["boundary"] = np.array([boundary] * d, dtype="S")
-        edges = box.create_dataset("edges", data=np.full(d, scene.length))
-        edges.attrs["unit"] = "m"
+        box.attrs["boundary"] = np.array(["periodic" if self.periodic else "none"] * d, dtype="S8")
         part.create_dataset("species", data=scene.kinds().astype(np.int32))
         part.create_dataset("mass", data=scene.masses()).attrs["unit"] = "kg"
-        part.create_dataset("radius", data=scene.radii()).attrs["unit"] = "m"
-        self._elements = {}
-        for name, unit in (("position", "m"), ("velocity", "m s-1")):
-            g = part.create_group(name)
-            value = g.create_dataset("value", shape=(0, n, d), maxshape=(None, n, d),
-                                     chunks=(1, n, d), dtype=np.float64)
-            value.attrs["unit"] = unit
-            time = g.create_dataset("time", shape=(0,), maxshape=(None,), chunks=(256,), dtype=np.float64)
-            time.attrs["unit"] = "s"
-            step = g.create_dataset("step", shape=(0,), maxshape=(None,), chunks=(256,), dtype=np.int64)
-            self._elements[name] = (value, time, step)
+        part.create_dataset("radius", data=scene.radii() / NM).attrs["unit"] = "nm"
+        self.step = part.create_dataset("position/step", shape=(0,), maxshape=(None,), chunks=(256,),
+                                        dtype=np.int64)
+        self.time = part.create_dataset("position/time", shape=(0,), maxshape=(None,), chunks=(256,),
+                                        dtype=np.float64)
+        self.time.attrs["unit"] = "ps"
+        self._values = {}
+        elements = [("position", (n, d), np.float64, "nm"), ("velocity", (n, d), np.float64, "nm ps-1"),
+                    ("box/edges", (d,), np.float64, "nm")]
+        if self.periodic:
+            elements.append(("image", (n, d), np.int32, None))
+        for name, shape, dtype, unit in elements:
+            g = part.require_group(name)
+            value = g.create_dataset("value", shape=(0, *shape), maxshape=(None, *shape),
+                                     chunks=(1, *shape), dtype=dtype)
+            if unit:
+                value.attrs["unit"] = unit
+            if name != "position":
+                g["step"], g["time"] = self.step, self.time  # one step, one time: hard links
+            self._values[name] = value
+        self._edges = np.full(d, scene.length / NM)
+        self._image = np.zeros((n, d), dtype=np.int32)
+        self._previous = None
         params = f.create_group("parameters")
         for key, val in _scene_attributes(scene).items():
             params.attrs[key] = val
@@ -177,15 +250,19 @@ class H5MDWriter(TrajectoryWriter):
         if self.file is None:
             raise SceneError(f"--trajectory {str(self.path)!r} is closed")
         k = self.count
+        data = {"position": positions / NM, "velocity": velocities * (PS / NM), "box/edges": self._edges}
+        if self.periodic:
+            if self._previous is not None:  # minimum image between consecutive snapshots
+                self._image -= np.rint((positions - self._previous) / self.scene.length).astype(np.int32)
+            self._previous = positions.copy()
+            data["image"] = self._image
         try:
-            for name, data in (("position", positions), ("velocity", velocities)):
-                value, time, step = self._elements[name]
-                value.resize(k + 1, axis=0)
-                time.resize(k + 1, axis=0)
-                step.resize(k + 1, axis=0)
-                value[k] = data
-                time[k] = t
-                step[k] = k
+            for dataset in (self.step, self.time, *self._values.values()):
+                dataset.resize(k + 1, axis=0)
+            self.step[k] = k
+            self.time[k] = t / PS
+            for name, value in self._values.items():
+                value[k] = data[name]
         except OSError as err:
             self._discard()
             raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {k}): "
@@ -222,6 +299,89 @@ class H5MDWriter(TrajectoryWriter):
             os.unlink(self.path)
         except OSError:
             pass
+
+
+class GSDWriter(TrajectoryWriter):
+    """GSD file, one frame per snapshot (see the module docstring); needs the gsd package."""
+
+    def __init__(self, path: Path, every: float, scene: Scene):
+        super().__init__(path, every, scene)
+        gsd_hoomd = _gsd()
+        try:
+            self.file = gsd_hoomd.open(name=str(self.path), mode="w")
+        except OSError as err:
+            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {_reason(err)}") from None
+        self._hoomd = gsd_hoomd
+        d, length = scene.dim, scene.length / NM
+        # GSD boxes are 2D (Lz = 0) or 3D: a 1D run is drawn in a square, on y = 0
+        self._box = [length, length, length if d == 3 else 0.0, 0.0, 0.0, 0.0]
+        self._types = [s.name for s in scene.species]
+        self._typeid = scene.kinds().astype(np.uint32)
+        self._diameter = (2.0 * scene.radii() / NM).astype(np.float32)
+        self._mass = (scene.masses() / DALTON).astype(np.float32)
+
+    def _write(self, t, positions, velocities):
+        if self.file is None:
+            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
+        n, d = positions.shape
+        frame = self._hoomd.Frame()
+        frame.configuration.step = self.count
+        frame.configuration.dimensions = 3 if d == 3 else 2
+        frame.configuration.box = self._box
+        pos = np.zeros((n, 3), dtype=np.float32)
+        pos[:, :d] = positions / NM - 0.5 * self.scene.length / NM
+        vel = np.zeros((n, 3), dtype=np.float32)
+        vel[:, :d] = velocities * (PS / NM)
+        frame.particles.N = n
+        frame.particles.types = self._types
+        frame.particles.typeid = self._typeid
+        frame.particles.position = pos
+        frame.particles.velocity = vel
+        frame.particles.diameter = self._diameter
+        frame.particles.mass = self._mass
+        frame.log["gaz/time_ps"] = np.array([t / PS])
+        frame.log["gaz/dimension"] = np.array([d], dtype=np.int32)
+        try:
+            self.file.append(frame)
+        except OSError as err:
+            self._discard()
+            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {self.count}): "
+                             f"{_reason(err)}; the file was removed") from None
+
+    def close(self):
+        if self.file is not None:
+            f, self.file = self.file, None
+            try:
+                f.close()
+            except OSError as err:
+                self._remove()
+                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {_reason(err)}; "
+                                 "the file was removed") from None
+
+    def _discard(self) -> None:
+        f, self.file = self.file, None
+        if f is not None:
+            try:
+                f.close()
+            except OSError:
+                pass
+        self._remove()
+
+    def _remove(self) -> None:
+        try:
+            os.unlink(self.path)
+        except OSError:
+            pass
+
+
+def _gsd():
+    """The gsd package's ``gsd.hoomd``, or one OutputError line naming the extra to install."""
+    try:
+        import gsd.hoomd
+    except ImportError:
+        raise OutputError("GSD trajectories (.gsd) need the gsd package: pip install 'gaz[gsd]' "
+                          "(or pip install gsd)") from None
+    return gsd.hoomd
 
 
 class VTKWriter(TrajectoryWriter):
@@ -265,6 +425,7 @@ class VTKWriter(TrajectoryWriter):
         self._closed = True
         lines = ['<?xml version="1.0"?>',
                  '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
+                 f"  <!-- gaz: dimension={self.scene.dim} box={self.scene.length!r} m -->",
                  "  <Collection>"]
         lines += [f'    <DataSet timestep="{t!r}" group="" part="0" file="{name}"/>'
                   for t, name in self.entries]
@@ -287,12 +448,26 @@ class VTKWriter(TrajectoryWriter):
         self.entries = []
 
 
-def read_h5md(path: str | os.PathLike) -> dict:
-    """Read a trajectory written by :class:`H5MDWriter`.
+def read_trajectory(path: str | os.PathLike) -> dict:
+    """Read a trajectory written by gaz, whatever its format (by extension).
 
-    Returns a dict: time (T,) s, positions (T, N, D) m, velocities (T, N, D)
-    m/s, species (N,) int, radius (N,) m, box (D,) m, species_names (list
-    of str), dim.
+    Returns a dict in SI units: time (T,) s, positions (T, N, D) m, velocities
+    (T, N, D) m/s or None, species (N,) int or None, radius (N,) m, box (D,) m,
+    species_names (list of str), dim. Raises SceneError for a file it cannot read.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".gsd":
+        return read_gsd(path)
+    if suffix in (".pvd", ".vtu"):
+        return read_vtk(path)
+    return read_h5md(path)
+
+
+def read_h5md(path: str | os.PathLike) -> dict:
+    """Read an H5MD trajectory written by :class:`H5MDWriter` (see :func:`read_trajectory`).
+
+    Units are read from the file (gaz wrote m and s before 0.1's H5MD 1.1 layout, nm
+    and ps since).
     """
     import h5py
 
@@ -304,17 +479,98 @@ def read_h5md(path: str | os.PathLike) -> dict:
         if "particles/all/position/value" not in f:
             raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no particles/all/position)")
         part = f["particles/all"]
+
+        def scaled(dataset, table, default):
+            unit = _text(dataset.attrs["unit"]) if "unit" in dataset.attrs else default
+            if unit not in table:
+                raise SceneError(f"trajectory {str(path)!r}: unit {unit!r} of {dataset.name} is not one "
+                                 f"gaz reads ({', '.join(table)})")
+            return dataset[()] * table[unit]
+
+        position = part["position/value"]
+        velocity = part["velocity/value"] if "velocity" in part else None
+        edges = part["box/edges"]
+        edges = edges["value"] if isinstance(edges, h5py.Group) else edges
         out = {
-            "time": part["position/time"][()],
-            "positions": part["position/value"][()],
-            "velocities": part["velocity/value"][()] if "velocity" in part else None,
+            "time": scaled(part["position/time"], _TIME, "s"),
+            "positions": scaled(position, _LENGTH, "m"),
+            "velocities": None,
             "species": part["species"][()] if "species" in part else None,
-            "box": part["box/edges"][()],
+            "box": scaled(edges, _LENGTH, "m"),
             "dim": int(part["box"].attrs["dimension"]),
         }
+        if out["box"].ndim == 2:
+            out["box"] = out["box"][0]
+        if velocity is not None:
+            unit = _text(velocity.attrs.get("unit", "m s-1"))
+            length, _, time = unit.partition(" ")
+            if length not in _LENGTH or time[:-2] not in _TIME or not time.endswith("-1"):
+                raise SceneError(f"trajectory {str(path)!r}: velocity unit {unit!r} is not one gaz reads")
+            out["velocities"] = velocity[()] * (_LENGTH[length] / _TIME[time[:-2]])
         n = out["positions"].shape[1]
-        out["radius"] = part["radius"][()] if "radius" in part else np.zeros(n)
+        out["radius"] = scaled(part["radius"], _LENGTH, "m") if "radius" in part else np.zeros(n)
         names = f["parameters"].attrs.get("species_names") if "parameters" in f else None
         out["species_names"] = [s.decode() if isinstance(s, bytes) else str(s) for s in names] \
             if names is not None else []
     return out
+
+
+def read_gsd(path: str | os.PathLike) -> dict:
+    """Read a GSD trajectory written by :class:`GSDWriter` (see :func:`read_trajectory`)."""
+    gsd_hoomd = _gsd()
+    try:
+        f = gsd_hoomd.open(name=str(path), mode="r")
+    except (OSError, RuntimeError, ValueError) as err:
+        raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
+    with f:
+        if len(f) == 0:
+            raise SceneError(f"trajectory {str(path)!r} holds no snapshot")
+        first = f[0]
+        dim = int(first.log["gaz/dimension"][0]) if "gaz/dimension" in first.log \
+            else int(first.configuration.dimensions)
+        box = np.asarray(first.configuration.box[:dim], dtype=np.float64) * NM
+        frames = [f[k] for k in range(len(f))]
+    positions = np.stack([fr.particles.position[:, :dim] for fr in frames]).astype(np.float64) * NM + box / 2
+    velocities = np.stack([fr.particles.velocity[:, :dim] for fr in frames]).astype(np.float64) * (NM / PS)
+    time = np.array([fr.log["gaz/time_ps"][0] * PS if "gaz/time_ps" in fr.log else fr.configuration.step
+                     for fr in frames])
+    return {"time": time, "positions": positions, "velocities": velocities,
+            "species": first.particles.typeid.astype(np.int64),
+            "radius": first.particles.diameter.astype(np.float64) * NM / 2, "box": box,
+            "species_names": list(first.particles.types), "dim": dim}
+
+
+def read_vtk(path: str | os.PathLike) -> dict:
+    """Read a VTK trajectory written by :class:`VTKWriter`: its .pvd collection (a .vtu
+    snapshot's name leads to it) and every .vtu it lists (see :func:`read_trajectory`)."""
+    import xml.etree.ElementTree as ET
+
+    import meshio
+
+    path = Path(path)
+    if path.suffix.lower() == ".vtu":
+        stem = path.stem.rsplit("_", 1)[0] if path.stem.rsplit("_", 1)[-1].isdigit() else path.stem
+        path = path.with_name(stem + ".pvd")
+    try:
+        root = ET.parse(path, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
+        entries = [(float(e.get("timestep")), path.parent / e.get("file")) for e in root.iter("DataSet")]
+        meshes = [meshio.read(file) for _, file in entries]
+    except (OSError, ET.ParseError, TypeError, ValueError) as err:
+        raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
+    if not meshes:
+        raise SceneError(f"trajectory {str(path)!r} holds no snapshot")
+    first = meshes[0]
+    said = dict(word.split("=", 1) for c in root.iter(ET.Comment) if "gaz:" in (c.text or "")
+                for word in c.text.split() if "=" in word)
+    if "dimension" in said:
+        dim = int(said["dimension"])
+        box = np.full(dim, float(said["box"]))
+    else:  # written before gaz said them: the box from the particles' extent
+        dim = 3 - sum(bool(np.all(first.points[:, a] == 0)) for a in (1, 2))
+        box = np.full(dim, float(np.max(first.points)))
+    return {"time": np.array([t for t, _ in entries]),
+            "positions": np.stack([m.points[:, :dim] for m in meshes]),
+            "velocities": np.stack([m.point_data["velocity"][:, :dim] for m in meshes]),
+            "species": np.asarray(first.point_data["species"]).astype(np.int64),
+            "radius": np.asarray(first.point_data["radius"], dtype=np.float64), "box": box,
+            "species_names": [], "dim": dim}

@@ -88,6 +88,7 @@ CHILD = textwrap.dedent("""
     from gaz_cli.scene import Scene, initial_state
     from gaz_cli.species import lookup
 
+    st.staging.MEMORY_ROWS = 100_000  # this run's 400 000 rows spill to a scratch file
     move_in = st._StagedRun._move_in
     def announced(self, conn, table, *args, **kw):
         if table is st.rebond:

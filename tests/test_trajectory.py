@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from gaz_cli import stepper
-from gaz_cli.errors import SceneError
+from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.recording import MemoryRecorder
 from gaz_cli.scene import Scene, State
 from gaz_cli.species import Species
-from gaz_cli.trajectory import open_trajectory, read_h5md
+from gaz_cli.trajectory import MAX_FRAMES, check_frames, open_trajectory, read_h5md, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
+
+UNITS = 4.5e-16
+"""Relative tolerance of a value stored in the file's units (nm, ps) and read back in SI:
+two roundings of a float64 product (x / 1e-9, then * 1e-9; velocities three), ~2 ulp."""
 
 
 def small_scene(dim=2, n=6, **kw) -> Scene:
@@ -39,19 +44,36 @@ def test_h5md_round_trip(tmp_path, suffix):
         assert w.snapshot_every == 0.05 and not w.want_bounces
         for t, x, v in snaps:
             w.add_snapshot(t, x, v)
+    nm, ps = 1e-9, 1e-12
     with h5py.File(path, "r") as f:
         assert list(f["h5md"].attrs["version"]) == [1, 1]
+        assert list(f["h5md/modules/units"].attrs["version"]) == [1, 0]
         pos = f["particles/all/position"]
-        np.testing.assert_array_equal(pos["value"][()], np.stack([x for _, x, _ in snaps]))
-        np.testing.assert_array_equal(pos["time"][()], [t for t, _, _ in snaps])
+        # stored in nm and ps (MDAnalysis's units): one rounding of x / 1e-9
+        np.testing.assert_allclose(pos["value"][()] * nm, np.stack([x for _, x, _ in snaps]), rtol=UNITS)
+        np.testing.assert_allclose(pos["time"][()] * ps, [t for t, _, _ in snaps], rtol=UNITS)
         np.testing.assert_array_equal(pos["step"][()], [0, 1, 2])
-        np.testing.assert_array_equal(f["particles/all/velocity/value"][()], np.stack([v for _, _, v in snaps]))
-        np.testing.assert_array_equal(f["particles/all/box/edges"][()], [1.0, 1.0, 1.0])
-        assert f["particles/all/box"].attrs["dimension"] == 3
+        assert pos["value"].attrs["unit"] == "nm" and pos["time"].attrs["unit"] == "ps"
+        velocity = f["particles/all/velocity"]
+        assert velocity["value"].attrs["unit"] == "nm ps-1"
+        np.testing.assert_allclose(velocity["value"][()] * nm / ps, np.stack([v for _, _, v in snaps]), rtol=UNITS)
+        edges = f["particles/all/box/edges"]
+        np.testing.assert_allclose(edges["value"][()] * nm, np.ones((3, 3)), rtol=UNITS)
+        assert edges["step"] == pos["step"] and edges["time"] == pos["time"]  # shared: hard links
+        box = f["particles/all/box"]
+        assert box.attrs["dimension"] == 3 and list(box.attrs["boundary"]) == [b"none"] * 3
+        assert "image" not in f["particles/all"]  # walls: no image
         np.testing.assert_array_equal(f["particles/all/species"][()], [0, 0, 0, 0, 1, 1])
+        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.trajectory)
+        for attrs, key in ((f["h5md/creator"].attrs, "name"), (f["h5md/author"].attrs, "name"),
+                           (box.attrs, "boundary"), (f["parameters"].attrs, "engine"),
+                           (f["h5md/modules/units"].attrs, "system")):
+            assert not h5py.check_string_dtype(attrs.get_id(key).dtype).length is None, key
     data = read_h5md(path)
-    np.testing.assert_array_equal(data["positions"][1], snaps[1][1])
-    np.testing.assert_array_equal(data["radius"], sc.radii())
+    np.testing.assert_allclose(data["positions"][1], snaps[1][1], rtol=UNITS)
+    np.testing.assert_allclose(data["velocities"][2], snaps[2][2], rtol=UNITS)
+    np.testing.assert_allclose(data["time"], [t for t, _, _ in snaps], rtol=UNITS)
+    np.testing.assert_allclose(data["radius"], sc.radii(), rtol=UNITS)
     assert data["species_names"] == ["A", "B"] and data["dim"] == 3
 
 
@@ -104,31 +126,137 @@ def test_step_engine_writes_a_trajectory(tmp_path):
         rs = stepper.run(sc, st, Tee(MemoryRecorder(), w))
     data = read_h5md(tmp_path / "run.h5")
     np.testing.assert_allclose(data["time"], 0.02 * np.arange(6), atol=1e-15)
-    np.testing.assert_array_equal(data["positions"][0], x)
+    np.testing.assert_allclose(data["positions"][0], x, rtol=UNITS)
     np.testing.assert_allclose(data["positions"][-1], rs.final.positions, atol=1e-12)
 
 
-@pytest.mark.parametrize("dim", [1, 2])
-def test_render_gif(tmp_path, dim):
+@pytest.mark.parametrize("dim,suffix", [(1, ".h5"), (2, ".h5"), (1, ".gsd"), (2, ".pvd")])
+def test_render_gif(tmp_path, dim, suffix):
+    """gaz animate draws every format simulate writes."""
     from PIL import Image
 
     from gaz_cli.animate import render_gif
 
+    if suffix == ".gsd":
+        pytest.importorskip("gsd")
     sc = small_scene(dim=dim)
-    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+    with open_trajectory(tmp_path / f"run{suffix}", 0.05, sc) as w:
         for t, x, v in snapshots(sc, count=4):
             w.add_snapshot(t, x, v)
-    frames = render_gif(tmp_path / "run.h5", tmp_path / "run.gif", fps=5, size_px=200,
+    frames = render_gif(tmp_path / f"run{suffix}", tmp_path / "run.gif", fps=5, size_px=200,
                         frame_png=tmp_path / "last.png")
     assert frames == 4
     with Image.open(tmp_path / "run.gif") as gif:
         assert gif.n_frames == 4
     assert (tmp_path / "last.png").stat().st_size > 0
-    with pytest.raises(SceneError, match="HDF5"):
-        render_gif(tmp_path / "run.pvd", tmp_path / "x.gif")
     (tmp_path / "bad.h5").write_bytes(b"not hdf5")
     with pytest.raises(SceneError, match="cannot read"):
         render_gif(tmp_path / "bad.h5", tmp_path / "x.gif")
+
+
+@pytest.mark.parametrize("suffix", [".h5", ".gsd", ".pvd"])
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_every_format_reads_back_what_was_written(tmp_path, suffix, dim):
+    """read_trajectory gives back times, positions, velocities, box, radii and species in SI
+    units: to float64 unit rounding (H5MD, VTK), to float32 (GSD stores single precision)."""
+    if suffix == ".gsd":
+        pytest.importorskip("gsd")
+    sc = small_scene(dim=dim)
+    snaps = snapshots(sc, count=3, seed=dim)
+    with open_trajectory(tmp_path / f"run{suffix}", 0.05, sc) as w:
+        for t, x, v in snaps:
+            w.add_snapshot(t, x, v)
+    data = read_trajectory(tmp_path / f"run{suffix}")
+    rtol = 2 ** -23 if suffix == ".gsd" else UNITS  # float32: half an ulp of a value < 2x the box
+    assert data["dim"] == dim and data["positions"].shape == (3, sc.n, dim)
+    np.testing.assert_allclose(data["time"], [t for t, _, _ in snaps], rtol=UNITS)
+    np.testing.assert_allclose(data["positions"], np.stack([x for _, x, _ in snaps]), rtol=0, atol=rtol * 2)
+    np.testing.assert_allclose(data["velocities"], np.stack([v for _, _, v in snaps]), rtol=rtol, atol=1e-30)
+    np.testing.assert_allclose(data["box"], np.full(dim, sc.length), rtol=UNITS)
+    np.testing.assert_allclose(data["radius"], sc.radii(), rtol=rtol)
+    np.testing.assert_array_equal(data["species"], sc.kinds())
+
+
+def test_periodic_image_counts_box_crossings(tmp_path):
+    """H5MD image: position + image * L is the unwrapped path, across wraps both ways."""
+    import h5py
+
+    sc = small_scene(dim=2, n=2, boundary="periodic")
+    unwrapped = np.array([[[0.9, 0.5], [0.1, 0.5]], [[1.2, 0.5], [-0.3, 0.5]], [[1.6, 0.5], [-0.7, 0.5]],
+                          [[2.05, 0.5], [-1.1, 0.5]]])  # steps under half a box
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for k, x in enumerate(unwrapped):
+            w.add_snapshot(0.05 * k, np.mod(x, 1.0), np.zeros_like(x))
+    with h5py.File(tmp_path / "run.h5") as f:
+        image = f["particles/all/image/value"][()]
+        assert f["particles/all/image/step"] == f["particles/all/position/step"]
+        assert list(f["particles/all/box"].attrs["boundary"]) == [b"periodic"] * 2
+    data = read_h5md(tmp_path / "run.h5")
+    np.testing.assert_allclose(data["positions"] + image * sc.length, unwrapped, atol=1e-15)
+
+
+def test_mdanalysis_reads_a_3d_run(tmp_path):
+    """A 3D run's H5MD file opens in MDAnalysis with its units converted (angstrom, ps)."""
+    mda = pytest.importorskip("MDAnalysis")
+    sc = replace(small_scene(dim=3), length=1e-9)  # a box of 1 nm
+    snaps = snapshots(sc, count=3)
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for t, x, v in snaps:
+            w.add_snapshot(t * 1e-12, x * 1e-9, v)  # nm-sized box, ps times
+    u = mda.Universe.empty(sc.n, trajectory=True)
+    u.load_new(str(tmp_path / "run.h5"), format="H5MD")
+    assert u.trajectory.n_frames == 3
+    for k, ts in enumerate(u.trajectory):
+        # MDAnalysis keeps float32 angstroms: half an ulp of values up to 10 A
+        np.testing.assert_allclose(ts.positions, snaps[k][1] * 10.0, rtol=0, atol=10 * 2 ** -23)
+        np.testing.assert_allclose(ts.time, snaps[k][0], rtol=1e-12)  # ps
+        np.testing.assert_allclose(ts.dimensions, [10.0, 10.0, 10.0, 90, 90, 90], rtol=1e-7)
+        np.testing.assert_allclose(ts.velocities, snaps[k][2] * 1e-2, rtol=2 ** -23)  # m/s -> A/ps
+
+
+def test_gsd_opens_in_the_gsd_package(tmp_path):
+    """The .gsd file as HOOMD/OVITO see it (read by the gsd package itself): a box centred
+    on the origin in nm, particle types by species, diameters, the time in the log."""
+    gsd_hoomd = pytest.importorskip("gsd.hoomd")
+    sc = replace(small_scene(dim=3), length=1e-9)  # a box of 1 nm
+    snaps = snapshots(sc, count=2)
+    with open_trajectory(tmp_path / "run.gsd", 0.05, sc) as w:
+        for t, x, v in snaps:
+            w.add_snapshot(t, x * 1e-9, v)
+    with gsd_hoomd.open(str(tmp_path / "run.gsd"), "r") as f:
+        assert len(f) == 2
+        frame = f[1]
+        np.testing.assert_allclose(frame.configuration.box, [1, 1, 1, 0, 0, 0])
+        assert frame.configuration.dimensions == 3 and frame.configuration.step == 1
+        assert list(frame.particles.types) == ["A", "B"]
+        np.testing.assert_array_equal(frame.particles.typeid, [0, 0, 0, 0, 1, 1])
+        np.testing.assert_allclose(frame.particles.position, snaps[1][1] - 0.5, atol=2 ** -24)
+        np.testing.assert_allclose(frame.particles.diameter, 2 * sc.radii() * 1e9, rtol=2 ** -23)
+        np.testing.assert_allclose(frame.log["gaz/time_ps"], [0.05e12])
+
+
+def test_missing_gsd_names_the_extra(tmp_path, monkeypatch):
+    import builtins
+
+    real = builtins.__import__
+
+    def no_gsd(name, *args, **kw):
+        if name.startswith("gsd"):
+            raise ImportError(name)
+        return real(name, *args, **kw)
+
+    monkeypatch.setattr(builtins, "__import__", no_gsd)
+    with pytest.raises(OutputError, match=r"pip install 'gaz\[gsd\]'"):
+        open_trajectory(tmp_path / "run.gsd", 0.05, small_scene())
+
+
+def test_more_than_max_frames_is_refused_naming_the_fix():
+    sc = small_scene()  # duration 0.1 s
+    check_frames(sc, 0.1 / (MAX_FRAMES - 1))  # exactly MAX_FRAMES snapshots
+    with pytest.raises(SceneError, match=r"makes 10,001 snapshots, more than 10,000; use --every 1e-05 "
+                                         r"or more, or add --force"):
+        check_frames(sc, 0.1 / MAX_FRAMES)
+    check_frames(replace(sc, force=True), 0.1 / MAX_FRAMES)
 
 
 # --- a full disk ------------------------------------------------------------------------

@@ -29,6 +29,7 @@ import numpy as np
 
 from gaz_cli.engine import kernels as K
 from gaz_cli.errors import EngineError, SceneError
+from gaz_cli.progress import EVENTS_PER_REPORT
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene, State
 
@@ -555,7 +556,10 @@ class _Simulation:
             if self.restart_every:
                 budget = min(budget, max(1, self._since_restart + self.restart_every
                                          - int(IS[K.S_EVENTS])))
+            if self.rec.wants_progress:
+                budget = min(budget, EVENTS_PER_REPORT)
             status = self._loop(t_stop - self.origin, budget)
+            self.rec.progress(float(self.FS[K.F_TNOW]) + self.origin, int(IS[K.S_COLL] + IS[K.S_BOUNCE]))
             if status == K.DONE:
                 return
             if int(IS[K.S_EVENTS]) >= self._check_at:  # a chunk's worth, whatever ended the call
@@ -644,6 +648,7 @@ class _Simulation:
         self._stalled = 0
         self._rate0 = None
         self._start(0.0)
+        self.rec.progress(start_time, 0)  # compiled and set up: the run starts
         t_init = time.perf_counter()
 
         every = getattr(self.rec, "snapshot_every", None)

@@ -254,6 +254,8 @@ class _Stepper:
                 raise
             self.step += done
             nsteps -= done
+            c = self.counters
+            self.recorder.progress(self.time_at(self.step), int(c[_k.C_BOUNCES] + c[_k.C_COLLISIONS]))
             if status == _k.FLUSH:
                 self._flush()
             if not self.warned and self.counters[_k.C_OVERLAP_STEPS] > 0:
@@ -345,6 +347,7 @@ class _Stepper:
                     self.overlap.copy(), _CLOCK, self.nthreads, math.inf)
         if sc.pair_gravity > 0 and sc.print_every:
             energies(sc, self.pos[:2], self.vel[:2])  # compile the pair potential
+        self.recorder.progress(0.0, 0)  # compiled: the run starts
         start = time.perf_counter()
         if sc.pair_gravity > 0:
             _k._pair_acc(self.pos, self.mass, float(sc.pair_gravity), float(sc.softening) ** 2, self.acc,

@@ -1,0 +1,135 @@
+"""What recording costs (issue 15 item 3): the README example split into start-up,
+engine and recording.
+
+Not a test: it prints numbers. Run from the repository root:
+
+    python benchmarks/recording.py                 # 5 rounds
+    python benchmarks/recording.py --rounds 7 --record none
+
+The scene is the README's first command (``gaz simulate --dim 3 --n 1000
+--length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
+~178 thousand wall bounces). Each round, alternating:
+
+- in process, ``runner.simulate`` into a new SQLite file, the store's writer
+  timed from outside (every ``add_bounces`` call, the rows' copy, and the
+  commit that moves them in), in CPU seconds (``time.process_time``, what a
+  busy shared host disturbs least) and wall seconds; the engine is the rest of
+  the run (``simulate`` minus opening the store minus recording);
+- the same scene with no database (``--no-db``), in process: the engine alone;
+- ``python -m gaz_cli simulate ... --json`` with and without the database, as
+  processes: start-up (process start to exit minus the run time it reports)
+  and the end-to-end wall time.
+
+Medians over the rounds are printed, with recording / engine, the figure the
+issue bounds at 25 %. ``--record none``: the runs say whether anything was
+staged (a scratch file, a row).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from gaz_cli import runner, store as st
+from gaz_cli.scene import Scene
+from gaz_cli.species import lookup
+
+ARGS = ["--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "1e-8", "--seed", "1"]
+
+
+def scene(record: str) -> Scene:
+    return Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 1000),), seed=1,
+                 record=record)
+
+
+class Clock:
+    """CPU and wall seconds spent in the wrapped methods."""
+
+    def __init__(self):
+        self.cpu = self.wall = 0.0
+
+    def wrap(self, cls, name):
+        inner = getattr(cls, name)
+
+        def timed(*args, **kw):
+            c, w = time.process_time(), time.perf_counter()
+            try:
+                return inner(*args, **kw)
+            finally:
+                self.cpu += time.process_time() - c
+                self.wall += time.perf_counter() - w
+
+        setattr(cls, name, timed)
+
+
+def in_process(db: str | None, record: str, recording: Clock, opening: Clock) -> dict:
+    recording.cpu = recording.wall = opening.cpu = opening.wall = 0.0
+    c, w = time.process_time(), time.perf_counter()
+    out = runner.simulate(scene(record), db=db)
+    cpu, wall = time.process_time() - c, time.perf_counter() - w
+    return {"cpu": cpu, "wall": wall, "rec_cpu": recording.cpu, "rec_wall": recording.wall,
+            "engine_cpu": cpu - recording.cpu - opening.cpu, "engine_wall": wall - recording.wall - opening.wall,
+            "open_cpu": opening.cpu, "bounces": out["wall_bounces"]}
+
+
+def as_process(extra: list[str]) -> tuple[float, float]:
+    """(wall seconds from start to exit, the run time the summary reports)."""
+    w = time.perf_counter()
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *ARGS, *extra, "--json"],
+                         capture_output=True, text=True, check=True)
+    return time.perf_counter() - w, json.loads(res.stdout)["wall_time_s"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rounds", type=int, default=5, help="alternating rounds (default 5)")
+    ap.add_argument("--record", choices=["bounces", "none", "all"], default="bounces")
+    args = ap.parse_args()
+    recording, opening = Clock(), Clock()
+    for name in ("add_bounces", "add_collisions", "commit"):
+        recording.wrap(st._StagedRun, name)
+    opening.wrap(st.Store, "__init__")
+    opening.wrap(st._StagedRun, "__init__")
+    print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
+    runner.simulate(scene(args.record), db=None)  # the JIT cache warm, imports done
+    rows = {k: [] for k in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "alone_cpu", "open_cpu",
+                            "startup", "e2e_db", "e2e_nodb", "ratio_cpu")}
+    with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:  # the disk a user's gaz.db is on
+        for k in range(args.rounds):
+            db = os.path.join(tmp, f"r{k}.db")
+            r = in_process(db, args.record, recording, opening)
+            staged = [p.name for p in Path(tmp).iterdir() if p.name.endswith(".staging")]
+            alone = in_process(None, args.record, recording, opening)
+            wall_db, _ = as_process(["--record", args.record, "--db", os.path.join(tmp, f"p{k}.db")])
+            wall_nodb, run_s = as_process(["--record", args.record, "--no-db"])
+            for key in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "open_cpu"):
+                rows[key].append(r[key])
+            rows["alone_cpu"].append(alone["cpu"])
+            rows["ratio_cpu"].append(r["rec_cpu"] / r["engine_cpu"])
+            rows["startup"].append(wall_nodb - run_s)
+            rows["e2e_db"].append(wall_db)
+            rows["e2e_nodb"].append(wall_nodb)
+            print(f"  round {k + 1}: {r['bounces']:,} bounces; engine {r['engine_cpu']:.3f} s CPU "
+                  f"({r['engine_wall']:.2f} s wall), recording {r['rec_cpu']:.3f} s CPU "
+                  f"({r['rec_wall']:.2f} s wall) = {r['rec_cpu'] / r['engine_cpu']:.1%} of the engine; "
+                  f"opening the store {r['open_cpu']:.3f} s CPU; no database {alone['cpu']:.3f} s CPU; "
+                  f"processes: start-up {wall_nodb - run_s:.2f} s, end to end {wall_db:.2f} s with the "
+                  f"database, {wall_nodb:.2f} s without" + (f"; scratch files {staged}" if staged else ""))
+    med = {k: statistics.median(v) for k, v in rows.items()}
+    print(f"median: start-up {med['startup']:.2f} s wall; engine {med['engine_cpu']:.3f} s CPU "
+          f"({med['engine_wall']:.2f} s wall; alone {med['alone_cpu']:.3f} s CPU); recording "
+          f"{med['rec_cpu']:.3f} s CPU ({med['rec_wall']:.2f} s wall); recording / engine "
+          f"{med['ratio_cpu']:.1%} (CPU); end to end {med['e2e_db']:.2f} s with the database, "
+          f"{med['e2e_nodb']:.2f} s without")
+
+
+if __name__ == "__main__":
+    main()
