@@ -53,7 +53,7 @@ __all__ = [
     "chemical_potential_excess", "hard_sphere_gravity_wall_pressures",
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
-    "virial_pressure", "kinetic_temperature",
+    "virial_pressure", "kinetic_temperature", "wall_impulse",
 ]
 
 KOLAFA_ROTTNER_MAX_PACKING = math.pi * 0.88 / 4.0
@@ -979,6 +979,19 @@ def haff_collisions_per_particle(dim: int, time, restitution, collision_frequenc
 
 
 # --------------------------------------------------------------------- periodic boxes
+
+
+def wall_impulse(mass, normal_speed, wall_restitution=1.0):
+    """Momentum a wall receives from one bounce, (1 + e_w) m |v_perp| (kg m/s).
+
+    ``normal_speed`` |v_perp| is the speed towards the wall before the bounce
+    (REBOND.RE_VP), ``wall_restitution`` e_w the wall's restitution: the
+    particle leaves at e_w |v_perp|. 2 m |v_perp| for the exam's elastic walls.
+    The one copy of the formula: the SQL of Q36 and of the pressure per wall
+    (sql/q36_momentum_per_wall.sql, sql/pressure_per_wall.sql) writes the same.
+    """
+    e = np.asarray(wall_restitution, dtype=float)
+    return (1.0 + e) * np.asarray(mass, dtype=float) * np.abs(np.asarray(normal_speed, dtype=float))
 
 
 def virial_pressure(dim: int, number, temperature, volume, virial, duration):
