@@ -45,7 +45,7 @@ __all__ = [
     "rod_centre_density", "rods_collision_frequency", "rods_collision_frequency_exact",
     "z_tonks", "z_henderson", "z_kolafa_rottner", "z_carnahan_starling", "z_klm",
     "compressibility_factor", "hard_sphere_pressure",
-    "contact_value", "enskog_collision_frequency", "mean_free_path",
+    "contact_value", "enskog_collision_frequency", "pair_collision_density", "mean_free_path",
     "speed_pdf", "mean_speed", "rms_speed", "most_probable_speed",
     "wall_hit_speed_pdf", "wall_hit_mean_speed",
     "wall_hit_normal_speed_pdf", "wall_hit_mean_normal_speed", "wall_hit_rate",
@@ -580,6 +580,25 @@ def enskog_collision_frequency(dim: int, number_density, diameter, temperature, 
     g = contact_value(dim, eta, model)
     v_rel = mean_speed(dim, temperature, _positive("mass", mass, "kg") / 2.0)  # reduced mass m/2
     return _out(np.asarray(number_density) * g * _cross_section(dim, diameter) * v_rel)
+
+
+def pair_collision_density(dim: int, density_a, density_b, diameter_ab, temperature, mass_a, mass_b,
+                           contact=1.0, same: bool = False):
+    """Collisions between species a and b per unit volume and time, n_a n_b g_ab S_D <|v_rel|> (1/(m^D s)).
+
+    S_D the cross-section of the contact distance sigma_ab = (sigma_a +
+    sigma_b)/2 (1, 2 sigma, pi sigma^2), <|v_rel|> the Maxwell-Boltzmann mean
+    speed at the reduced mass m_a m_b/(m_a + m_b), ``contact`` g_ab(sigma_ab)
+    the pair distribution at contact; ``same`` (a = b) halves it (each pair
+    once). Enskog's collision frequency of one species is 2/n of it. Divide a
+    measured count by it (with contact = 1) to read g_ab.
+    """
+    dim = _dim(dim)
+    ma, mb = _positive("mass", mass_a, "kg"), _positive("mass", mass_b, "kg")
+    v_rel = mean_speed(dim, temperature, ma * mb / (ma + mb))
+    rate = (np.asarray(density_a, dtype=float) * np.asarray(density_b, dtype=float) * np.asarray(contact)
+            * _cross_section(dim, _positive("diameter", diameter_ab, "m")) * v_rel)
+    return _out(0.5 * rate if same else rate)
 
 
 def rods_collision_frequency(number, length, radius, temperature, mass):
