@@ -332,9 +332,8 @@ def load_run(store, si_num: int) -> Run:
         run.virial = float(rs.RS_VIRIAL)
     # CAST truncates on SQLite and rounds elsewhere (PostgreSQL): half makes both floor (sql/bounce_bins.sql)
     half = 0.0 if store.engine.dialect.name == "sqlite" else 0.5
-    ranges = store.query("row_ranges", si_num=int(si_num)).iloc[0]
     bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
-    hits = _summed_in_ranges(store, "bounce_bins", ranges.RE_FIRST, ranges.RE_LAST, "BIN_KEY", **bins)
+    hits = store.query("bounce_bins", **bins)
     hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
     key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
     hits.insert(0, "RE_DIR", key % 8 - 4)
@@ -342,41 +341,17 @@ def load_run(store, si_num: int) -> Run:
     hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
     run.hits = hits
     if run.record == "all":
-        coll = _summed_in_ranges(store, "collision_bins", ranges.CH_FIRST, ranges.CH_LAST, "BIN", **bins)
+        coll = store.query("collision_bins", **bins)
         coll = coll[coll.BIN.notna()].reset_index(drop=True)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
-            coll = coll.groupby("BIN", as_index=False).sum()   # clipped end bins merge
             run.collision_bins = coll
             if run.restitution < 1.0:
                 chocs = store.table(st.choc, si_num)
                 run.chocs = chocs.sort_values("CH_NUM").reset_index(drop=True)
-            if len(species) > 1 and "CO_RANK" in comp and comp.CO_RANK.notna().all():
-                pairs = _summed_in_ranges(store, "pair_collision_bins", ranges.CH_FIRST, ranges.CH_LAST,
-                                          ["BIN", "RANK_I", "RANK_J"], **bins)
-                run.pair_bins = pairs.dropna().astype({"BIN": np.int64, "RANK_I": np.int64, "RANK_J": np.int64})
-    return run
-
-
-ROWS_PER_QUERY = 250_000
-"""Row numbers per query when the database sums a simulation's rows (see sql/bounce_bins.sql)."""
-
-
-def _summed_in_ranges(store, query: str, first, last, key, **params) -> pd.DataFrame:
-    """A packaged GROUP BY query run on ranges of ROWS_PER_QUERY row numbers in [first, last], sums added.
-
-    SQLite sorts each range in memory for its GROUP BY; one sort of 10^7 rows
-    spills to disk and costs about twice the CPU (benchmarks/analyse_scale.py).
-    Empty frame (the query's columns) when the simulation has no such rows.
-    """
-    if first is None or last is None or not (np.isfinite(float(first)) and np.isfinite(float(last))):
-        return store.query(query, first=0, stop=0, **params)
-    first, last = int(first), int(last)
-    parts = [store.query(query, first=lo, stop=min(lo + ROWS_PER_QUERY, last + 1), **params)
-             for lo in range(first, last + 1, ROWS_PER_QUERY)]
-    if len(parts) == 1:
-        return parts[0]
-    return pd.concat(parts, ignore_index=True).groupby(key, as_index=False, dropna=False).sum()
+            if len(species) > 1 and species.RANK.notna().all():
+                pairs = store.query("pair_collision_bins", **bins).dropna()
+                run.pair_bins = pairs.astype({"BIN": np.int64, "RANK_I": np.int64, "RANK_J": np.int64})
     return run
 
 
@@ -1383,10 +1358,11 @@ def cooling_series(run: Run, points: int = 200):
     ke = run.ke_start - cum[np.searchsorted(t, grid, side="right")]
     temps = np.array([float(theory.kinetic_temperature(d, max(k, 0.0), run.n, periodic=periodic)) for k in ke])
     sigma = 2 * float(run.species.RADIUS_M.iloc[0])
+    m = float(run.species.MASS_KG.iloc[0])
     n = run.n / (run.length if run.periodic else run.length - sigma) ** d
     try:
         omega0 = theory.enskog_collision_frequency(d, n, sigma, t0, m)
-        haff = theory.haff_temperature(d, grid, t0, e, omega0)
+        haff = theory.haff_temperature(d, grid, t0, run.restitution, omega0)
     except SceneError:
         haff = None
     t_end = float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))

@@ -1,18 +1,15 @@
--- Wall bounces of one simulation (si_num, duration in s) with row numbers first <= RE_NUM < stop, summed per time bin (bins equal windows), species and wall: count, sums of |v_perp|, |v| and |v_perp|^2.
+-- Wall bounces of one simulation (si_num, duration in s) summed per time bin (bins equal windows), species and wall: count, sums of |v_perp|, |v| and |v_perp|^2.
 -- One GROUP BY key packs the three: KEY = (BIN * 1048576 + PA_NUM) * 8 + RE_DIR + 4, BIN = floor(RE_T * bins / duration)
 -- (PA_NUM < 2^20, RE_DIR in -3..3): one key sorts about 30% faster than three in SQLite.
 -- BIN is CAST(RE_T * bins / duration - half AS BIGINT) with half = 0 on SQLite (CAST truncates) and 0.5 on
 -- PostgreSQL (CAST rounds): no FLOOR, which SQLAlchemy's SQLite driver runs in Python for every row.
--- gaz analyse runs it on ranges of about a million row numbers (sql/row_ranges.sql gives the first and last) and
--- adds the ranges' sums: SQLite sorts each range for its GROUP BY in memory, where one sort of 10^7 rows spills
--- to disk and costs more. The range is a scan of the primary key (SI_NUM, RE_NUM). No bounce in the range:
--- one row with a NULL key and NB_REBONDS = 0.
+-- A simulation without bounces gives one row with a NULL key and NB_REBONDS = 0.
 SELECT (CAST(R.RE_T * :bins / :duration - :half AS BIGINT) * 1048576 + R.PA_NUM) * 8 + R.RE_DIR + 4 AS BIN_KEY,
        COUNT(R.RE_NUM) AS NB_REBONDS,
        SUM(R.RE_VP) AS SUM_VP,
        SUM(R.RE_VIT) AS SUM_VIT,
        SUM(R.RE_VP * R.RE_VP) AS SUM_VP2
 FROM SIMULATION S
-LEFT JOIN REBOND R ON R.SI_NUM = S.SI_NUM AND R.RE_NUM >= :first AND R.RE_NUM < :stop
+LEFT JOIN REBOND R ON R.SI_NUM = S.SI_NUM
 WHERE S.SI_NUM = :si_num
 GROUP BY (CAST(R.RE_T * :bins / :duration - :half AS BIGINT) * 1048576 + R.PA_NUM) * 8 + R.RE_DIR + 4;

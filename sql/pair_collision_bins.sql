@@ -1,7 +1,7 @@
--- Particle-particle collisions of one simulation (si_num, duration in s; CHOC: --record all) with row numbers first <= CH_NUM < stop, per time bin (bins equal windows) and pair of species: count.
+-- Particle-particle collisions of one simulation (si_num, duration in s; CHOC: --record all) per time bin (bins equal windows) and pair of species: count.
 -- CH_I and CH_J are particle indices (from 0); species of rank k (COMPOSITION.CO_RANK) own the k-th block of
 -- indices, blocks in rank order with CO_N particles each. RANK_I, RANK_J: the two partners' species ranks, in
--- the order CHOC holds them (the reader adds (i, j) and (j, i)). No collision in the range: one row of NULLs.
+-- the order CHOC holds them (the reader adds (i, j) and (j, i)). No collision: one row of NULLs.
 -- BIN = floor(CH_T * bins / duration) as CAST(... - half AS BIGINT): half = 0 on SQLite (CAST truncates), 0.5 on PostgreSQL (CAST rounds).
 WITH BLOCKS AS (
     SELECT A.CO_RANK,
@@ -17,7 +17,7 @@ SELECT CAST(C.CH_T * :bins / :duration - :half AS BIGINT) AS BIN,
        BJ.CO_RANK AS RANK_J,
        COUNT(C.CH_NUM) AS NB_CHOCS
 FROM SIMULATION S
-LEFT JOIN CHOC C ON C.SI_NUM = S.SI_NUM AND C.CH_NUM >= :first AND C.CH_NUM < :stop
+LEFT JOIN CHOC C ON C.SI_NUM = S.SI_NUM
 LEFT JOIN BLOCKS BI ON C.CH_I >= BI.LO AND C.CH_I < BI.HI
 LEFT JOIN BLOCKS BJ ON C.CH_J >= BJ.LO AND C.CH_J < BJ.HI
 WHERE S.SI_NUM = :si_num

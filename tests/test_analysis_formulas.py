@@ -71,3 +71,16 @@ def test_virial_pressure_binned_and_whole_run_agree(tmp_path):
     assert summary["collisions"] > 100 and bins is not None
     assert float(np.mean(bins)) == pytest.approx(measured, rel=1e-9)
     assert math.isfinite(frames["pressure against theory"].P_ERR.iloc[0])
+
+
+def test_cooling_gas_is_analysed_and_drawn(tmp_path):
+    """A cooling gas with --record all: Haff's table and the cooling figure (cooling_series once raised NameError)."""
+    db, figs = str(tmp_path / "cool.db"), tmp_path / "figs"
+    scene = Scene(dim=2, length=1.0, duration=0.3, components=((Species("G", 1.0, 0.02), 200),),
+                  boundary="periodic", record="all", restitution=0.9, temperature=1.0 / K_B, seed=5)
+    summary = runner.simulate(scene, db=db)
+    frames = analysis.report(db, sim=summary["si_num"], plot_dir=str(figs))
+    cooling = frames["cooling against Haff's law"]
+    assert (cooling.T_END_K < cooling.T_START_K).all() and np.isfinite(cooling.T_THEORY_K).all()
+    assert "temperature of the cooling gas against Haff's law" in set(frames["figures"].FIGURE)
+    assert (figs / f"sim{summary['si_num']}_cooling.png").stat().st_size > 1000
