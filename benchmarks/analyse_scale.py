@@ -9,6 +9,11 @@ core: the host is shared) and its peak resident memory (ru_maxrss).
 
     python benchmarks/analyse_scale.py                       # 10^7 rows into /tmp/gaz_scale.db
     python benchmarks/analyse_scale.py --rows 1000000 --repeat 5
+    python benchmarks/analyse_scale.py --old /tmp/base      # interleaved with an older tree (git archive)
+
+Peak RSS is RUSAGE_CHILDREN's ru_maxrss, the largest child so far: with
+--old it is the larger of the two versions' peaks (run without --old for
+this tree's own).
 """
 
 from __future__ import annotations
@@ -55,28 +60,38 @@ def main() -> None:
     ap.add_argument("--db", default="/tmp/gaz_scale.db")
     ap.add_argument("--rows", type=int, default=10_000_000)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--old", metavar="SRC", help="also time the gaz_cli found in the source tree SRC (e.g. a "
+                    "'git archive' of an older commit), interleaved with this one")
     args = ap.parse_args()
     if not Path(args.db).exists():
         t0 = time.perf_counter()
         build(args.db, args.rows)
         print(f"built {args.db}: {args.rows} + 1000 REBOND rows in {time.perf_counter() - t0:.0f} s "
               f"({Path(args.db).stat().st_size / 1e6:.0f} MB)")
-    times, peaks, cpus = [], [], []
+    runs = {"new": None} if not args.old else {"old": args.old, "new": None}
+    figures = {k: ([], [], []) for k in runs}
     for _ in range(args.repeat):
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        proc = subprocess.run([sys.executable, "-m", "gaz_cli", "analyse", "--db", args.db, "--sim", "1"],
-                              capture_output=True, text=True)
-        times.append(time.perf_counter() - t0)
-        if proc.returncode:
-            sys.exit(proc.stderr)
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
-        peaks.append(after.ru_maxrss / 1024)
-    print(f"{os.cpu_count()} cores; gaz analyse --sim 1 on {args.rows} rows: median {statistics.median(times):.2f} s, "
-          f"fastest {min(times):.2f} s over {args.repeat} runs; CPU time (user + sys) median "
-          f"{statistics.median(cpus):.2f} s (the wall time on an idle core); peak RSS {max(peaks):.0f} MB; "
-          f"load average {os.getloadavg()[0]:.1f}")
+        for name, src in runs.items():          # interleaved: the shared host's load hits both alike
+            env = dict(os.environ)
+            if src:
+                env["PYTHONPATH"] = os.pathsep.join([src, env.get("PYTHONPATH", "")])
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            proc = subprocess.run([sys.executable, "-m", "gaz_cli", "analyse", "--db", args.db, "--sim", "1"],
+                                  capture_output=True, text=True, env=env)
+            took = time.perf_counter() - t0
+            if proc.returncode:
+                sys.exit(proc.stderr)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            times, cpus, peaks = figures[name]
+            times.append(took)
+            cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+            peaks.append(after.ru_maxrss / 1024)   # the largest child so far: the runs are compared by CPU
+    for name, (times, cpus, peaks) in figures.items():
+        print(f"{os.cpu_count()} cores; {name}{' (' + runs[name] + ')' if runs[name] else ''}: gaz analyse --sim 1 on "
+              f"{args.rows} rows: wall median {statistics.median(times):.2f} s, fastest {min(times):.2f} s over "
+              f"{args.repeat} runs; CPU time (user + sys) median {statistics.median(cpus):.2f} s (the wall time on "
+              f"an idle core); peak RSS {max(peaks):.0f} MB; load average {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":

@@ -6,9 +6,11 @@ pressure pooled over the walls, mean wall-hit speed), the fraction of
 |z| < 1 and |z| < 2 with z = (measured - reference)/error. The reference is
 analyse's own theory ('theory') and the mean over the seeds ('seed mean',
 z scaled by sqrt(n/(n - 1)) for the mean's own noise). A correct error bar
-gives 0.683 and 0.954.
+gives 0.683 and 0.954; binomial_1 is the binomial error of the fraction
+within 1 sigma, sqrt(p (1 - p)/samples) (the pooled walls' samples are not
+independent: opposite walls share an axis).
 
-    python benchmarks/error_coverage.py                      # the test's four classes, 40 seeds each
+    python benchmarks/error_coverage.py                      # the test's four classes, 60 seeds each
     python benchmarks/error_coverage.py --class exam --seeds 30
     python benchmarks/error_coverage.py --class all --seeds 200
 """
@@ -30,7 +32,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--class", dest="klass", default="test",
                     help="a class name, 'test' (the test's four) or 'all'")
-    ap.add_argument("--seeds", type=int, default=40)
+    ap.add_argument("--seeds", type=int, default=60)
     ap.add_argument("--first-seed", type=int, default=1)
     args = ap.parse_args()
     names = {"test": [k for k, v in CLASSES.items() if v.in_test], "all": list(CLASSES)}.get(args.klass, [args.klass])

@@ -162,7 +162,8 @@ class Run:
     length: float
     duration: float
     species: pd.DataFrame
-    """PA_NUM, NAME, MASS_KG, RADIUS_M, COUNT: one row per species of the mixture."""
+    """PA_NUM, NAME, MASS_KG, RADIUS_M, COUNT, RANK: one row per species of the mixture, in rank order
+    (RANK: the species' block of particle indices, COMPOSITION.CO_RANK; NaN if not recorded)."""
     boundary: str = "walls"
     engine: str = "?"
     gravity: float = 0.0
@@ -183,6 +184,8 @@ class Run:
     """Bounces per (RE_DIR, PA_NUM, BIN): NB_REBONDS, SUM_VP, SUM_VIT (sql/bounce_bins.sql)."""
     collision_bins: pd.DataFrame | None = None
     """Collisions per BIN: NB_CHOCS, SUM_IMP (sql/collision_bins.sql), or None without CHOC rows."""
+    pair_bins: pd.DataFrame | None = None
+    """Mixtures with CHOC rows: collisions per (BIN, RANK_I, RANK_J) (sql/pair_collision_bins.sql), else None."""
     chocs: pd.DataFrame | None = None
     """CHOC rows, read only for a cooling gas (restitution < 1) with --record all."""
     store: object = None
@@ -307,9 +310,11 @@ def load_run(store, si_num: int) -> Run:
         sp = comp.merge(particles, on="PA_NUM")
         species = pd.DataFrame({"PA_NUM": sp.PA_NUM.astype(int), "NAME": sp.PA_NOM,
                                 "MASS_KG": sp.PA_M.astype(float) / 1000.0,
-                                "RADIUS_M": sp.PA_R.astype(float), "COUNT": sp.CO_N.astype(int)})
+                                "RADIUS_M": sp.PA_R.astype(float), "COUNT": sp.CO_N.astype(int),
+                                "RANK": sp.CO_RANK if "CO_RANK" in sp else math.nan})
+        species = species.sort_values("RANK", kind="stable").reset_index(drop=True)
     else:   # written by something else than gaz simulate: species from the bounces only
-        species = pd.DataFrame(columns=["PA_NUM", "NAME", "MASS_KG", "RADIUS_M", "COUNT"])
+        species = pd.DataFrame(columns=["PA_NUM", "NAME", "MASS_KG", "RADIUS_M", "COUNT", "RANK"])
     run = Run(si_num=int(si_num), dim=int(sim.SI_DIM), n=int(sim.SI_N), length=float(sim.SI_L),
               duration=float(sim.SI_DUR), species=species, store=store)
     scene = store.table(st.scene_table, si_num)
@@ -327,7 +332,8 @@ def load_run(store, si_num: int) -> Run:
         run.virial = float(rs.RS_VIRIAL)
     # CAST truncates on SQLite and rounds elsewhere (PostgreSQL): half makes both floor (sql/bounce_bins.sql)
     half = 0.0 if store.engine.dialect.name == "sqlite" else 0.5
-    hits = store.query("bounce_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
+    bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
+    hits = store.query("bounce_bins", **bins)
     hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
     key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
     hits.insert(0, "RE_DIR", key % 8 - 4)
@@ -335,8 +341,7 @@ def load_run(store, si_num: int) -> Run:
     hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
     run.hits = hits
     if run.record == "all":
-        coll = store.query("collision_bins", si_num=int(si_num), bins=errorbars.BINS, duration=run.duration,
-                           half=half)
+        coll = store.query("collision_bins", **bins)
         coll = coll[coll.BIN.notna()].reset_index(drop=True)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
@@ -344,6 +349,9 @@ def load_run(store, si_num: int) -> Run:
             if run.restitution < 1.0:
                 chocs = store.table(st.choc, si_num)
                 run.chocs = chocs.sort_values("CH_NUM").reset_index(drop=True)
+            if len(species) > 1 and species.RANK.notna().all():
+                pairs = store.query("pair_collision_bins", **bins).dropna()
+                run.pair_bins = pairs.astype({"BIN": np.int64, "RANK_I": np.int64, "RANK_J": np.int64})
     return run
 
 
@@ -360,40 +368,45 @@ def _hit_masses(run: Run) -> np.ndarray:
 
 
 def wall_bin_pressures(run: Run) -> dict[int, np.ndarray]:
-    """Wall code -> (BINS,) pressure in each time bin (unit per :data:`PRESSURE_UNIT`), from 2 m |v_perp|."""
+    """Wall code -> (BINS,) pressure in each time bin (unit per :data:`PRESSURE_UNIT`), from (1 + e_w) m |v_perp|."""
     h = run.hits
     width = run.duration / errorbars.BINS
     if not len(h):
         return {w: np.zeros(errorbars.BINS) for w in run.walls}
-    mom = 2.0 * _hit_masses(run) * h.SUM_VP.to_numpy(dtype=float)
+    mom = _wall_momenta(run)
     wall = h.RE_DIR.to_numpy(dtype=np.int64)
     return {w: _per_bin(h.BIN[wall == w], mom[wall == w]) / (width * run.wall_measure) for w in run.walls}
+
+
+def _wall_momenta(run: Run) -> np.ndarray:
+    """Momentum given to the wall by each row of ``run.hits``: sum of (1 + e_w) m |v_perp| (theory.wall_impulse)."""
+    return theory.wall_impulse(_hit_masses(run), run.hits.SUM_VP.to_numpy(dtype=float), run.wall_restitution)
 
 
 def virial_bin_pressures(run: Run, temperature: float) -> np.ndarray | None:
     """(BINS,) virial pressure of a periodic box in each time bin, from CHOC (one species), or None.
 
-    P = (N k_B T + W/(D dt))/V with W = sum of |J| sigma over the bin's collisions.
+    :func:`gaz_cli.theory.virial_pressure` of each bin: W = sum of |J| sigma over the bin's collisions.
     """
     if run.collision_bins is None or not run.one_species or not math.isfinite(temperature):
         return None
     sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
     w = _per_bin(run.collision_bins.BIN, run.collision_bins.SUM_IMP.to_numpy(dtype=float) * sigma)
-    width = run.duration / errorbars.BINS
-    return (run.n * K_B * temperature + w / (run.dim * width)) / run.length ** run.dim
+    return np.asarray(theory.virial_pressure(run.dim, run.n, temperature, run.length ** run.dim, w,
+                                             run.duration / errorbars.BINS), dtype=float)
 
 
 def exam_per_wall(run: Run) -> pd.DataFrame:
     """sql/pressure_per_wall.sql's table (SI_NUM, RE_DIR, NB_REBONDS, QUANTITE_MOUVEMENT, PRESSION), from the bins.
 
-    The same sums as the exam's query (2 m |v_perp| per bounce, PA_M in
-    grams), added up from the per-bin sums the database returned, so that
-    the REBOND rows are read once.
+    The same sums as the exam's query ((1 + e_w) m |v_perp| per bounce, 2 m
+    |v_perp| for elastic walls), added up from the per-bin sums the database
+    returned, so that the REBOND rows are read once.
     """
     h = run.hits
     if not len(h):
         return pd.DataFrame(columns=["SI_NUM", "RE_DIR", "NB_REBONDS", "QUANTITE_MOUVEMENT", "PRESSION"])
-    mom = pd.Series(2.0 * _hit_masses(run) * h.SUM_VP.to_numpy(dtype=float), index=h.index)
+    mom = pd.Series(_wall_momenta(run), index=h.index)
     walls = pd.DataFrame({"NB_REBONDS": h.NB_REBONDS.groupby(h.RE_DIR).sum(),
                           "QUANTITE_MOUVEMENT": mom.groupby(h.RE_DIR).sum()}).reset_index()
     walls["PRESSION"] = walls.QUANTITE_MOUVEMENT / (run.duration * run.wall_measure)
@@ -409,7 +422,7 @@ def exam_q35(run: Run) -> pd.DataFrame:
 
 
 def _estimate(run: Run, series, weights=None, static_var: float = 0.0,
-              relaxation: float = math.inf) -> errorbars.Estimate:
+              relaxation: float = math.inf, end_var: float | None = None) -> errorbars.Estimate:
     """Time average of a (BINS,) series over the analysed part of the run; ``relaxation`` in mean free times."""
     start = run.settle_bin
     if start >= errorbars.BINS:
@@ -420,7 +433,28 @@ def _estimate(run: Run, series, weights=None, static_var: float = 0.0,
         tau = math.inf                    # collisions unknown: assume the draw stays frozen
     return errorbars.time_average(np.asarray(series)[start:],
                                   None if weights is None else np.asarray(weights)[start:],
-                                  duration=run.window, static_var=static_var, relaxation_s=tau)
+                                  duration=run.window, static_var=static_var, relaxation_s=tau, end_var=end_var,
+                                  white=not run.collisions_per_particle < FEW_COLLISIONS)
+
+
+FEW_COLLISIONS = 3.0
+"""Collisions per particle below which a wall pressure's error is the ends' closed form alone.
+
+The walls' impulse is the kinetic energy, the collisional virial and an end
+term (errorbars.end_variance): with c collisions per particle the virial's
+noise is about c/30 of the end term's variance (measured: 0.5 of it at 29
+collisions per particle, 3 of it at 121), under 10% below 3, where reading
+it from four to sixteen blocks would only add their noise (benchmarks/error_coverage.py).
+"""
+
+
+def _end_var(run: Run, temperature: float, axes: int) -> float | None:
+    """errorbars.end_variance of the pressures summed over the walls of ``axes`` axes (None under gravity)."""
+    if run.gravity > 0.0 or run.periodic or not len(run.species) or not math.isfinite(temperature):
+        return None
+    counts, radii, masses = _counts_radii_masses(run)
+    return errorbars.end_variance(float(np.sum(counts * masses)) * K_B * temperature,
+                                  0.5 * (run.length - 2.0 * float(radii.max())), run.window, run.wall_measure, axes)
 
 
 def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, errorbars.Estimate]:
@@ -449,7 +483,8 @@ def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, er
         exp = [expected.get(w) for w in (-d, d)]
         scale = sum(e.value if e is not None and e.known else float(np.mean(x)) for e, x in zip(exp, (low, high)))
         total = _estimate(run, low + high, static_var=share * scale ** 2,
-                          relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim])
+                          relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim],
+                          end_var=_end_var(run, temperature, 1))
         for w, x in ((-d, low), (d, high)):
             own = _estimate(run, x)
             if not (math.isfinite(total.error) and math.isfinite(diff_var)):
@@ -543,8 +578,8 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
                                         "(Haff's law below), there is no equilibrium pressure")]
     if run.wall_restitution < 1.0:
         return [Expectation(NA, "none", f"wall restitution {run.wall_restitution:g} < 1: the walls cool the gas, "
-                                        "there is no equilibrium pressure; the measured value uses the exam's "
-                                        "2 m |v_perp| per bounce, the run summary (1 + e_w) m |v_perp|")]
+                                        "there is no equilibrium pressure; measured from (1 + e_w) m |v_perp| per "
+                                        "bounce, as the run summary and Q36")]
     out = []
     if run.periodic:
         n = run.n / L ** d
@@ -718,7 +753,10 @@ def pressure_summary(run: Run, temperature: float) -> dict:
         how = "no wall bounce recorded" + (" (--record none)" if run.record == "none" else "")
     else:
         per_bin = wall_bin_pressures(run)
-        est = _estimate(run, np.mean([per_bin[w] for w in run.walls], axis=0))
+        # the mean over the 2D walls: the sum over the D axes' pairs / (2D)
+        ends = _end_var(run, temperature, run.dim)
+        est = _estimate(run, np.mean([per_bin[w] for w in run.walls], axis=0),
+                        end_var=None if ends is None else ends / (2 * run.dim) ** 2)
         measured = est.mean
         how = "mean over the walls" + (" after settling" if run.settle_bin else "")
     stat_rel = est.error / abs(measured) if math.isfinite(est.error) and measured else 0.0
@@ -801,6 +839,61 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     return pd.DataFrame(frame)
 
 
+def contact_frame(run: Run, temperature: float) -> pd.DataFrame:
+    """A mixture's contact values g_ij per pair of species, measured from the collisions, against BMCSL.
+
+    The collisions between species i and j per unit time are
+    V n_i n_j g_ij S_D(sigma_ij) <|v_rel|> (half that for i = j,
+    :func:`gaz_cli.theory.pair_collision_density`): their count over the run
+    reads g_ij; its error is the reblocking of the count per time bin. CHOC's
+    particle indices give the species (COMPOSITION.CO_RANK: the species'
+    block of indices). A periodic box only: walls thin the density near them.
+    """
+    cols = ["PAIR", "COLLISIONS", "G_MEASURED", "G_ERR", "N_EFF", "G_THEORY", "DEV_SIGMA", "REL_DEV", "MODEL",
+            "NOTE"]
+    sp = run.species.reset_index(drop=True)
+    pairs = [(a, b) for a in range(len(sp)) for b in range(a, len(sp))]
+
+    def empty(note):
+        return pd.DataFrame([{"PAIR": f"{sp.NAME[a]}-{sp.NAME[b]}", "COLLISIONS": NA, "G_MEASURED": NA, "G_ERR": NA,
+                              "N_EFF": NA, "G_THEORY": NA, "DEV_SIGMA": NA, "REL_DEV": NA, "MODEL": "BMCSL",
+                              "NOTE": note} for a, b in pairs], columns=cols)
+    if run.record != "all" or run.pair_bins is None:
+        return empty("needs the collisions' partners: --record all" if run.record != "all" else
+                     "no CHOC rows, or no species ranks (COMPOSITION.CO_RANK) in this database")
+    if not run.periodic:
+        return empty("a periodic box only: walls thin the density next to them (contact values are bulk ones)")
+    if not math.isfinite(temperature):
+        return empty("temperature unknown")
+    volume = run.length ** run.dim
+    density = sp.COUNT.to_numpy(dtype=float) / volume
+    diam = 2.0 * sp.RADIUS_M.to_numpy(dtype=float)
+    try:
+        bmcsl = theory.mixture_contact_values(density, diam) if run.dim == 3 else None
+    except SceneError:
+        bmcsl = None
+    rank = sp.RANK.to_numpy(dtype=float)
+    pb = run.pair_bins
+    width = run.duration / errorbars.BINS
+    rows = []
+    for a, b in pairs:
+        sel = (((pb.RANK_I == rank[a]) & (pb.RANK_J == rank[b])) | ((pb.RANK_I == rank[b]) & (pb.RANK_J == rank[a])))
+        counts = _per_bin(np.clip(pb.BIN[sel], 0, errorbars.BINS - 1), pb.NB_CHOCS[sel].to_numpy(dtype=float))
+        sigma = 0.5 * (diam[a] + diam[b])
+        per_unit_g = float(theory.pair_collision_density(run.dim, density[a], density[b], sigma, temperature,
+                                                         sp.MASS_KG[a], sp.MASS_KG[b], 1.0, same=a == b)) * volume
+        est = errorbars.time_average(counts / (width * per_unit_g), duration=run.duration)
+        g_th = float(bmcsl[a, b]) if bmcsl is not None else NA
+        rows.append({"PAIR": f"{sp.NAME[a]}-{sp.NAME[b]}", "COLLISIONS": int(counts.sum()), "G_MEASURED": est.mean,
+                     "G_ERR": est.error, "N_EFF": est.n_eff, "G_THEORY": g_th,
+                     "DEV_SIGMA": _dev(est.mean, est.error, g_th), "REL_DEV": _rel(est.mean, g_th),
+                     "MODEL": "BMCSL g_ij at contact" if bmcsl is not None else "none",
+                     "NOTE": ("BMCSL sits about 0.2% below simulations at packing 0.3 (and more above): "
+                              "a DEV_SIGMA of a few is that, with long runs" if bmcsl is not None else
+                              "no mixture contact values in 2D or 1D here")})
+    return pd.DataFrame(rows, columns=cols)
+
+
 def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     """Q35's mean speed of wall hits, per species (and all), against the flux-weighted mean.
 
@@ -824,7 +917,7 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
                if math.isfinite(temperature) else Expectation(NA, "flux-weighted", "temperature unknown"))
         static = (errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
                   if math.isfinite(temperature) else 0.0)
-        est = _estimate(run, sums, counts, static_var=static, relaxation=relax)
+        est = _estimate(run, sums, counts, static_var=static, relaxation=relax, end_var=0.0)
         if exp.known and run.temperature_error > 0:
             exp.error = exp.value * run.temperature_error / (2.0 * temperature)    # theory ~ sqrt(T)
         if frozen_forever:
@@ -843,7 +936,7 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         if math.isfinite(temperature):   # the species' frozen spreads, weighted by their shares of the hits
             static = sum((wt ** 2) * errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
                          for sp, wt in zip(run.species.itertuples(), weights))
-        est = _estimate(run, sums, counts, static_var=static, relaxation=errorbars.SPEED_RELAXATION)
+        est = _estimate(run, sums, counts, static_var=static, relaxation=errorbars.SPEED_RELAXATION, end_var=0.0)
         rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
                      "DEV_SIGMA": _dev(est.mean, est.error, expected_all),
@@ -971,6 +1064,7 @@ TABLES = {
     "simulation": "simulation",
     "pressure": "pressure against theory",
     "collisions": "collision rate against Enskog",
+    "contact": "contact values per pair of species",
     "speed": "mean wall-hit speed against theory",
     "gravity": "force balance under gravity",
     "cooling": "cooling against Haff's law",
@@ -1027,6 +1121,8 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
                 TABLES["pressure"]: pressure_frame(run, temperature, summary),
                 TABLES["collisions"]: collision_frame(run, temperature),
             }
+            if len(run.species) > 1:
+                detail[TABLES["contact"]] = contact_frame(run, temperature)
             if not run.periodic:
                 detail[TABLES["speed"]] = wall_speed_frame(run, temperature)
             if run.gravity > 0.0 and not run.periodic:
@@ -1262,10 +1358,11 @@ def cooling_series(run: Run, points: int = 200):
     ke = run.ke_start - cum[np.searchsorted(t, grid, side="right")]
     temps = np.array([float(theory.kinetic_temperature(d, max(k, 0.0), run.n, periodic=periodic)) for k in ke])
     sigma = 2 * float(run.species.RADIUS_M.iloc[0])
+    m = float(run.species.MASS_KG.iloc[0])
     n = run.n / (run.length if run.periodic else run.length - sigma) ** d
     try:
         omega0 = theory.enskog_collision_frequency(d, n, sigma, t0, m)
-        haff = theory.haff_temperature(d, grid, t0, e, omega0)
+        haff = theory.haff_temperature(d, grid, t0, run.restitution, omega0)
     except SceneError:
         haff = None
     t_end = float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))

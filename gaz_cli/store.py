@@ -438,11 +438,16 @@ class Store:
             return [int(r[0]) for r in conn.execute(sa.select(simulation.c.si_num).order_by(simulation.c.si_num))]
 
     def table(self, table: sa.Table, si_num: int | None = None) -> "pd.DataFrame":
-        """A whole table (optionally one simulation's rows) as a DataFrame, upper-case columns."""
-        stmt = sa.select(table)
-        if si_num is not None and "si_num" in table.c:
-            stmt = stmt.where(table.c.si_num == si_num)
+        """A whole table (optionally one simulation's rows) as a DataFrame, upper-case columns.
+
+        Columns a later schema version added (``info['since']``) and an older
+        database lacks are left out: readers do not migrate.
+        """
         with self._errors(), self.engine.connect() as conn:
+            found = {c["name"].lower() for c in sa.inspect(conn).get_columns(table.name)}
+            stmt = sa.select(*[c for c in table.columns if c.info.get("since", 1) == 1 or c.name in found])
+            if si_num is not None and "si_num" in table.c:
+                stmt = stmt.where(table.c.si_num == si_num)
             frame = _pandas().read_sql_query(stmt, conn)
         frame.columns = [c.upper() for c in frame.columns]
         return frame

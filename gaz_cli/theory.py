@@ -45,7 +45,7 @@ __all__ = [
     "rod_centre_density", "rods_collision_frequency", "rods_collision_frequency_exact",
     "z_tonks", "z_henderson", "z_kolafa_rottner", "z_carnahan_starling", "z_klm",
     "compressibility_factor", "hard_sphere_pressure",
-    "contact_value", "enskog_collision_frequency", "mean_free_path",
+    "contact_value", "enskog_collision_frequency", "pair_collision_density", "mean_free_path",
     "speed_pdf", "mean_speed", "rms_speed", "most_probable_speed",
     "wall_hit_speed_pdf", "wall_hit_mean_speed",
     "wall_hit_normal_speed_pdf", "wall_hit_mean_normal_speed", "wall_hit_rate",
@@ -53,7 +53,7 @@ __all__ = [
     "chemical_potential_excess", "hard_sphere_gravity_wall_pressures",
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
-    "virial_pressure", "kinetic_temperature",
+    "virial_pressure", "kinetic_temperature", "wall_impulse",
 ]
 
 KOLAFA_ROTTNER_MAX_PACKING = math.pi * 0.88 / 4.0
@@ -582,6 +582,25 @@ def enskog_collision_frequency(dim: int, number_density, diameter, temperature, 
     return _out(np.asarray(number_density) * g * _cross_section(dim, diameter) * v_rel)
 
 
+def pair_collision_density(dim: int, density_a, density_b, diameter_ab, temperature, mass_a, mass_b,
+                           contact=1.0, same: bool = False):
+    """Collisions between species a and b per unit volume and time, n_a n_b g_ab S_D <|v_rel|> (1/(m^D s)).
+
+    S_D the cross-section of the contact distance sigma_ab = (sigma_a +
+    sigma_b)/2 (1, 2 sigma, pi sigma^2), <|v_rel|> the Maxwell-Boltzmann mean
+    speed at the reduced mass m_a m_b/(m_a + m_b), ``contact`` g_ab(sigma_ab)
+    the pair distribution at contact; ``same`` (a = b) halves it (each pair
+    once). Enskog's collision frequency of one species is 2/n of it. Divide a
+    measured count by it (with contact = 1) to read g_ab.
+    """
+    dim = _dim(dim)
+    ma, mb = _positive("mass", mass_a, "kg"), _positive("mass", mass_b, "kg")
+    v_rel = mean_speed(dim, temperature, ma * mb / (ma + mb))
+    rate = (np.asarray(density_a, dtype=float) * np.asarray(density_b, dtype=float) * np.asarray(contact)
+            * _cross_section(dim, _positive("diameter", diameter_ab, "m")) * v_rel)
+    return _out(0.5 * rate if same else rate)
+
+
 def rods_collision_frequency(number, length, radius, temperature, mass):
     """Collisions per rod per second of N equal hard rods in a 1D box, Maxwellian velocities (1/s).
 
@@ -979,6 +998,19 @@ def haff_collisions_per_particle(dim: int, time, restitution, collision_frequenc
 
 
 # --------------------------------------------------------------------- periodic boxes
+
+
+def wall_impulse(mass, normal_speed, wall_restitution=1.0):
+    """Momentum a wall receives from one bounce, (1 + e_w) m |v_perp| (kg m/s).
+
+    ``normal_speed`` |v_perp| is the speed towards the wall before the bounce
+    (REBOND.RE_VP), ``wall_restitution`` e_w the wall's restitution: the
+    particle leaves at e_w |v_perp|. 2 m |v_perp| for the exam's elastic walls.
+    The one copy of the formula: the SQL of Q36 and of the pressure per wall
+    (sql/q36_momentum_per_wall.sql, sql/pressure_per_wall.sql) writes the same.
+    """
+    e = np.asarray(wall_restitution, dtype=float)
+    return (1.0 + e) * np.asarray(mass, dtype=float) * np.abs(np.asarray(normal_speed, dtype=float))
 
 
 def virial_pressure(dim: int, number, temperature, volume, virial, duration):
