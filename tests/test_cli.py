@@ -148,12 +148,12 @@ def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
         real(self, x, v, t)
 
     monkeypatch.setattr(driver._Simulation, "_load", overlapping_start)
-    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8",
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8", "--engine", "event",
                              "--duration", "1e-12", "--seed", "1", "--no-db"])
     assert code == 0 and out
     lines = [line for line in err.splitlines() if "overlapping" in line]
     assert len(lines) == 1 and "warning" in lines[0]
-    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8",
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "50", "--length", "1e-8", "--engine", "event",
                              "--duration", "1e-12", "--seed", "1", "--no-db", "--json"])
     assert code == 0 and json.loads(out)["overlapping_collisions"] >= 1
 
