@@ -28,6 +28,7 @@ import time
 import numpy as np
 
 from gaz_cli.engine import kernels as K
+from gaz_cli.engine.layout import Tables
 from gaz_cli.engine.memory import HUGE_PAGE, _alloc, _morton  # noqa: F401 (HUGE_PAGE: tests)
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.recording import Recorder, RunStats
@@ -345,11 +346,11 @@ class _Simulation:
 
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
-        return self.kern.loop(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q,
-                              self.HK, self.HI, self.BH, self.cells, self.GB, self.GS, self.NB,
-                              self.NN, self.SCR, self.order, self.edges, self.ident, self.IS,
-                              self.FS, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
-                              self.ci, self.cj, self.cimp, float(t_stop), int(max_events))
+        T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
+                   self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
+                   self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
+                   self.ci, self.cj, self.cimp)
+        return self.kern.loop(T, self.IS, self.FS, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
         """Every particle's first predictions from time t (the loop in prediction mode)."""

@@ -2,11 +2,16 @@
 
 No physics here: :func:`_borrow` is what lets the event loop call small helpers on its
 arrays at no cost (its docstring says why), :func:`_prefetch` / :func:`_prefetch_at`
-are cache hints, :func:`_fma` a correctly rounded ``x * y + z``. Written with Numba's
-public extension API (``intrinsic``).
+are cache hints, :func:`_fma` a correctly rounded ``x * y + z`` (written with Numba's
+public extension API, ``intrinsic``); :func:`_sources_digest` keys the loop's disk cache
+on every engine module.
 """
 
 from __future__ import annotations
+
+import functools
+import hashlib
+import pathlib
 
 import numba
 from llvmlite import ir
@@ -116,3 +121,19 @@ def _fma(typingctx, x, y, z):
         return builder.call(fn, vals)
 
     return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@functools.lru_cache(maxsize=None)
+def _sources_digest() -> int:
+    """A number that changes with the source of any engine module the loop inlines.
+
+    Numba's disk cache keys a function on its own file only: an edit of an inlined helper in
+    another module (interactions.py, say) would leave a stale loop in the cache. The loop
+    (loop.build) holds this number as a closure constant, which Numba's cache key includes.
+    """
+    here = pathlib.Path(__file__).parent
+    h = hashlib.sha256()
+    for f in sorted(here.glob("*.py")) + sorted(here.glob("neighbours/*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return int(h.hexdigest()[:15], 16)

@@ -14,6 +14,7 @@ freezes them into the kernels.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 INF = math.inf
 
@@ -57,3 +58,19 @@ NLCODE = 1 << 10
 
 # kernel status codes
 DONE, BUFFER_FULL, CELL_FULL, PAUSE, NL_FULL = 0, 1, 2, 3, 4
+
+
+Tables = namedtuple("Tables", [
+    "P", "M", "TL", "XN", "I", "EV", "Q",  # particle rows: (N, 8), masses, last collision
+    #   times (TL, inelastic runs), list centres (N, 3), (N, 13), predictions (N, 4),
+    #   calendar links (N, 4)
+    "HK", "HI", "BH",  # calendar: heap keys and particles, bucket heads
+    "cells", "GB", "GS",  # cell table, a scan's gathered particles and their image shifts
+    "NB", "NN", "SCR",  # neighbour lists (N, width), their lengths, a rebuild's scratch
+    "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
+    "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|
+    "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
+])
+"""The event loop's arrays under their names (one argument instead of 28; Numba types it as
+a named tuple of arrays and reads the fields at compile time). The loop's scalars stay in
+the IS / FS vectors."""

@@ -18,32 +18,17 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
   (a partial scan cannot tell it: trusting one cost missed collisions).
   A pair that will collide next is always scheduled by at least one of
   the two, or one of them looks again before.
-* Neighbours: in 1D the order never changes, so the previous and next rods.
-  In 2D/3D either cell lists with crossing events (cells at least one
-  diameter wide, 3^D neighbourhood; a crossing only scans the 3^(D-1) cells
-  that came into view) or, for dense fluids, neighbour lists of radius
-  R_i + R_j + 2h around a centre, rebuilt when the particle has moved h.
-* The queue is a calendar: buckets of width ``w`` hold unsorted doubly
-  linked lists, the current bucket is a binary heap, far events wait in an
-  overflow list dealt out again once per turn of the calendar. O(1) per
-  event on average, independent of N.
-* Memory (large systems, IS[S_PF]): past the caches each event waits on
-  memory, so the loop asks for data ahead of use: the rows of the next
-  events (the top of the heap) when an event starts, their cells and
-  partners' rows when it ends, the next calendar bucket's list one particle
-  an event, a scan's cells and particles before it reads them, and a
-  collision gathers both partners' cells before either scans. With
-  neighbour lists: a list's particles before its scan, the next event's list
-  when an event ends, and before a rebuild its cells, their particles and the
-  lists it edits. Hints only: the events are the same with or without them
-  (tested).
+* Neighbours (:mod:`.neighbours`): the previous and next rods in 1D; in
+  2D/3D cell lists with crossing events, or neighbour lists for dense fluids.
+  Events are ordered by a calendar queue (:mod:`.calendar`); large systems
+  request memory ahead of use (:mod:`.prefetch`), hints only: the events are
+  the same with or without them (tested).
 * Numerical safety (Bannerman et al., Comput. Part. Mech. 1, 191, 2014): the
   pair time is max(0, c / (-b + sqrt(b^2 - a c))) and only for b < 0, so an
   overlapping pair that approaches collides at once and one that separates
   is left alone; a particle past a wall and moving out bounces at once; a
   wall bounce puts the centre exactly on the wall plane, a crossing exactly
   on the cell face.
-
 
 The loop composes the modules (docs/architecture.md): :mod:`.calendar` orders the
 events, :mod:`.dynamics` moves rows along their paths, :mod:`.interactions` and
@@ -63,15 +48,13 @@ Units are whatever the caller uses (SI in gaz); times are absolute.
 from __future__ import annotations
 
 import functools
-import hashlib
 import math
-import pathlib
 
 from gaz_cli.engine.boundaries import _bounce, _crossing, _wrap
 from gaz_cli.engine.calendar import _heap_remove, _next_bucket, _q_insert, _q_remove
 from gaz_cli.engine.dynamics import _advance
 from gaz_cli.engine.interactions import _collide
-from gaz_cli.engine.intrinsics import _borrow, _inline
+from gaz_cli.engine.intrinsics import _borrow, _inline, _sources_digest
 from gaz_cli.engine.layout import (BUFFER_FULL, CELL, CELL_FULL, CNT, CODE, DONE, F_E,
                                    F_G, F_H, F_IW, F_L, F_TC, F_TNOW, F_VIRIAL, INF, KEY,
                                    NL_FULL, NLCODE, NONE, PART, PART2, PAUSE, PCNT, PCNT2, PV, QB,
@@ -120,22 +103,6 @@ def _record_bounce(P, k, t, ident, d, up, D, bt, bp, bw, bs, bv, nbb):
 
 
 @functools.lru_cache(maxsize=None)
-def _sources_digest() -> int:
-    """A number that changes with the source of any engine module the loop inlines.
-
-    Numba's disk cache keys a function on its own file only: an edit of an inlined helper in
-    another module (interactions.py, say) would leave a stale loop in the cache. The loop
-    holds this number as a closure constant, which Numba's cache key includes.
-    """
-    here = pathlib.Path(__file__).parent
-    h = hashlib.sha256()
-    for f in sorted(here.glob("*.py")) + sorted(here.glob("neighbours/*.py")):
-        h.update(f.name.encode())
-        h.update(f.read_bytes())
-    return int(h.hexdigest()[:15], 16)
-
-
-@functools.lru_cache(maxsize=None)
 def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
@@ -153,8 +120,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     SOURCES = _sources_digest()
 
     @njit
-    def loop(P, M, TL, XN, I, EV, Q, HK, HI, BH, cells, GB, GS, NB, NN, SCR, order, edges,
-             ID, IS, FS, bt, bp, bw, bs, bv, ct, ci, cj, cimp, t_stop, max_events):
+    def loop(T, IS, FS, t_stop, max_events):
         """Process events in time order up to t_stop (keys <= t_stop).
 
         With max_events < 0 it only makes the first predictions of every
@@ -181,34 +147,34 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         """
         if SOURCES < 0:  # never (the digest is >= 0): keys Numba's cache on every module
             return DONE
-        P = _borrow(P)
-        M = _borrow(M)
-        TL = _borrow(TL)
-        XN = _borrow(XN)
-        I = _borrow(I)
-        EV = _borrow(EV)
-        Q = _borrow(Q)
-        HK = _borrow(HK)
-        HI = _borrow(HI)
-        BH = _borrow(BH)
-        cells = _borrow(cells)
-        GB = _borrow(GB)
-        GS = _borrow(GS)
-        NB = _borrow(NB)
-        NN = _borrow(NN)
-        SCR = _borrow(SCR)
-        order = _borrow(order)
-        edges = _borrow(edges)
-        ID = _borrow(ID)
-        bt = _borrow(bt)
-        bp = _borrow(bp)
-        bw = _borrow(bw)
-        bs = _borrow(bs)
-        bv = _borrow(bv)
-        ct = _borrow(ct)
-        ci = _borrow(ci)
-        cj = _borrow(cj)
-        cimp = _borrow(cimp)
+        P = _borrow(T.P)
+        M = _borrow(T.M)
+        TL = _borrow(T.TL)
+        XN = _borrow(T.XN)
+        I = _borrow(T.I)
+        EV = _borrow(T.EV)
+        Q = _borrow(T.Q)
+        HK = _borrow(T.HK)
+        HI = _borrow(T.HI)
+        BH = _borrow(T.BH)
+        cells = _borrow(T.cells)
+        GB = _borrow(T.GB)
+        GS = _borrow(T.GS)
+        NB = _borrow(T.NB)
+        NN = _borrow(T.NN)
+        SCR = _borrow(T.SCR)
+        order = _borrow(T.order)
+        edges = _borrow(T.edges)
+        ID = _borrow(T.ID)
+        bt = _borrow(T.bt)
+        bp = _borrow(T.bp)
+        bw = _borrow(T.bw)
+        bs = _borrow(T.bs)
+        bv = _borrow(T.bv)
+        ct = _borrow(T.ct)
+        ci = _borrow(T.ci)
+        cj = _borrow(T.cj)
+        cimp = _borrow(T.cimp)
         n = P.shape[0]
         pf = IS[S_PF] != 0  # large systems: prefetch, and gather a collision's scans first
         GROOM = GB.shape[0] // 2  # where j's gather goes in GB when both are gathered first
