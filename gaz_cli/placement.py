@@ -31,6 +31,8 @@ import math
 
 import numpy as np
 
+from gaz_cli.engine.calendar import _heap_push, _heap_remove
+from gaz_cli.engine.layout import HP
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.numba_config import njit
 from gaz_cli.geometry import packing_fraction
@@ -529,44 +531,6 @@ def _ls_predict(i, t, x, v, ts, R, cnt, cc, head, nxt, edges, nc, L, periodic, g
 
 
 @njit
-def _heap_up(hk, hi, hpos, i):
-    key = hk[i]
-    k = hi[i]
-    while i > 0:
-        p = (i - 1) >> 1
-        if hk[p] <= key:
-            break
-        hk[i] = hk[p]
-        hi[i] = hi[p]
-        hpos[hi[i]] = i
-        i = p
-    hk[i] = key
-    hi[i] = k
-    hpos[k] = i
-
-
-@njit
-def _heap_down(hk, hi, hpos, i, size):
-    key = hk[i]
-    k = hi[i]
-    while True:
-        c = 2 * i + 1
-        if c >= size:
-            break
-        if c + 1 < size and hk[c + 1] < hk[c]:
-            c += 1
-        if hk[c] >= key:
-            break
-        hk[i] = hk[c]
-        hi[i] = hi[c]
-        hpos[hi[i]] = i
-        i = c
-    hk[i] = key
-    hi[i] = k
-    hpos[k] = i
-
-
-@njit
 def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
     """Lubachevsky-Stillinger growth, event by event (cells of side >= the final largest diameter).
 
@@ -593,9 +557,10 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
     ekind = np.zeros(n, dtype=np.int64)
     ewhat = np.zeros(n, dtype=np.int64)
     epc = np.zeros(n, dtype=np.int64)
+    # the engine's heap (gaz_cli.engine.calendar) holds every particle under its next event
     hk = np.empty(n)
     hi = np.empty(n, dtype=np.int64)
-    hpos = np.empty(n, dtype=np.int64)
+    hq = np.zeros((n, 4), dtype=np.int32)  # its links: the position of k in the heap at HP
     a = L / nc
     for k in range(n):
         cell = 0
@@ -620,18 +585,14 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
                 for d in range(dim):
                     x[k, d] += v[k, d] * dt
                 ts[k] = t
+            hsize = 0
             for k in range(n):
                 tk, kind, what, pc = _ls_predict(k, t, x, v, ts, R, cnt, cc, head, nxt, edges,
                                                  nc, L, periodic, gamma)
-                hk[k] = tk
-                hi[k] = k
+                hsize = _heap_push(hk, hi, hq, hsize, tk, k)
                 ekind[k] = kind
                 ewhat[k] = what
                 epc[k] = pc
-            for k in range(n):
-                hpos[k] = k
-            for i in range(n // 2 - 1, -1, -1):
-                _heap_down(hk, hi, hpos, i, n)
             fresh = False
         te = hk[0]
         if te >= t_end:
@@ -751,13 +712,8 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
             ekind[p] = kind
             ewhat[p] = what
             epc[p] = pc
-            pos = hpos[p]
-            old_key = hk[pos]
-            hk[pos] = tk
-            if tk < old_key:
-                _heap_up(hk, hi, hpos, pos)
-            else:
-                _heap_down(hk, hi, hpos, pos, n)
+            hsize = _heap_remove(hk, hi, hq, hsize, hq[p, HP])
+            hsize = _heap_push(hk, hi, hq, hsize, tk, p)
     for k in range(n):
         dt = t - ts[k]
         for d in range(dim):

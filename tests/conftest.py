@@ -66,3 +66,13 @@ if _hypothesis_settings is not None:
                                           max_examples=100, database=None, print_blob=True)
     _hypothesis_settings.register_profile("explore", deadline=None, max_examples=2000)
     _hypothesis_settings.load_profile("gaz")
+
+KERNEL_RTOL = 64 * np.finfo(float).eps
+"""An engine kernel against its twin in gaz_cli.reference (pair time against tc, wall time
+against tr, collision against choc, flight against vol), relative. Error model: the two
+evaluate the same closed form in another order (the pair time's discriminant by Lagrange's
+identity against b^2 - a c, the impulse along dx / |dx|^2 against a unit normal), each side
+rounding at most ~16 times by a relative eps, amplified by the condition number of the
+result, which the tests keep below 2 by their draws (pairs at most 3 sigma apart hitting
+with an impact parameter below 0.8 sigma, walls at least 0.01 L away): 2 * 16 * 2 = 64 eps.
+A wrong formula (a sign, a factor 2, a lost term, the wrong wall) is off by O(1)."""

@@ -2,8 +2,10 @@
 
 ``run(scene, state, recorder) -> RunStats`` is the whole interface (the same
 as every engine's). :mod:`gaz_cli.engine.driver` is the Python layer
-(validation, allocation, recording, snapshots); :mod:`gaz_cli.engine.kernels`
-holds the Numba kernels (cell lists, calendar queue, event loop).
+(validation, allocation, recording, snapshots); the Numba kernels live by concept
+(:mod:`.layout`, :mod:`.dynamics`, :mod:`.interactions`, :mod:`.boundaries`,
+:mod:`.neighbours`, :mod:`.calendar`, :mod:`.prefetch`, :mod:`.memory`) and
+:mod:`.loop` composes them into the event loop; docs/architecture.md maps them.
 """
 
 from gaz_cli.engine.driver import run

@@ -28,6 +28,8 @@ import time
 import numpy as np
 
 from gaz_cli.engine import kernels as K
+from gaz_cli.engine.layout import Tables
+from gaz_cli.engine.memory import HUGE_PAGE, _alloc, _morton  # noqa: F401 (HUGE_PAGE: tests)
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.progress import EVENTS_PER_REPORT
 from gaz_cli.recording import Recorder, RunStats
@@ -65,13 +67,6 @@ PREFETCH_FROM_N = 20_000
 """Systems of this many particles or more prefetch the cells and rows of each scan, and
 the rows of the next events (their data no longer fits in the caches; below, the hints
 cost more than they save)."""
-
-HUGE_FROM_BYTES = 1 << 18
-HUGE_PAGE = 2 << 20
-NUMPY_HUGE_MIN = 4 << 20
-"""Arrays of HUGE_FROM_BYTES or more are carved out of blocks of at least NUMPY_HUGE_MIN
-bytes (numpy asks Linux for transparent huge pages from that size on), starting on a
-HUGE_PAGE boundary: random access to them then misses the TLB far less."""
 
 FIRST_CHUNK = 50_000
 CHUNK = 1 << 22
@@ -131,28 +126,6 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     return sim.run(start_time)
 
 
-def _alloc(shape, dtype=np.float64, fill=None) -> np.ndarray:
-    """A C-contiguous array; large ones on huge pages where the system offers them.
-
-    The event loop reads particle rows at random: on 4 KB pages nearly every
-    read of a system of 10^4 particles or more missed the TLB (measured: 3D
-    N = 19,000, 0.32 M events/s on numpy's own allocation, 0.56 M/s here).
-    The values are those of np.empty / np.full; only the placement differs.
-    """
-    dtype = np.dtype(dtype)
-    shape = (shape,) if isinstance(shape, (int, np.integer)) else tuple(shape)
-    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-    if nbytes < HUGE_FROM_BYTES:
-        a = np.empty(shape, dtype)
-    else:
-        raw = np.empty(max(nbytes, NUMPY_HUGE_MIN) + HUGE_PAGE, dtype=np.uint8)
-        off = (-raw.ctypes.data) % HUGE_PAGE
-        a = raw[off:off + nbytes].view(dtype).reshape(shape)
-    if fill is not None:
-        a[...] = fill
-    return a
-
-
 def _cell_capacity(per_cell: float) -> int:
     """Initial room of a cell for ``per_cell`` particles a cell on average (grown when full)."""
     return int(max(4, math.ceil(2.0 * per_cell + 3.0 * math.sqrt(per_cell) + 2)))
@@ -163,17 +136,6 @@ def _cell_width(cap: int) -> int:
     particles, rounded up to whole 16-byte blocks (a cell's row never straddles more
     cache lines than it must)."""
     return max(4 * ((cap + 1 + 3) // 4), K.GATHER_SLOTS + 1)
-
-
-def _morton(c: np.ndarray) -> np.ndarray:
-    """Z-order keys (N,) int64 of integer cell coordinates c (N, D), each below 2^21."""
-    D = c.shape[1]
-    key = np.zeros(c.shape[0], dtype=np.int64)
-    for d in range(D):
-        v = c[:, d].astype(np.int64)
-        for b in range(int(v.max()).bit_length() if v.size else 0):
-            key |= ((v >> b) & 1) << (b * D + d)
-    return key
 
 
 class _Simulation:
@@ -385,11 +347,11 @@ class _Simulation:
 
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
-        return self.kern.loop(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q,
-                              self.HK, self.HI, self.BH, self.cells, self.GB, self.GS, self.NB,
-                              self.NN, self.SCR, self.order, self.edges, self.ident, self.IS,
-                              self.FS, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
-                              self.ci, self.cj, self.cimp, float(t_stop), int(max_events))
+        T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
+                   self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
+                   self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
+                   self.ci, self.cj, self.cimp)
+        return self.kern.loop(T, self.IS, self.FS, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
         """Every particle's first predictions from time t (the loop in prediction mode)."""

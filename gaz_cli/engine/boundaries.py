@@ -1,0 +1,118 @@
+"""What bounds the box: hard walls (bounce events) and the periodic box (wrap, images).
+
+A wall bounce puts the centre exactly on the wall plane, a crossing exactly on the cell
+face; a particle past a wall and moving out bounces at once. Along the gravity axis the
+times come from the stable quadratic forms of physics.md section 10.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.layout import C0, INF, PR, PT, PV, RANK
+
+@_inline
+def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL):
+    """(absolute time, code) of particle k's next wall bounce or cell crossing.
+
+    code = 4 d + 2 [towards +] + [a wall]; (inf, -1) if there is none.
+    Along the gravity axis the times come from the stable quadratic forms
+    of physics.md section 10. With neighbour lists (NL) there are no cell
+    crossings: only the walls.
+    """
+    best = INF
+    code = -1
+    if PER and (D == 1 or not PAIRS or NL):
+        return best, code
+    r = P[k, PR]
+    for d in range(D):
+        x = P[k, d]
+        v = P[k, PV + d]
+        has_lo = True
+        has_hi = True
+        if D == 1:
+            if PAIRS:
+                rk = I[k, RANK]
+                has_lo = rk == 0
+                has_hi = rk == n - 1
+            lo = r
+            hi = L - r
+            lo_wall = True
+            hi_wall = True
+        elif NL:
+            lo = r
+            hi = L - r
+            lo_wall = True
+            hi_wall = True
+        else:
+            c = I[k, C0 + d]
+            if PER:
+                lo = edges[c]
+                hi = edges[c + 1]
+                lo_wall = False
+                hi_wall = False
+            else:
+                lo_wall = c == 0
+                hi_wall = c == nc - 1
+                lo = r if lo_wall else edges[c]
+                hi = L - r if hi_wall else edges[c + 1]
+        dt = INF
+        up = False
+        wall = False
+        if GRAV and d == D - 1:
+            if v > 0.0 and has_hi:
+                du = v * v - 2.0 * g * (hi - x)
+                if du >= 0.0:
+                    dt = 2.0 * (hi - x) / (v + math.sqrt(du))
+                    up = True
+                    wall = hi_wall
+            if not up and has_lo:
+                dd = v * v + 2.0 * g * (x - lo)
+                if dd < 0.0:
+                    dd = 0.0
+                if v >= 0.0:
+                    dt = (v + math.sqrt(dd)) / g
+                else:
+                    dt = 2.0 * (x - lo) / (math.sqrt(dd) - v)
+                wall = lo_wall
+        else:
+            if v > 0.0 and has_hi:
+                dt = (hi - x) / v
+                up = True
+                wall = hi_wall
+            elif v < 0.0 and has_lo:
+                dt = (lo - x) / v
+                wall = lo_wall
+        if dt < 0.0:
+            dt = 0.0
+        if dt < best:
+            best = dt
+            code = 4 * d + (2 if up else 0) + (1 if wall else 0)
+    return P[k, PT] + best, code
+
+
+@_inline
+def _wrap(P, k, L, D):
+    """Particle k's position wrapped into the periodic box [0, L)^D."""
+    for a in range(D):
+        if P[k, a] < 0.0 or P[k, a] >= L:
+            P[k, a] -= L * math.floor(P[k, a] / L)
+            if P[k, a] >= L:
+                P[k, a] = 0.0
+
+
+@_inline
+def _nearest(dx, L):
+    """The periodic image of a separation dx nearest to 0 (minimum image)."""
+    return dx - L * np.rint(dx / L)
+
+
+@_inline
+def _bounce(P, k, d, up, L):
+    """Particle k bounces off the wall across axis d (the upper one if up): its centre is put
+    exactly on the wall plane, its velocity along d reflected."""
+    P[k, d] = (L - P[k, PR]) if up else P[k, PR]
+    P[k, PV + d] = -P[k, PV + d]

@@ -1,0 +1,37 @@
+"""What moves particles between events: free flight, with uniform gravity along axis D-1.
+
+Rows are stamped: particle k's row holds its state at P[k, PT] (lazy update).
+"""
+
+from __future__ import annotations
+
+from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.layout import PT, PV
+from gaz_cli.numba_config import njit
+
+@njit
+def _state_at(P, t, g, D, out_x, out_v):
+    """Positions and velocities of every particle at time t (no change to the rows)."""
+    n = P.shape[0]
+    for k in range(n):
+        dt = t - P[k, PT]
+        for d in range(D):
+            out_x[k, d] = P[k, d] + P[k, PV + d] * dt
+            out_v[k, d] = P[k, PV + d]
+        if g != 0.0:
+            out_x[k, D - 1] -= 0.5 * g * dt * dt
+            out_v[k, D - 1] -= g * dt
+
+
+@_inline
+def _advance(P, k, t, g, D, GRAV):
+    """Particle k's row moved along its path to time t (free flight, or a parabola along
+    axis D-1 under gravity g); its stamp becomes t. A row already at t is left as is."""
+    dta = t - P[k, PT]
+    if dta != 0.0:
+        for a in range(D):
+            P[k, a] += P[k, PV + a] * dta
+        if GRAV:
+            P[k, D - 1] -= 0.5 * g * dta * dta
+            P[k, PV + D - 1] -= g * dta
+        P[k, PT] = t

@@ -1,0 +1,139 @@
+"""Numba extensions of the engine: the helper decorators, borrowed arrays, prefetch, FMA.
+
+No physics here: :func:`_borrow` is what lets the event loop call small helpers on its
+arrays at no cost (its docstring says why), :func:`_prefetch` / :func:`_prefetch_at`
+are cache hints, :func:`_fma` a correctly rounded ``x * y + z`` (written with Numba's
+public extension API, ``intrinsic``); :func:`_sources_digest` keys the loop's disk cache
+on every engine module.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import pathlib
+
+import numba
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.core.extending import intrinsic
+
+_inline = numba.njit(inline="always", error_model="numpy")
+"""Helpers inlined into the kernels at Numba-IR level: the scene flags they
+take become constants there (loops over D unrolled, unused branches gone)."""
+
+_helper = numba.njit(error_model="numpy")
+"""Helpers without flags, compiled once and left to LLVM to inline: Numba-IR
+inlining is slow to compile, and with borrowed arrays a call costs nothing
+much."""
+
+
+@intrinsic
+def _borrow(typingctx, arr):
+    """The same array without its reference count (a borrowed view).
+
+    Numba increments and decrements an array's reference count, atomically,
+    wherever an array variable is copied, which includes every inlined helper
+    taking the array; in the event loop that cost more than the physics. A
+    kernel borrows its arguments once at entry: the caller holds the real
+    references for the whole call, so the views stay valid, and NRT_incref
+    on a null meminfo is a no-op that LLVM removes.
+    """
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, value=args[0])
+        dst = context.make_array(sig.return_type)(context, builder)
+        for name in ("parent", "nitems", "itemsize", "data", "shape", "strides"):
+            setattr(dst, name, getattr(src, name))
+        dst.meminfo = context.get_constant_null(types.MemInfoPointer(types.voidptr))
+        return dst._getvalue()
+
+    return arr(arr), codegen
+
+
+def _emit_prefetch(context, builder, aryty, arr, idxs):
+    """Emit llvm.prefetch (read, keep in all cache levels, data cache) of element idxs of arr."""
+    ary = context.make_array(aryty)(context, builder, value=arr)
+    ptr = cgutils.get_item_pointer2(context, builder, ary.data,
+                                    cgutils.unpack_tuple(builder, ary.shape),
+                                    cgutils.unpack_tuple(builder, ary.strides), aryty.layout,
+                                    idxs, wraparound=False)
+    i32 = ir.IntType(32)
+    if getattr(ptr.type, "is_opaque", False):  # LLVM with opaque pointers
+        name = "llvm.prefetch.p0"
+    else:
+        ptr = builder.bitcast(ptr, ir.IntType(8).as_pointer())
+        name = "llvm.prefetch.p0i8"
+    fnty = ir.FunctionType(ir.VoidType(), [ptr.type, i32, i32, i32])
+    fn = cgutils.get_or_insert_function(builder.module, fnty, name)
+    builder.call(fn, [ptr, i32(0), i32(3), i32(1)])
+
+
+@intrinsic
+def _prefetch(typingctx, arr, i):
+    """Ask the CPU to start loading row i of an array into the cache (llvm.prefetch).
+
+    A hint with no effect on results: on large systems the rows of the 3^D
+    cells of a scan are all requested at once instead of one after the
+    other, so their cache misses overlap.
+    """
+    if not isinstance(arr, types.Array) or not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        idx = context.cast(builder, args[1], sig.args[1], types.intp)
+        zero = context.get_constant(types.intp, 0)
+        _emit_prefetch(context, builder, sig.args[0], args[0],
+                       [idx, zero] if sig.args[0].ndim == 2 else [idx])
+        return context.get_dummy_value()
+
+    return types.void(arr, i), codegen
+
+
+@intrinsic
+def _prefetch_at(typingctx, arr, i, j):
+    """Ask the CPU to start loading element (i, j) of a 2D array into the cache (a hint)."""
+    if not isinstance(arr, types.Array) or arr.ndim != 2 or not isinstance(i, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        idx = context.cast(builder, args[1], sig.args[1], types.intp)
+        col = context.cast(builder, args[2], sig.args[2], types.intp)
+        _emit_prefetch(context, builder, sig.args[0], args[0], [idx, col])
+        return context.get_dummy_value()
+
+    return types.void(arr, i, j), codegen
+
+
+@intrinsic
+def _fma(typingctx, x, y, z):
+    """x * y + z rounded once (LLVM's llvm.fma.f64: the FMA instruction where the CPU has one,
+    a correctly rounded library call where it does not)."""
+    if not all(isinstance(a, types.Float) for a in (x, y, z)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        f64 = ir.DoubleType()
+        vals = [context.cast(builder, v, t, types.float64) for v, t in zip(args, sig.args)]
+        fn = builder.module.declare_intrinsic("llvm.fma", [f64], ir.FunctionType(f64, [f64] * 3))
+        return builder.call(fn, vals)
+
+    return types.float64(types.float64, types.float64, types.float64), codegen
+
+
+@functools.lru_cache(maxsize=None)
+def _sources_digest() -> int:
+    """A number that changes with the source of any engine module the loop inlines.
+
+    Numba's disk cache keys a function on its own file only: an edit of an inlined helper in
+    another module (interactions.py, say) would leave a stale loop in the cache. The loop
+    (loop.build) holds this number as a closure constant, which Numba's cache key includes.
+    """
+    here = pathlib.Path(__file__).parent
+    h = hashlib.sha256()
+    for f in sorted(here.glob("*.py")) + sorted(here.glob("neighbours/*.py")):
+        h.update(f.name.encode())
+        h.update(f.read_bytes())
+    return int(h.hexdigest()[:15], 16)

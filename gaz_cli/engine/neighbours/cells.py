@@ -1,0 +1,325 @@
+"""Cell lists (2D/3D): cells at least one diameter wide, a scan covers the 3^D around.
+
+A crossing only scans the 3^(D-1) cells that came into view. A scan runs in two
+passes: gather the particles of a block of cells into a buffer, then compute the pair
+times of the gathered particles (no branch on a cell's count in either).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gaz_cli.engine.intrinsics import _inline, _prefetch
+from gaz_cli.engine.interactions import _pair_dt
+from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
+                                   KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PT, PV, SLOT, SURE,
+                                   TCOL, TCOL2)
+from gaz_cli.engine.prefetch import _prefetch_block
+from gaz_cli.numba_config import njit
+
+@_inline
+def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc,
+                  D, PER, IMG, PF):
+    """Gather the particles of a block of cells into GB[base:] (pass 1 of a scan); their number.
+
+    The block is c + (lo..hi) on each axis (wrapped when periodic, clipped
+    with walls). With IMG, a periodic box of fewer than four cells an axis,
+    the image shift of each particle goes into GS, as a code 9 w0 + 3 w1 + w2
+    with w = 0, 1, 2 for a shift of -L, 0, +L; with four cells or more, the
+    block's image of a particle is the nearest one, taken by the scan. A
+    fixed number of slots is copied from every cell and the write position
+    moves on by the cell's count, so this pass has no branch that depends on
+    how many particles a cell holds (looping cell by cell, particle by
+    particle, the branch predictor missed about once a cell: cells hold 0, 1
+    or 2 particles at random; measured on the standard scene, gathering first
+    runs 14% more collisions a second). PF (large systems): the rows of the
+    block's cells, then those of the gathered particles, are requested from
+    memory before they are read.
+    """
+    if D < 3:
+        lo2 = 0
+        hi2 = 0
+    if PF:
+        _prefetch_block(cells, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc, D)
+    # gather (cells hold at least GATHER_SLOTS slots)
+    w = base
+    for o0 in range(lo0, hi0 + 1):
+        n0 = c0 + o0
+        w0 = 1
+        if n0 < 0:
+            if PER:
+                n0 += nc
+                w0 = 0
+            else:
+                continue
+        elif n0 >= nc:
+            if PER:
+                n0 -= nc
+                w0 = 2
+            else:
+                continue
+        for o1 in range(lo1, hi1 + 1):
+            n1 = c1 + o1
+            w1 = 1
+            if n1 < 0:
+                if PER:
+                    n1 += nc
+                    w1 = 0
+                else:
+                    continue
+            elif n1 >= nc:
+                if PER:
+                    n1 -= nc
+                    w1 = 2
+                else:
+                    continue
+            for o2 in range(lo2, hi2 + 1):
+                w2 = 1
+                if D > 2:
+                    n2 = c2 + o2
+                    if n2 < 0:
+                        if PER:
+                            n2 += nc
+                            w2 = 0
+                        else:
+                            continue
+                    elif n2 >= nc:
+                        if PER:
+                            n2 -= nc
+                            w2 = 2
+                        else:
+                            continue
+                    cell = (n0 * nc + n1) * nc + n2
+                else:
+                    cell = n0 * nc + n1
+                cnt = cells[cell, 0]
+                GB[w] = cells[cell, 1]
+                GB[w + 1] = cells[cell, 2]
+                GB[w + 2] = cells[cell, 3]
+                GB[w + 3] = cells[cell, 4]
+                if cnt > GATHER_SLOTS:
+                    for q in range(GATHER_SLOTS, cnt):
+                        GB[w + q] = cells[cell, 1 + q]
+                if IMG:
+                    code = 9 * w0 + 3 * w1 + w2
+                    for q in range(max(cnt, GATHER_SLOTS)):
+                        GS[w + q] = code
+                w += cnt
+    if PF:
+        for u in range(base, w):
+            _prefetch(P, GB[u])
+            _prefetch(I, GB[u])  # the counter of the partner found, read after the scan
+    return w - base
+
+
+@_inline
+def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG):
+    """Two earliest collisions of k (its row at time t) with the ng particles gathered at GB[base:].
+
+    Returns the improved (best time, partner, second time, second partner);
+    the second saves a rescan when the first turns out stale. With each,
+    where it comes from: KEPT1 / KEPT2 (the best / second given in) or NEW
+    (found in this scan, to be stamped with the partner's counter now).
+    """
+    xk0 = P[k, 0]
+    vk0 = P[k, PV]
+    xk1 = P[k, 1] if D > 1 else 0.0
+    vk1 = P[k, PV + 1] if D > 1 else 0.0
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    rk = P[k, PR]
+    src1 = KEPT1
+    src2 = KEPT2
+    iL = 1.0 / L
+    for u in range(base, base + ng):
+        m = GB[u]
+        dtm = t - P[m, PT]
+        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
+        dv0 = P[m, PV] - vk0
+        dx1 = 0.0
+        dv1 = 0.0
+        dx2 = 0.0
+        dv2 = 0.0
+        if D > 1:
+            dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
+            dv1 = P[m, PV + 1] - vk1
+        if D > 2:
+            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
+            dv2 = P[m, PV + 2] - vk2
+        if IMG:
+            code = GS[u]
+            dx0 += L * (code // 9 - 1)
+            dx1 += L * ((code // 3) % 3 - 1)
+            dx2 += L * (code % 3 - 1)
+        if GRAV:
+            if D == 3:
+                dx2 -= 0.5 * g * dtm * dtm
+                dv2 -= g * dtm
+            else:
+                dx1 -= 0.5 * g * dtm * dtm
+                dv1 -= g * dtm
+        if PER and not IMG:
+            dx0 -= L * np.rint(dx0 * iL)
+            if D > 1:
+                dx1 -= L * np.rint(dx1 * iL)
+            if D > 2:
+                dx2 -= L * np.rint(dx2 * iL)
+        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+        if tp < best2 and m != k:
+            if tp < best:
+                best2 = best
+                bj2 = bj
+                src2 = src1
+                best = tp
+                bj = m
+                src1 = NEW
+            else:
+                best2 = tp
+                bj2 = m
+                src2 = NEW
+    return best, bj, src1, best2, bj2, src2
+
+
+# --- kernels that need no specialisation --------------------------------------
+@njit
+def _assign_cells(P, I, cells, nc, a, D):
+    """Put every particle in its cell (cells of side a, nc per axis). Status CELL_FULL if a cell overflows."""
+    n = P.shape[0]
+    cap = cells.shape[1] - 1
+    cells[:, 0] = 0
+    for k in range(n):
+        cell = 0
+        for d in range(D):
+            c = int(math.floor(P[k, d] / a))
+            if c < 0:
+                c = 0
+            elif c >= nc:
+                c = nc - 1
+            I[k, C0 + d] = c
+            cell = cell * nc + c
+        cnt = cells[cell, 0] + 1
+        if cnt > cap:
+            return CELL_FULL
+        I[k, CELL] = cell
+        I[k, SLOT] = cnt
+        cells[cell, cnt] = k
+        cells[cell, 0] = cnt
+    return DONE
+
+
+@_inline
+def _cell_of(P, k, ainv, nc, D):
+    """(c0, c1, c2, cell index) of the cell holding particle k's centre (2D/3D; c2 = 0 in 2D)."""
+    nn0 = min(max(np.int64(P[k, 0] * ainv), 0), nc - 1)
+    nn1 = min(max(np.int64(P[k, 1] * ainv), 0), nc - 1)
+    nn2 = 0
+    if D > 2:
+        nn2 = min(max(np.int64(P[k, 2] * ainv), 0), nc - 1)
+        cell = (nn0 * nc + nn1) * nc + nn2
+    else:
+        cell = nn0 * nc + nn1
+    return nn0, nn1, nn2, cell
+
+
+@_inline
+def _move(cells, I, k, new):
+    """Particle k out of its cell (the cell's last particle takes its slot) into cell new."""
+    old = I[k, CELL]
+    sl = I[k, SLOT]
+    co = cells[old, 0]
+    last = cells[old, co]
+    cells[old, sl] = last
+    I[last, SLOT] = sl
+    cells[old, 0] = co - 1
+    cn1 = cells[new, 0] + 1
+    I[k, SLOT] = cn1
+    cells[new, cn1] = k
+    cells[new, 0] = cn1
+    I[k, CELL] = new
+
+
+@_inline
+def _stride(d, nc, D):
+    """How far apart in the cell index two cells next to each other along axis d are."""
+    return 1 if d == D - 1 else (nc if d == D - 2 else nc * nc)
+
+
+@_inline
+def _cell_entered(I, k, code, nc, D):
+    """The cell particle k enters at its crossing ``code`` (wrapped around the box)."""
+    d = code >> 2
+    c = I[k, C0 + d] + (1 if (code & 2) else -1)
+    if c < 0:
+        c += nc
+    elif c >= nc:
+        c -= nc
+    return I[k, CELL] + (c - I[k, C0 + d]) * _stride(d, nc, D)
+
+
+@_inline
+def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
+    """Particle k, at a face of its cell along axis d, moves into the next cell (up: the
+    one above), wrapping around a periodic box; its centre is put exactly on the face."""
+    c = I[k, C0 + d]
+    if up:
+        cn = c + 1
+        xn = edges[cn]
+        if cn == nc:
+            cn = 0
+            xn = 0.0
+    else:
+        cn = c - 1
+        xn = edges[c]
+        if cn < 0:
+            cn = nc - 1
+            xn = L
+    P[k, d] = xn
+    if cn != c:
+        _move(cells, I, k, I[k, CELL] + (cn - c) * _stride(d, nc, D))
+        I[k, C0 + d] = cn
+
+
+@_inline
+def _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV, IMG):
+    """Particle p's two earliest collisions among the ng particles gathered at GB[base:],
+    written to its predictions.
+
+    A full scan, or (not full) the cells that came into view merged with the two
+    predictions kept, which keep the counter they were made with; a new one takes the
+    partner's counter now, even when the partner is the same: the kept prediction with
+    it may be stale, the new one not. After a full scan the second is sure.
+    """
+    if full:
+        b1 = INF
+        p1 = -1
+        b2 = INF
+        p2 = -1
+    else:
+        b1 = EV[p, TCOL]
+        p1 = I[p, PART]
+        b2 = EV[p, TCOL2]
+        p2 = I[p, PART2]
+    oc1 = I[p, PCNT]
+    oc2 = I[p, PCNT2]
+    best, bj, src1, best2, bj2, src2 = _scan_gathered(
+        P, GB, GS, base, ng, p, t, L, g, b1, p1, b2, p2, D, PER, GRAV, IMG)
+    EV[p, TCOL] = best
+    I[p, PART] = bj
+    if bj < 0:
+        I[p, PCNT] = 0
+    elif src1 == NEW:
+        I[p, PCNT] = I[bj, CNT]
+    else:
+        I[p, PCNT] = oc1 if src1 == KEPT1 else oc2
+    EV[p, TCOL2] = best2
+    I[p, PART2] = bj2
+    if full:
+        I[p, SURE] = 1
+    if bj2 < 0:
+        I[p, PCNT2] = 0
+    elif src2 == NEW:
+        I[p, PCNT2] = I[bj2, CNT]
+    else:
+        I[p, PCNT2] = oc1 if src2 == KEPT1 else oc2

@@ -1,0 +1,232 @@
+"""Neighbour lists (dense fluids, 2D/3D): radius R_i + R_j + 2h around a centre, rebuilt
+when the particle has moved h from it."""
+
+from __future__ import annotations
+
+import math
+
+from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.interactions import _pair_dt
+from gaz_cli.engine.layout import C0, CELL, DONE, INF, NL_FULL, PR, PT, PV
+from gaz_cli.engine.neighbours.cells import _move
+from gaz_cli.engine.prefetch import _prefetch_block, _prefetch_block_rows, _prefetch_listed
+from gaz_cli.numba_config import njit
+
+@_inline
+def _nl_exit(P, XN, k, h, g, D, GRAV):
+    """Absolute time at which particle k (row at its stamp) leaves the sphere of radius h around XN[k].
+
+    Exact root of |d + v t| = h without gravity; with gravity a safe lower
+    bound from |d| + |v| t + g t^2 / 2 = h (an early rebuild costs time, never
+    correctness).
+    """
+    d0 = P[k, 0] - XN[k, 0]
+    d1 = P[k, 1] - XN[k, 1]
+    d2 = P[k, 2] - XN[k, 2] if D > 2 else 0.0
+    v0 = P[k, PV]
+    v1 = P[k, PV + 1]
+    v2 = P[k, PV + 2] if D > 2 else 0.0
+    a = v0 * v0 + v1 * v1 + v2 * v2
+    dd = d0 * d0 + d1 * d1 + d2 * d2
+    if GRAV:
+        room = h - math.sqrt(dd)
+        if room <= 0.0:
+            return P[k, PT]
+        sp = math.sqrt(a)
+        return P[k, PT] + 2.0 * room / (sp + math.sqrt(a + 2.0 * g * room))
+    if a == 0.0:
+        return INF
+    b = d0 * v0 + d1 * v1 + d2 * v2
+    c = dd - h * h
+    disc = b * b - a * c
+    if disc < 0.0:
+        disc = 0.0
+    if b <= 0.0:
+        t = (-b + math.sqrt(disc)) / a
+    else:
+        t = -c / (b + math.sqrt(disc))
+    if t < 0.0:
+        t = 0.0
+    return P[k, PT] + t
+
+
+@_inline
+def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
+    """Earliest collision of k (its row at time t) with the particles of its neighbour list.
+
+    PF (large systems): the neighbours' rows are all requested from memory
+    before the first is read, so that their cache misses overlap.
+    """
+    if PF:
+        _prefetch_listed(P, NB, NN, k)
+    xk0 = P[k, 0]
+    vk0 = P[k, PV]
+    xk1 = P[k, 1]
+    vk1 = P[k, PV + 1]
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    rk = P[k, PR]
+    for s in range(NN[k]):
+        m = NB[k, s]
+        dtm = t - P[m, PT]
+        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
+        dv0 = P[m, PV] - vk0
+        dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
+        dv1 = P[m, PV + 1] - vk1
+        dx2 = 0.0
+        dv2 = 0.0
+        if D > 2:
+            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
+            dv2 = P[m, PV + 2] - vk2
+        if GRAV:
+            if D == 3:
+                dx2 -= 0.5 * g * dtm * dtm
+                dv2 -= g * dtm
+            else:
+                dx1 -= 0.5 * g * dtm * dtm
+                dv1 -= g * dtm
+        if PER:
+            if dx0 > hl:
+                dx0 -= L
+            elif dx0 < -hl:
+                dx0 += L
+            if dx1 > hl:
+                dx1 -= L
+            elif dx1 < -hl:
+                dx1 += L
+            if D > 2:
+                if dx2 > hl:
+                    dx2 -= L
+                elif dx2 < -hl:
+                    dx2 += L
+        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+        if tp < best:
+            best = tp
+            bj = m
+    return best, bj
+
+
+@_inline
+def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PER, PF):
+    """Neighbours of a list centred at (x0, x1, x2) in cell (c0, c1, c2) into SCR.
+
+    Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
+    their number, or -1 if SCR or one of their lists would overflow. Needs
+    at least 3 cells per axis when periodic (one image per particle).
+    """
+    capnb = SCR.shape[0]
+    hl = 0.5 * L
+    rk = P[k, PR]
+    cnt = 0
+    lo2 = -1 if D > 2 else 0
+    hi2 = 1 if D > 2 else 0
+    if PF:
+        # large systems: the cells, then the rows of their particles, are requested
+        # from memory before the test below reads them (a hint: wrapped even with walls)
+        _prefetch_block(cells, c0, c1, c2, -1, 1, -1, 1, lo2, hi2, nc, D)
+        _prefetch_block_rows(P, XN, NN, cells, c0, c1, c2, lo2, hi2, nc, D)
+    for o0 in range(-1, 2):
+        n0 = c0 + o0
+        if n0 < 0 or n0 >= nc:
+            if PER:
+                n0 = n0 + nc if n0 < 0 else n0 - nc
+            else:
+                continue
+        for o1 in range(-1, 2):
+            n1 = c1 + o1
+            if n1 < 0 or n1 >= nc:
+                if PER:
+                    n1 = n1 + nc if n1 < 0 else n1 - nc
+                else:
+                    continue
+            for o2 in range(lo2, hi2 + 1):
+                if D > 2:
+                    n2 = c2 + o2
+                    if n2 < 0 or n2 >= nc:
+                        if PER:
+                            n2 = n2 + nc if n2 < 0 else n2 - nc
+                        else:
+                            continue
+                    cell = (n0 * nc + n1) * nc + n2
+                else:
+                    cell = n0 * nc + n1
+                for s in range(1, cells[cell, 0] + 1):
+                    m = cells[cell, s]
+                    if m == k:
+                        continue
+                    d0 = x0 - XN[m, 0]
+                    d1 = x1 - XN[m, 1]
+                    d2 = x2 - XN[m, 2] if D > 2 else 0.0
+                    if PER:
+                        if d0 > hl:
+                            d0 -= L
+                        elif d0 < -hl:
+                            d0 += L
+                        if d1 > hl:
+                            d1 -= L
+                        elif d1 < -hl:
+                            d1 += L
+                        if d2 > hl:
+                            d2 -= L
+                        elif d2 < -hl:
+                            d2 += L
+                    lim = rk + P[m, PR] + 2.0 * h
+                    if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
+                        if cnt >= capnb or NN[m] >= capnb:
+                            return -1
+                        SCR[cnt] = m
+                        cnt += 1
+    return cnt
+
+
+@njit
+def _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, D, periodic):
+    """Neighbour lists of every particle around its centre XN (cells already assigned).
+
+    Status NL_FULL if a list would overflow NB's width.
+    """
+    n = P.shape[0]
+    NN[:] = 0
+    for k in range(n):
+        c2 = I[k, C0 + 2] if D > 2 else 0
+        x2 = XN[k, 2] if D > 2 else 0.0
+        cnt = _gather_nl(P, XN, cells, NN, SCR, k, XN[k, 0], XN[k, 1], x2,
+                         I[k, C0], I[k, C0 + 1], c2, nc, L, h, D, periodic, False)
+        if cnt < 0:
+            return NL_FULL
+        for s in range(cnt):
+            NB[k, s] = SCR[s]
+        NN[k] = cnt
+    return DONE
+
+
+@_inline
+def _recentre(P, XN, I, cells, NB, NN, SCR, k, ng, newcell, nn0, nn1, nn2, D):
+    """Re-centre k's neighbour list where k is now (its row at the rebuild time).
+
+    k leaves the lists of its old neighbours, moves to cell newcell = (nn0, nn1, nn2) if
+    it changed cell, and joins the lists of the ng new ones gathered in SCR (by
+    :func:`_gather_nl`, which checked the room).
+    """
+    for s in range(NN[k]):
+        m = NB[k, s]
+        nm = NN[m]
+        for u in range(nm):
+            if NB[m, u] == k:
+                NB[m, u] = NB[m, nm - 1]
+                NN[m] = nm - 1
+                break
+    if newcell != I[k, CELL]:
+        _move(cells, I, k, newcell)
+        I[k, C0] = nn0
+        I[k, C0 + 1] = nn1
+        if D > 2:
+            I[k, C0 + 2] = nn2
+    for a in range(D):
+        XN[k, a] = P[k, a]
+    for s in range(ng):
+        m = SCR[s]
+        NB[k, s] = m
+        NB[m, NN[m]] = k
+        NN[m] += 1
+    NN[k] = ng
