@@ -21,7 +21,9 @@ Not a test: it prints numbers. Run from the repository root:
 (g) JIT compile time from an empty cache, and process start to first event
     with a warm cache;
 (h) a dense fluid (3D periodic, packing 0.45) at N = 10^4 and 10^6, with cell
-    crossings and with neighbour lists (what 'auto' picks there).
+    crossings and with neighbour lists (what 'auto' picks there);
+(i) an ideal gas (point particles): the ideal path's closed-form bounces per second
+    against the event engine's, on the same scene.
 
 Rates are given per wall-clock second (what a user waits) and per CPU second
 of this process (what the code costs when the machine is shared); each is
@@ -301,13 +303,52 @@ def fig_g(args):
               f"{np.median(warm):.2f} s (median of {len(warm)})")
 
 
+class _Count(Recorder):
+    """Counts the bounces handed over, as a database writer would receive them."""
+
+    want_bounces = True
+
+    def __init__(self):
+        self.k = 0
+
+    def add_bounces(self, t, *rest):
+        self.k += len(t)
+
+
+def fig_i(args):
+    from gaz_cli import ideal
+
+    n = 10_000
+    duration = 2e-8 * args.scale
+    print(f"(i) ideal gas: {n} point particles of argon's mass, 3D box L = 1e-7 m, walls, "
+          f"duration {duration:.3g} s: the ideal path (closed-form bounces) against the event "
+          "engine, alternating runs")
+    sc = Scene(dim=3, length=1e-7, duration=duration, components=((Species("point", lookup("Ar").mass, 0.0), n),),
+               seed=1, force=True)
+    st = initial_state(sc)
+    times = {"ideal": [], "event": []}
+    counts = {}
+    for _ in range(args.repeat):
+        for name, run in (("ideal", ideal.run), ("event", engine.run)):
+            rec = _Count()
+            c0 = time.process_time()
+            rs = run(sc, st, rec)
+            times[name].append(time.process_time() - c0 - rs.extras.get("compile_s", 0.0))
+            counts[name] = rec.k
+    for name in times:
+        cpu = float(np.median(times[name]))
+        print(f"  {name}: {counts[name]:,} bounces, {counts[name] / cpu / 1e6:.2f} M bounces/s CPU "
+              f"(median of {args.repeat})")
+    print(f"    ratio ideal/event: {np.median(times['event']) / np.median(times['ideal']):.2f}x")
+
+
 FIGURES = {"a": fig_a, "b": fig_b, "c": fig_c, "d": fig_d, "e": fig_e, "f": fig_f, "g": fig_g,
-           "h": fig_h}
+           "h": fig_h, "i": fig_i}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="abcdefgh", help="figures to print, e.g. 'af'")
+    ap.add_argument("--only", default="abcdefghi", help="figures to print, e.g. 'af'")
     ap.add_argument("--repeat", type=int, default=3, help="runs per figure (median)")
     ap.add_argument("--quick", action="store_true", help="shorter runs, N up to 10^5 in (f)")
     args = ap.parse_args()
