@@ -106,17 +106,32 @@ def test_dilute_3d_gas_wall_pressure(tmp_path):
 
 
 def test_2d_gas_wall_pressure(tmp_path):
-    """2D disks at area fraction 0.05: the hard-disk wall pressure (Kolafa-Rottner) within 3 sigma."""
+    """2D disks at area fraction 0.05: the hard-disk wall pressure (Kolafa-Rottner) within 3 sigma.
+
+    Or, where the error bar is below the wall model's own systematic error
+    (SYST_REL: the next order, wall adsorption; over 40 seeds of this scene the
+    measured mean sits 1.3e-3 below the model, the model's bound is 1.5e-3, the
+    error 0.9e-3), analyse prints no sigma and the measured value is within
+    SYST_REL plus 3 errors of the model.
+    """
     scene = reduced_scene(2, 1000, 0.05, duration=12.0, seed=2)
     frames = analyse(tmp_path, scene)
     row = best_row(frames)
     assert "kolafa-rottner" in row.MODEL
-    assert abs(row.DEV_SIGMA) < 3, row
+    if math.isnan(row.DEV_SIGMA):
+        assert row.SYST_REL > row.P_ERR / row.P_MEASURED and "systematic" in row.NOTE, row
+        assert abs(row.REL_DEV) < row.SYST_REL + 3 * row.P_ERR / row.P_MEASURED, row
+    else:
+        assert abs(row.DEV_SIGMA) < 3, row
     # the disks' excluded area is seen: the ideal gas is 10% low, many sigma away
     ideal = frames["pressure against theory"].iloc[1]
     assert ideal.DEV_SIGMA > 10, ideal
     walls = frames["Q36 momentum and pressure per wall"]
-    assert (walls.DEV_SIGMA.abs() < 4).all(), walls
+    if math.isnan(row.DEV_SIGMA):   # the walls share the model, and its systematic error
+        rel = (walls.P_MEASURED / walls.P_THEORY - 1).abs()
+        assert walls.DEV_SIGMA.isna().all() and (rel < row.SYST_REL + 4 * walls.P_ERR / walls.P_MEASURED).all(), walls
+    else:
+        assert (walls.DEV_SIGMA.abs() < 4).all(), walls
 
 
 # --------------------------------------------------------------------- virial pressure
