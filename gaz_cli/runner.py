@@ -86,14 +86,19 @@ class WallMomentum(Recorder):
     want_bounces = True
 
     def __init__(self, scene: Scene):
-        self.masses = (1.0 + scene.wall_restitution) / 2.0 * scene.masses()
+        from gaz_cli.theory import wall_impulse
+
+        self.impulse = wall_impulse  # the one copy of the formula (Q36's SQL writes the same)
+        self.masses = scene.masses()
+        self.restitution = scene.wall_restitution
         self.dim = scene.dim
         self.momentum = np.zeros(2 * scene.dim)  # index: wall code + dim, skipping 0
 
     def add_bounces(self, t, particle, wall, speed, vperp):
         wall = np.asarray(wall)
         index = np.where(wall > 0, wall + self.dim - 1, wall + self.dim)
-        np.add.at(self.momentum, index, 2.0 * self.masses[np.asarray(particle)] * np.asarray(vperp))
+        np.add.at(self.momentum, index,
+                  self.impulse(self.masses[np.asarray(particle)], vperp, self.restitution))
 
 
 class Diagnostics(Recorder):
