@@ -47,6 +47,10 @@ costs Numba about a second (its context refresh), placing 256 particles in Pytho
 A run whose engine needs no compiled code (``ideal``, a tiny ``reference`` run) then starts
 in the time of its imports."""
 
+INTERPRETED_PACKING = 0.1
+"""... and at most this packing fraction, where a few candidates per particle suffice (a
+placement near jamming may try millions: compiled, not interpreted)."""
+
 RSA_COMFORT = {1: 0.60, 2: 0.45, 3: 0.30}
 """Packing below which 'auto' uses rejection (RSA jamming: 0.7476, 0.547, 0.384)."""
 
@@ -297,7 +301,8 @@ def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generat
     budget = budget if budget is not None else 1000 * n + 1_000_000
     placed, spent = 0, 0
     batch = max(1024, min(4 * n, 1 << 20))
-    rsa = _rsa.py_func if n <= INTERPRETED_MAX else _rsa
+    # dilute and small: interpreted (no compiled code to load); else, or if it is slow going, compiled
+    rsa = _rsa.py_func if n <= INTERPRETED_MAX and packing_fraction(dim, radii, length) <= INTERPRETED_PACKING else _rsa
     while placed < n:
         cand = rng.random((batch, dim))
         placed, used, status = rsa(cand, radii, float(length), bool(periodic), pos, placed,

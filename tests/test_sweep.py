@@ -97,18 +97,24 @@ def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
 
 
 def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
-    """A run that raises inside the worker (an engine the runner does not know) fails alone."""
+    """A run that raises inside the worker fails alone: random placement asked for beyond
+    its jamming density (2D, packing 0.6 > 0.547) passes validation and gives up on the worker."""
+    import math
+
     db = str(tmp_path / "sweep.db")
 
     def broken_or_not(overrides):
         scene = scene_of(overrides)
-        return replace(scene, engine="warp") if overrides["n"] == 20 else scene
+        if overrides["n"] != 20:
+            return scene
+        jammed = math.sqrt(20 * math.pi * BUILTIN["Ar"].radius ** 2 / 0.6)
+        return replace(scene, placement="rejection", length=jammed)
 
     report = sweep.run(sweep.plan([("n", [10, 20])], seeds=1, base_seed=3), broken_or_not, key_of,
                        db, scheduler=cluster, progress=False)
     status = {p.overrides()["n"]: (s, why) for p, s, _, why in report.rows}
     assert status[10][0] == "stored"
-    assert status[20][0] == "failed" and "warp" in status[20][1] and "\n" not in status[20][1]
+    assert status[20][0] == "failed" and "placement stuck" in status[20][1] and "\n" not in status[20][1]
 
 
 def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
