@@ -52,19 +52,23 @@ def test_auto_picks_a_step_from_the_mean_free_time():
 
 
 def test_a_tiny_run_loads_no_compiled_engine():
-    """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code;
-    the process imports neither the event engine nor pandas, SQLAlchemy, matplotlib, h5py."""
+    """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code:
+    no event loop is built, no placement kernel compiled or loaded (Numba's public
+    ``signatures``), and the process imports neither pandas, SQLAlchemy, matplotlib, h5py nor dask."""
     import subprocess
     import sys
 
     code = ("import sys\nfrom gaz_cli.cli import main\n"
             "try:\n    main(['simulate', '--dim', '3', '--n', '100', '--length', '1e-8', '--duration', '1e-12',"
             " '--seed', '1', '--no-db', '--json'])\nexcept SystemExit:\n    pass\n"
-            "heavy = ('gaz_cli.engine', 'pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask')\n"
-            "print(sorted(m for m in heavy if m in sys.modules), file=sys.stderr)")
+            "from gaz_cli import placement\n"
+            "loop = sys.modules.get('gaz_cli.engine.loop')\n"
+            "built = loop.build.cache_info().currsize if loop else 0\n"
+            "heavy = ('pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask')\n"
+            "print(sorted(m for m in heavy if m in sys.modules), built, len(placement._rsa.signatures), file=sys.stderr)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert '"engine": "reference"' in out.stdout, out.stdout + out.stderr
-    assert out.stderr.strip().splitlines()[-1] == "[]", out.stderr
+    assert out.stderr.strip().splitlines()[-1] == "[] 0 0", out.stderr
 
 
 def test_a_tiny_run_places_as_the_compiled_kernel_does():
