@@ -299,6 +299,12 @@ PRESSURE_UNIT = {1: "N", 2: "N/m", 3: "Pa"}
 """A 'pressure' is a force per wall measure L^(D-1): N in 1D, N/m in 2D, Pa in 3D."""
 
 
+
+def _only_row(store, table, si_num: int):
+    """The one row of a per-simulation table (SCENE, RESULTAT) as a Series, or None if absent."""
+    frame = store.table(table, si_num)
+    return frame.iloc[0] if len(frame) else None
+
 def load_run(store, si_num: int) -> Run:
     """One simulation: its scene, results, and its bounces and collisions summed per time bin in SQL."""
     from gaz_cli import store as st
@@ -317,16 +323,14 @@ def load_run(store, si_num: int) -> Run:
         species = pd.DataFrame(columns=["PA_NUM", "NAME", "MASS_KG", "RADIUS_M", "COUNT", "RANK"])
     run = Run(si_num=int(si_num), dim=int(sim.SI_DIM), n=int(sim.SI_N), length=float(sim.SI_L),
               duration=float(sim.SI_DUR), species=species, store=store)
-    scene = store.table(st.scene_table, si_num)
-    if len(scene):
-        sc = scene.iloc[0]
+    sc = _only_row(store, st.scene_table, si_num)
+    if sc is not None:
         run.boundary, run.engine = str(sc.SC_BOUNDARY), str(sc.SC_ENGINE)
         run.gravity, run.restitution = float(sc.SC_GRAVITY), float(sc.SC_RESTITUTION)
         run.wall_restitution = float(sc.SC_WALL_RESTITUTION)
         run.tc, run.temperature, run.record = float(sc.SC_TC), float(sc.SC_TEMPERATURE), str(sc.SC_RECORD)
-    res = store.table(st.resultat, si_num)
-    if len(res):
-        rs = res.iloc[0]
+    rs = _only_row(store, st.resultat, si_num)
+    if rs is not None:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)

@@ -189,12 +189,7 @@ def ideal_wall_pressure(dim: int, length, temperature, counts, radii):
     entry per species (or scalars); ``length`` (m) and ``temperature`` (K)
     may be arrays.
     """
-    dim = _dim(dim)
-    length = _positive("box length", length, "m")
-    kt = K_B * _positive("temperature", temperature, "K")
-    c, r = _species(counts, radii)
-    if not np.all(length > 2.0 * r.max()):
-        raise SceneError("box length must exceed every particle diameter")
+    dim, length, kt, c, r = _box_gas(dim, length, temperature, counts, radii)
     total = sum(ns * kt / (length - 2.0 * rs) for ns, rs in zip(c, r))
     return _out(total / length ** (dim - 1))
 
@@ -207,13 +202,20 @@ def ideal_accessible_pressure(dim: int, length, temperature, counts, radii):
     times (L/(L - 2R))^(D-1). Meaningful for one species (with several, each
     has its own accessible area). Not what the SQL pressure measures.
     """
+    dim, length, kt, c, r = _box_gas(dim, length, temperature, counts, radii)
+    return _out(sum(ns * kt / (length - 2.0 * rs) ** dim for ns, rs in zip(c, r)))
+
+
+def _box_gas(dim, length, temperature, counts, radii):
+    """The checked arguments of a gas in a box: dim, L (m), k_B T (J), counts and radii per
+    species; SceneError unless every particle fits (L > 2R)."""
     dim = _dim(dim)
     length = _positive("box length", length, "m")
     kt = K_B * _positive("temperature", temperature, "K")
     c, r = _species(counts, radii)
     if not np.all(length > 2.0 * r.max()):
         raise SceneError("box length must exceed every particle diameter")
-    return _out(sum(ns * kt / (length - 2.0 * rs) ** dim for ns, rs in zip(c, r)))
+    return dim, length, kt, c, r
 
 
 def tonks_pressure(length, temperature, counts, radii):
