@@ -287,12 +287,14 @@ def _why(exc: BaseException | None) -> str:
 
 
 def _running(client, pending) -> int:
-    """How many of the pending runs a worker is processing now."""
+    """How many of the pending runs are running now: those the scheduler has handed to a
+    worker, at most one per worker thread (a worker also holds the next ones in line)."""
     try:
         busy = {key for keys in client.processing().values() for key in keys}
+        threads = sum(client.nthreads().values())
     except Exception:  # the scheduler did not answer in time: the bar shows 0 for a tick
         return 0
-    return sum(1 for f in pending if f.key in busy)
+    return min(sum(1 for f in pending if f.key in busy), threads)
 
 
 class _client:
