@@ -17,6 +17,7 @@ import warnings
 import click
 
 from gaz_cli import __version__
+from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import GazError, GazWarning
 
 FORMATS = ("table", "csv", "json")
@@ -178,7 +179,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @seed_option
 @db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--no-db", is_flag=True, help="Write no database (summary only).")
-@click.option("--engine", type=click.Choice(["auto", "event", "ideal", "reference", "step"]), default=None,
+@click.option("--engine", type=click.Choice(ENGINE_CHOICES), default=None,
               help="auto: the cheapest exact path for the scene, named with its reason in the summary "
                    "(ideal when no two particles can meet, step for drag, pair gravity, planes or damped "
                    "walls, event otherwise); event: fast exact event-driven engine; ideal: closed-form "

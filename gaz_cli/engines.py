@@ -21,7 +21,6 @@ The choice and its reason go to the run's summary (``engine``, ``engine_reason``
 from __future__ import annotations
 
 import importlib
-import math
 from dataclasses import replace
 
 from gaz_cli.errors import SceneError
@@ -90,10 +89,10 @@ def choose(scene):
 
 def _tiny_work(scene) -> float | None:
     """Events x particles of a run the reference engine can take, if at most TINY_WORK; else None."""
-    if scene.boundary != "walls" or scene.gravity != 0.0 or scene.restitution != 1.0 or scene.initial:
-        return None
-    from gaz_cli.scene import work_estimate
+    from gaz_cli.scene import reference_refusal, work_estimate
 
+    if reference_refusal(scene) is not None or scene.initial:
+        return None
     try:
         work = float(work_estimate(scene)["events"]) * scene.n
     except Exception:  # noqa: BLE001 - an estimate that fails only means "not tiny"

@@ -634,16 +634,13 @@ _CHUNK = 8192
 
 def _check_scene(scene) -> None:
     """SceneError unless the scene is the exam's: hard elastic walls, no force."""
-    why = None
-    if scene.boundary != "walls":
-        why = f"--boundary {scene.boundary}"
-    elif scene.gravity != 0.0:
-        why = f"--gravity {scene.gravity:g}"
-    elif scene.restitution != 1.0:
-        why = f"--restitution {scene.restitution:g}"
+    from gaz_cli.scene import reference_refusal
+
+    why = reference_refusal(scene)  # "`boundary` periodic": the same test as scene.validate's
     if why is not None:
+        flag = why.replace("`", "--", 1).replace("`", "")
         raise SceneError(f"--engine reference (the exam's algorithm) handles hard elastic walls "
-                         f"without gravity only, not {why}; use --engine event")
+                         f"without gravity only, not {flag}; use --engine event")
     if scene.drag != 0.0 or scene.pair_gravity != 0.0 or scene.planes or scene.wall_restitution != 1.0:
         raise SceneError("--engine reference handles free flight between hard elastic walls only "
                          "(no drag, pair gravity, extra planes or damped walls); use --engine step")

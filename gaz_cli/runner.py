@@ -27,7 +27,7 @@ from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import MemoryRecorder, Recorder, RunStats
 from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
-from gaz_cli.engines import ENGINES, engine_run  # noqa: F401 (re-exported)
+from gaz_cli.engines import engine_run
 
 
 class Tee(Recorder):

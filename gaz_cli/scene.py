@@ -18,14 +18,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gaz_cli.constants import K_B
+from gaz_cli.engines import CHOICES as ENGINES  # what `engine` may say; validate resolves "auto"
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, ball_volume, packing_fraction  # noqa: F401 (re-exported)
 from gaz_cli.species import Species
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
-ENGINES = ("auto", "event", "ideal", "reference", "step")
-"""What `engine` may say; validate resolves "auto" to one of the others (:mod:`gaz_cli.engines`)."""
 PLACEMENTS = ("auto", "rejection", "rapid", "lattice", "grow")
 """Placement methods (gaz_cli.placement.METHODS; placement is not imported here)."""
 INITIAL_KINDS = ("explicit", "upper-half")
@@ -310,6 +309,26 @@ def _resolve_engine(scene: Scene) -> Scene:
                                    "engine_auto": scene.engine == "auto"})
 
 
+def reference_refusal(scene: Scene) -> str | None:
+    """What the reference engine (the exam's algorithm: hard elastic walls, no gravity) cannot
+    take in ``scene``, as a marked field and value (`boundary` periodic), or None."""
+    if scene.boundary != "walls":
+        return f"`boundary` {scene.boundary}"
+    if scene.gravity != 0.0:
+        return f"`gravity` {scene.gravity:g}"
+    if scene.restitution != 1.0:
+        return f"`restitution` {scene.restitution:g}"
+    return None
+
+
+def check_reference_scene(scene: Scene) -> None:
+    """SceneError (fields named) unless the reference engine can run ``scene``."""
+    why = reference_refusal(scene)
+    if why is not None:
+        raise field_error(f"`engine` reference (the exam's algorithm) handles hard elastic walls "
+                          f"without gravity only, not {why}; use `engine` event")
+
+
 def _check_engine_options(scene: Scene) -> None:
     """The step engine's options: in range with ``engine = "step"``, absent otherwise."""
     if scene.engine != "step":
@@ -338,16 +357,7 @@ def _check_engine_options(scene: Scene) -> None:
         for plane in scene.planes:
             check_plane(plane, scene.dim)
     if scene.engine == "reference":
-        why = None
-        if scene.boundary != "walls":
-            why = f"`boundary` {scene.boundary}"
-        elif scene.gravity != 0.0:
-            why = f"`gravity` {scene.gravity:g}"
-        elif scene.restitution != 1.0:
-            why = f"`restitution` {scene.restitution:g}"
-        if why is not None:
-            raise field_error(f"`engine` reference (the exam's algorithm) handles hard elastic walls "
-                              f"without gravity only, not {why}; use `engine` event")
+        check_reference_scene(scene)
     if scene.engine == "event" and scene.boundary == "periodic" and scene.n > 1:
         rmax = max(sp.radius for sp, _ in scene.components)
         if rmax > 0 and 4.0 * rmax >= scene.length:

@@ -34,6 +34,7 @@ from dataclasses import fields, replace
 from importlib import resources
 from pathlib import Path
 
+from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import packing_fraction
 from gaz_cli.scene import Scene, default_tc, field_error, validate
@@ -58,7 +59,7 @@ SCALARS = {
     "gravity": (REAL, "m/s^2, towards 0 along the last axis"),
     "restitution": (REAL, "particle collisions, 1 = elastic"),
     "tc": (REAL, "s, TC-model contact time"),
-    "engine": (STR, "auto | event | ideal | reference | step"),
+    "engine": (STR, " | ".join(ENGINE_CHOICES)),
     "placement": (STR, "auto | rejection | rapid | lattice | grow"),
     "record": (STR, "none | bounces | all"),
     "force": (BOOL, "run beyond the work bounds"),
