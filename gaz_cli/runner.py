@@ -175,9 +175,6 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_writable(trajectory, "--trajectory")
     _check_writable(write_scene, "--write-scene")
     check_outputs(scene, trajectory, every)
-    if trajectory:
-        from gaz_cli.trajectory import check_frames
-        check_frames(scene, every)
     if write_scene:
         from gaz_cli import scenefile
 

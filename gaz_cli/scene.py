@@ -57,8 +57,9 @@ MAX_STEP_WORK = 1e11
 MAX_REFERENCE_WORK = 1e10
 """Reference engine (pure Python, every event shifts every particle's catalogue): largest
 events x particles run without --force."""
-MAX_SNAPSHOTS = 1e6
-"""Largest number of trajectory snapshots written without --force."""
+MAX_SNAPSHOTS = 10_000
+"""Most trajectory snapshots written without `force` (a run of 10^6 particles at that
+is 0.5 TB of H5MD)."""
 BYTES_PER_PARTICLE = {"event": 480, "step": 370, "reference": 700, "ideal": 200, "place": 90}
 """Peak memory per particle of a run (placement, state and the engine's arrays), bytes.
 
@@ -677,8 +678,9 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
 
     suffix = os.path.splitext(str(trajectory))[1].lower()
     if suffix not in FORMATS:
+        known = ", ".join(sorted(FORMATS))
         raise field_error(f"`trajectory` {str(trajectory)!r}: unknown extension {suffix!r}; "
-                         "use .h5 (HDF5/H5MD) or .pvd (VTK for ParaView)")
+                          f"use one of {known} (.h5: HDF5/H5MD, .gsd: HOOMD, .pvd: VTK for ParaView)")
     if scene.engine == "reference":
         raise field_error("`engine` reference (the exam's algorithm) writes no trajectory; "
                           "use `engine` event with `trajectory`")
@@ -690,9 +692,10 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     if scene.force:
         return
     if snapshots > MAX_SNAPSHOTS:
-        raise field_error(f"`every` {every:g} s over `duration` {scene.duration:g} s makes {snapshots:.3g} "
-                         f"snapshots, more than the {MAX_SNAPSHOTS:.0e} allowed without `force`; raise "
-                         "`every`, or add `force` to write them anyway")
+        least = scene.duration / (MAX_SNAPSHOTS - 1)
+        raise field_error(f"`every` {every:g} s over `duration` {scene.duration:g} s makes {snapshots:,} "
+                          f"snapshots, more than {MAX_SNAPSHOTS:,}; use `every` {least:.3g} or more, "
+                          "or add `force` to write them all")
     size = snapshots * scene.n * scene.dim * 16.0
     try:
         import shutil

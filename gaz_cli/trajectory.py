@@ -4,7 +4,8 @@
 :class:`~gaz_cli.recording.Recorder` that takes only snapshots
 (``snapshot_every`` = the requested interval); every engine calls its
 ``add_snapshot(t, positions, velocities)`` at t = 0, every, 2 every, ...
-At most :data:`MAX_FRAMES` snapshots without ``--force`` (:func:`check_frames`).
+At most :data:`gaz_cli.scene.MAX_SNAPSHOTS` snapshots without ``--force`` (checked by
+:func:`gaz_cli.scene.check_outputs`, the one door).
 The format follows the file's extension; :func:`read_trajectory` reads each back
 (``gaz animate`` draws any of them).
 
@@ -69,10 +70,6 @@ from gaz_cli.scene import Scene
 FORMATS = {".h5": "h5md", ".hdf5": "h5md", ".gsd": "gsd", ".pvd": "vtk", ".vtu": "vtk"}
 """File extension -> format."""
 
-MAX_FRAMES = 10_000
-"""Most snapshots a trajectory gets without --force (a run of 10^6 particles at that
-is 0.5 TB of H5MD)."""
-
 NM, PS = 1e-9, 1e-12
 """The files' units of length and time (nanometre, picosecond), in metres and seconds."""
 
@@ -82,19 +79,6 @@ DALTON = 1.66053906660e-27
 _LENGTH = {"m": 1.0, "nm": NM, "pm": 1e-12, "fm": 1e-15, "Angstrom": 1e-10, "A": 1e-10, "angstrom": 1e-10}
 _TIME = {"s": 1.0, "ps": PS, "fs": 1e-15, "ns": 1e-9}
 """Unit strings gaz reads back (files of older gaz versions were in m and s)."""
-
-
-def check_frames(scene: Scene, every: float | None) -> None:
-    """Refuse a trajectory of more than MAX_FRAMES snapshots (unless ``scene.force``),
-    naming the smallest --every that fits."""
-    if every is None or not np.isfinite(every) or every <= 0 or scene.force:
-        return
-    frames = int(np.floor(scene.duration / every)) + 1
-    if frames > MAX_FRAMES:
-        least = scene.duration / (MAX_FRAMES - 1)
-        raise SceneError(f"--every {every:g} s over --duration {scene.duration:g} s makes {frames:,} "
-                         f"snapshots, more than {MAX_FRAMES:,}; use --every {least:.3g} or more, "
-                         "or add --force to write them all")
 
 
 def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> "TrajectoryWriter":

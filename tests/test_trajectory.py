@@ -13,7 +13,8 @@ from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.recording import MemoryRecorder
 from gaz_cli.scene import Scene, State
 from gaz_cli.species import Species
-from gaz_cli.trajectory import MAX_FRAMES, check_frames, open_trajectory, read_h5md, read_trajectory
+from gaz_cli.scene import MAX_SNAPSHOTS, check_outputs
+from gaz_cli.trajectory import open_trajectory, read_h5md, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
 
@@ -250,13 +251,26 @@ def test_missing_gsd_names_the_extra(tmp_path, monkeypatch):
         open_trajectory(tmp_path / "run.gsd", 0.05, small_scene())
 
 
-def test_more_than_max_frames_is_refused_naming_the_fix():
+def test_more_than_max_snapshots_is_refused_naming_the_fix(tmp_path):
     sc = small_scene()  # duration 0.1 s
-    check_frames(sc, 0.1 / (MAX_FRAMES - 1))  # exactly MAX_FRAMES snapshots
-    with pytest.raises(SceneError, match=r"makes 10,001 snapshots, more than 10,000; use --every 1e-05 "
-                                         r"or more, or add --force"):
-        check_frames(sc, 0.1 / MAX_FRAMES)
-    check_frames(replace(sc, force=True), 0.1 / MAX_FRAMES)
+    out = tmp_path / "run.h5"
+    check_outputs(sc, out, 0.1 / (MAX_SNAPSHOTS - 1))  # exactly MAX_SNAPSHOTS snapshots
+    with pytest.raises(SceneError, match=r"makes 10,001 snapshots, more than 10,000; use every 1e-05 "
+                                         r"or more, or add force"):
+        check_outputs(sc, out, 0.1 / MAX_SNAPSHOTS)
+    check_outputs(replace(sc, force=True), out, 0.1 / MAX_SNAPSHOTS)
+
+
+def test_cli_names_the_flags_and_every_format(tmp_path):
+    from cli_helpers import invoke
+
+    base = ["simulate", "--n", "5", "--dim", "2", "--length", "1e-7", "--duration", "0.1", "--no-db"]
+    res = invoke(base + ["--trajectory", str(tmp_path / "a.h5"), "--every", "1e-6"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1
+    assert "--every 1e-05 or more" in res.stderr and "--force" in res.stderr
+    res = invoke(base + ["--trajectory", str(tmp_path / "a.xyz"), "--every", "0.01"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1
+    assert all(ext in res.stderr for ext in (".h5", ".gsd", ".pvd"))
 
 
 # --- a full disk ------------------------------------------------------------------------
