@@ -49,7 +49,7 @@ import numpy as np
 
 from gaz_cli import engine
 from gaz_cli.engine import kernels as K
-from gaz_cli.engine.driver import _alloc
+from gaz_cli.engine.memory import _alloc
 from gaz_cli.constants import K_B
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, initial_state

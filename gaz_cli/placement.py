@@ -536,6 +536,22 @@ def _ls_predict(i, t, x, v, ts, R, cnt, cc, head, nxt, edges, nc, L, periodic, g
 
 
 @njit
+def _ls_to(x, v, ts, k, t):
+    """Particle k moved along its straight path from its stamp ts[k] to time t."""
+    dt = t - ts[k]
+    for d in range(x.shape[1]):
+        x[k, d] += v[k, d] * dt
+    ts[k] = t
+
+
+@njit
+def _ls_all_to(x, v, ts, t):
+    """Every particle moved along its straight path to time t."""
+    for k in range(x.shape[0]):
+        _ls_to(x, v, ts, k, t)
+
+
+@njit
 def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
     """Lubachevsky-Stillinger growth, event by event (cells of side >= the final largest diameter).
 
@@ -585,11 +601,7 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
     while True:
         if fresh:
             # (re)start: every row at time t, every event predicted
-            for k in range(n):
-                dt = t - ts[k]
-                for d in range(dim):
-                    x[k, d] += v[k, d] * dt
-                ts[k] = t
+            _ls_all_to(x, v, ts, t)
             hsize = 0
             for k in range(n):
                 tk, kind, what, pc = _ls_predict(k, t, x, v, ts, R, cnt, cc, head, nxt, edges,
@@ -612,20 +624,14 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
         movers = 1
         j = -1
         # advance i
-        dt = t - ts[i]
-        for d in range(dim):
-            x[i, d] += v[i, d] * dt
-        ts[i] = t
+        _ls_to(x, v, ts, i, t)
         if ekind[i] == 0:
             j = ewhat[i]
             if cnt[j] != epc[i]:
                 j = -1
             else:
                 movers = 2
-                dt = t - ts[j]
-                for d in range(dim):
-                    x[j, d] += v[j, d] * dt
-                ts[j] = t
+                _ls_to(x, v, ts, j, t)
                 r2 = 0.0
                 un = 0.0
                 dxs = np.empty(3)
@@ -694,11 +700,7 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
                     head[cell] = i
         if rescale_every > 0 and events % rescale_every == 0:
             # everybody to now at the old speeds, then the new speeds
-            for k in range(n):
-                dt = t - ts[k]
-                for d in range(dim):
-                    x[k, d] += v[k, d] * dt
-                ts[k] = t
+            _ls_all_to(x, v, ts, t)
             s2 = 0.0
             for k in range(n):
                 for d in range(dim):
@@ -719,11 +721,7 @@ def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
             epc[p] = pc
             hsize = _heap_remove(hk, hi, hq, hsize, hq[p, HP])
             hsize = _heap_push(hk, hi, hq, hsize, tk, p)
-    for k in range(n):
-        dt = t - ts[k]
-        for d in range(dim):
-            x[k, d] += v[k, d] * dt
-        ts[k] = t
+    _ls_all_to(x, v, ts, t)
     return 0, gamma * t, events
 
 

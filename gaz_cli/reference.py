@@ -60,6 +60,7 @@ checked and benchmarked against it.
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 import time
 
@@ -69,7 +70,7 @@ from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.geometry import DENSEST, packing_fraction
-from gaz_cli.scene import State
+from gaz_cli.scene import State, _check_engine_options, reference_refusal
 from gaz_cli.species import BUILTIN
 
 MAX_RESTARTS = 10_000
@@ -633,17 +634,20 @@ _CHUNK = 8192
 
 
 def _check_scene(scene) -> None:
-    """SceneError unless the scene is the exam's: hard elastic walls, no force."""
-    from gaz_cli.scene import reference_refusal
-
-    why = reference_refusal(scene)  # "`boundary` periodic": the same test as scene.validate's
+    """SceneError unless the scene is the exam's: hard elastic walls, no force. The tests are
+    scene.validate's for ``engine = "reference"`` (whatever engine the scene names); the
+    messages name the CLI's flags, as this engine's callers expect."""
+    why = reference_refusal(scene)  # "`boundary` periodic"
     if why is not None:
         flag = why.replace("`", "--", 1).replace("`", "")
         raise SceneError(f"--engine reference (the exam's algorithm) handles hard elastic walls "
                          f"without gravity only, not {flag}; use --engine event")
-    if scene.drag != 0.0 or scene.pair_gravity != 0.0 or scene.planes or scene.wall_restitution != 1.0:
+    try:
+        _check_engine_options(dataclasses.replace(scene, engine="reference"))
+    except SceneError:  # a step engine's option (drag, pair gravity, planes, damped walls...)
         raise SceneError("--engine reference handles free flight between hard elastic walls only "
-                         "(no drag, pair gravity, extra planes or damped walls); use --engine step")
+                         "(no drag, pair gravity, extra planes or damped walls); use --engine step"
+                         ) from None
 
 
 def run(scene, state: State, recorder: Recorder | None = None) -> RunStats:

@@ -10,7 +10,7 @@ import pytest
 from gaz_cli import reference
 from gaz_cli.engine.calendar import (_build_queue, _heap_remove, _next_bucket, _q_insert,
                                      _q_remove)
-from gaz_cli.engine.layout import F_IW, FS_SIZE, IS_SIZE, NONE, QB, S_CUR, S_HSIZE, S_NBK, S_OHEAD
+from gaz_cli.engine.layout import NONE, QB, STATE
 
 
 class Calendar:
@@ -24,12 +24,12 @@ class Calendar:
         self.Q[:, QB] = NONE
         self.HK, self.HI = np.zeros(n), np.zeros(n, dtype=np.int64)
         self.BH = np.full(nbk, -1, dtype=np.int64)
-        IS, FS = np.zeros(IS_SIZE, dtype=np.int64), np.zeros(FS_SIZE)
-        IS[S_NBK], FS[F_IW] = nbk, 1.0 / width
-        IS[S_CUR] = 0
-        _build_queue(self.EV, self.Q, self.HK, self.HI, self.BH, IS, FS)
-        self.cur, self.nbk, self.iw = int(IS[S_CUR]), nbk, 1.0 / width
-        self.hsize, self.ohead = int(IS[S_HSIZE]), int(IS[S_OHEAD])
+        S = np.zeros(1, STATE)
+        st = S[0]
+        st["nbk"], st["iw"], st["cur"] = nbk, 1.0 / width, 0
+        _build_queue(self.EV, self.Q, self.HK, self.HI, self.BH, S)
+        self.cur, self.nbk, self.iw = int(st["cur"]), nbk, 1.0 / width
+        self.hsize, self.ohead = int(st["hsize"]), int(st["ohead"])
 
     def pop(self, t_stop):
         if self.hsize == 0:

@@ -15,7 +15,7 @@ import pytest
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver
+from gaz_cli.engine import driver, guards
 from gaz_cli.errors import EngineError
 from gaz_cli.recording import MemoryRecorder, Recorder
 from gaz_cli.scene import Scene, State, initial_state
@@ -100,7 +100,7 @@ def test_a_settled_inelastic_bed_ends_with_the_time_reached(small_chunks, monkey
     each collides every contact time: simulated time crawls. The run ends with an EngineError
     naming the time reached and how many events the rest would take (the engine's limit,
     2e9 events, lowered here to keep the test short)."""
-    monkeypatch.setattr(driver, "MAX_PROJECTED_EVENTS", 2e7)
+    monkeypatch.setattr(guards, "MAX_PROJECTED_EVENTS", 2e7)
     scene = unit_scene(2, 200, 0.2, duration=100.0, restitution=0.5, gravity=10.0, tc=1e-5)
     with pytest.raises(EngineError, match=r"slowed down at t = .* of 100 s"):
         engine.run(scene, initial_state(scene), Bounded(limit=40_000_000))

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from gaz_cli import engine
-from gaz_cli.engine import driver
+from gaz_cli.engine import driver, memory, sizing
 from gaz_cli.engine import kernels as K
 from gaz_cli.recording import MemoryRecorder
 from gaz_cli.scene import initial_state
@@ -76,8 +76,8 @@ def test_the_calendar_shape_changes_no_event(make_scene, monkeypatch, buckets, p
     scene = make_scene(dim=3, n=400, packing=0.3, duration=0.2, seed=7, boundary="walls")
     state = initial_state(scene)
     plain, cp, bp = _run(scene, state)
-    monkeypatch.setattr(driver, "MAX_BUCKETS", buckets)
-    monkeypatch.setattr(driver, "EVENTS_PER_BUCKET", per_bucket)
+    monkeypatch.setattr(sizing, "MAX_BUCKETS", buckets)
+    monkeypatch.setattr(sizing, "EVENTS_PER_BUCKET", per_bucket)
     other, co, bo = _run(scene, state)
     assert (other.extras["buckets"] < plain.extras["buckets"]) == (buckets == 16)
     assert other.extras["buckets"] != plain.extras["buckets"]
@@ -109,9 +109,9 @@ def test_restarts_and_full_cells_keep_the_events(make_scene, monkeypatch, forced
         monkeypatch.setattr(driver, "RESTART_EVERY", 1)
     else:
         # big cells (about 6 particles each) with no room to spare
-        monkeypatch.setattr(driver, "CELLS_PER_PARTICLE", 0.1)
-        monkeypatch.setattr(driver, "_cell_capacity", lambda per_cell: 1)
-        monkeypatch.setattr(driver, "_cell_width", lambda cap: max(cap + 1, K.GATHER_SLOTS + 1))
+        monkeypatch.setattr(sizing, "CELLS_PER_PARTICLE", 0.1)
+        monkeypatch.setattr(sizing, "_cell_capacity", lambda per_cell: 1)
+        monkeypatch.setattr(sizing, "_cell_width", lambda cap: max(cap + 1, K.GATHER_SLOTS + 1))
     forced_run, cf, bf = _run(scene, state)
     assert plain.extras["restarts"] == 0 and plain.extras["cell_growths"] == 0
     if forced.startswith("restarts"):
@@ -149,16 +149,16 @@ def test_restarts_and_full_cells_keep_the_events(make_scene, monkeypatch, forced
 
 
 def test_large_arrays_sit_on_huge_page_boundaries():
-    small = driver._alloc((10, 3), np.int32, fill=7)
-    big = driver._alloc((40_000, 8), fill=-1.5)
+    small = memory._alloc((10, 3), np.int32, fill=7)
+    big = memory._alloc((40_000, 8), fill=-1.5)
     assert small.shape == (10, 3) and small.dtype == np.int32 and np.all(small == 7)
     assert big.shape == (40_000, 8) and big.dtype == np.float64 and np.all(big == -1.5)
-    assert big.flags.c_contiguous and big.ctypes.data % driver.HUGE_PAGE == 0
+    assert big.flags.c_contiguous and big.ctypes.data % memory.HUGE_PAGE == 0
 
 
 def test_z_order_keeps_blocks_of_cells_together():
     c = np.array([[i, j, k] for i in range(4) for j in range(4) for k in range(4)])
-    key = driver._morton(c)
+    key = memory._morton(c)
     assert np.array_equal(np.sort(key), np.arange(64))
     # every aligned 2x2x2 block of cells is a run of 8 consecutive keys
     block = (c // 2) @ np.array([4, 2, 1])

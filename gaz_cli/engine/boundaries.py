@@ -111,6 +111,17 @@ def _nearest(dx, L):
 
 
 @_inline
+def _nearest_near(dx, L, hl):
+    """The periodic image of a separation dx nearest to 0, for |dx| < 3 L / 2 (hl = L / 2):
+    one shift by L at most (no division)."""
+    if dx > hl:
+        return dx - L
+    if dx < -hl:
+        return dx + L
+    return dx
+
+
+@_inline
 def _bounce(P, k, d, up, L):
     """Particle k bounces off the wall across axis d (the upper one if up): its centre is put
     exactly on the wall plane, its velocity along d reflected."""

@@ -11,13 +11,13 @@ from __future__ import annotations
 import numpy as np
 
 from gaz_cli.engine.intrinsics import _helper
-from gaz_cli.engine.layout import (F_IW, HEAP, HP, INF, KEY, NONE, OVER, QB, QN, QP, S_CUR,
-                                   S_HSIZE, S_NBK, S_OHEAD)
+from gaz_cli.engine.layout import HEAP, HP, INF, KEY, NONE, OVER, QB, QN, QP
 from gaz_cli.numba_config import njit
 
 @_helper
-def _heap_push(HK, HI, Q, hsize, key, k):
-    i = hsize
+def _sift_up(HK, HI, Q, i, key):
+    """Where a key goes at or above heap position i: the parents above it moved down one
+    level (their links in Q too); returns the position left free for it."""
     while i > 0:
         p = (i - 1) >> 1
         if HK[p] <= key:
@@ -26,6 +26,13 @@ def _heap_push(HK, HI, Q, hsize, key, k):
         HI[i] = HI[p]
         Q[HI[i], HP] = i
         i = p
+    return i
+
+
+@_helper
+def _heap_push(HK, HI, Q, hsize, key, k):
+    """Particle k into the heap under key; returns the new size."""
+    i = _sift_up(HK, HI, Q, hsize, key)
     HK[i] = key
     HI[i] = k
     Q[k, HP] = i
@@ -40,17 +47,9 @@ def _heap_remove(HK, HI, Q, hsize, i):
     if i < hsize:
         key = HK[hsize]
         k = HI[hsize]
-        moved = False
-        while i > 0:
-            p = (i - 1) >> 1
-            if HK[p] <= key:
-                break
-            HK[i] = HK[p]
-            HI[i] = HI[p]
-            Q[HI[i], HP] = i
-            i = p
-            moved = True
-        if not moved:
+        at = i
+        i = _sift_up(HK, HI, Q, i, key)
+        if i == at:
             while True:
                 c = 2 * i + 1
                 if c >= hsize:
@@ -152,16 +151,18 @@ def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
 
 
 @njit
-def _build_queue(EV, Q, HK, HI, BH, IS, FS):
-    """(Re)build the calendar from the keys EV[:, KEY], current bucket IS[S_CUR]."""
+def _build_queue(EV, Q, HK, HI, BH, S):
+    """(Re)build the calendar from the keys EV[:, KEY]: current bucket, bucket count and
+    width from the loop's state S (a STATE record), where the heap size and overflow head go."""
+    st = S[0]
     n = EV.shape[0]
     BH[:] = -1
-    cur = IS[S_CUR]
-    nbk = IS[S_NBK]
-    iw = FS[F_IW]
+    cur = st.cur
+    nbk = st.nbk
+    iw = st.iw
     hsize = 0
     ohead = -1
     for k in range(n):
         hsize, ohead = _q_insert(Q, HK, HI, BH, k, EV[k, KEY], cur, nbk, iw, hsize, ohead)
-    IS[S_HSIZE] = hsize
-    IS[S_OHEAD] = ohead
+    st.hsize = hsize
+    st.ohead = ohead

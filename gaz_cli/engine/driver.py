@@ -27,9 +27,15 @@ import time
 
 import numpy as np
 
-from gaz_cli.engine import kernels as K
-from gaz_cli.engine.layout import Tables
-from gaz_cli.engine.memory import HUGE_PAGE, _alloc, _morton  # noqa: F401 (HUGE_PAGE: tests)
+from gaz_cli.engine import sizing
+from gaz_cli.engine.calendar import _build_queue
+from gaz_cli.engine.dynamics import _state_at
+from gaz_cli.engine.guards import RunawayGuard
+from gaz_cli.engine.layout import (BUFFER_FULL, CELL_FULL, DONE, KEY, NL_FULL, NONE, PAUSE, QB,
+                                   STATE, Tables)
+from gaz_cli.engine.loop import build
+from gaz_cli.engine.memory import _alloc
+from gaz_cli.engine.rows import Rows
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.progress import EVENTS_PER_REPORT
 from gaz_cli.recording import Recorder, RunStats
@@ -37,26 +43,6 @@ from gaz_cli.scene import Scene, State
 
 BUFFER_ROWS = 1 << 16
 """Rows of each record buffer (bounces, collisions): memory stays bounded on any run."""
-
-CELLS_PER_PARTICLE = 2.0
-"""At most this many cells per particle (dilute gases); cells stay at least one diameter wide."""
-
-EVENTS_PER_BUCKET = 4.0
-"""Calendar tuning: mean number of events per bucket of the calendar."""
-
-MAX_BUCKETS = 1 << 13
-"""Calendar tuning: at most this many buckets (their heads, 64 KB, stay in the cache; larger
-systems get wider buckets, hence more events a bucket). Every event inserts into a bucket
-at random: with one bucket per particle, as EVENTS_PER_BUCKET alone gives, each insertion
-of a system of 10^5-10^6 particles missed the cache (measured: 12% of the event loop's
-time at 10^6; capped, 10^5 and 10^6 run 11-12% faster, 10^4 the same)."""
-
-NEIGHBOUR_SKIN = 0.25
-"""Neighbour lists: a particle may move this many largest diameters from its list's centre."""
-
-NEIGHBOUR_LIST_FROM = {2: 0.55, 3: 0.33}
-"""'auto' uses neighbour lists from this packing fraction on (cell crossings below);
-crossovers measured on periodic fluids of N = 4000 with each search forced."""
 
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
@@ -71,24 +57,6 @@ cost more than they save)."""
 FIRST_CHUNK = 50_000
 CHUNK = 1 << 22
 """Events per kernel call between two checks of the calendar's tuning."""
-
-STALL_CHUNKS = 3
-STALL_RATE = 1e7
-"""Runaway guard, checked every chunk of events whatever ended the kernel call (a full record
-buffer, a snapshot, the chunk's budget): STALL_CHUNKS chunks in a row whose event rate (events
-per simulated second) exceeds STALL_RATE times the reference rate (that of the first chunk
-during which simulated time moved), or during which simulated time does not move at all,
-end the run with an EngineError instead of a hang."""
-
-SLOW_RATE = 100.0
-MAX_PROJECTED_EVENTS = 2e9
-"""Slow-down guard for inelastic scenes: once the event rate exceeds SLOW_RATE times the
-reference rate and, at that rate, the simulated time left would take more than
-MAX_PROJECTED_EVENTS events (20-40 minutes of this engine at 1-2 million events per second),
-the run ends with an EngineError naming the simulated time reached. A granular bed that
-has settled under gravity does this: the TC model keeps it from collapsing, but each
-particle still collides every contact time. Elastic scenes are left alone (their rate can
-grow, by compression under gravity, but stays bounded)."""
 
 REBASE_EVENTS_PER_PARTICLE = 1 << 20
 REBASE_EVENTS_PER_PARTICLE_GRAVITY = 1 << 6
@@ -126,20 +94,8 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     return sim.run(start_time)
 
 
-def _cell_capacity(per_cell: float) -> int:
-    """Initial room of a cell for ``per_cell`` particles a cell on average (grown when full)."""
-    return int(max(4, math.ceil(2.0 * per_cell + 3.0 * math.sqrt(per_cell) + 2)))
-
-
-def _cell_width(cap: int) -> int:
-    """Row width of the cell table for ``cap`` particles a cell: the count, then the
-    particles, rounded up to whole 16-byte blocks (a cell's row never straddles more
-    cache lines than it must)."""
-    return max(4 * ((cap + 1 + 3) // 4), K.GATHER_SLOTS + 1)
-
-
-class _Simulation:
-    """One run's arrays and the calls around the kernels."""
+class _Simulation(Rows):
+    """One run: its arrays (:class:`.rows.Rows`) and the calls around the kernels."""
 
     def __init__(self, scene: Scene, state: State, recorder: Recorder):
         self.scene = scene
@@ -184,21 +140,13 @@ class _Simulation:
 
         # neighbour search: cells with crossing events, or neighbour lists
         sigma = 2.0 * rmax
-        skin = scene.extras.get("skin", NEIGHBOUR_SKIN) if scene.extras else NEIGHBOUR_SKIN
-        h = float(skin) * sigma
-        use_nl = self._neighbour_lists(scene, pairs, sigma, h)
-        nc = 1
-        if pairs and D > 1:
-            reach = sigma + 2.0 * h if use_nl else sigma
-            by_size = int(math.floor(L / (reach * (1.0 + 1e-9))))
-            by_count = int(math.ceil((CELLS_PER_PARTICLE * n) ** (1.0 / D)))
-            nc = max(1, min(by_size, by_count))
-            if use_nl and periodic:
-                # a list gathers from 3 cells an axis, each once: fewer would list a
-                # neighbour once per image (by_size >= 3 here, see _neighbour_lists)
-                nc = max(nc, 3)
+        extras = scene.extras or {}
+        h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
+        use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
+                                            pairs, sigma, h, scene.packing_fraction)
+        nc = sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = K.build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
+        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -214,23 +162,12 @@ class _Simulation:
         self.ct, self.ci = np.empty(rows_c), np.empty(rows_c, dtype=np.int64)
         self.cj, self.cimp = np.empty(rows_c, dtype=np.int64), np.empty(rows_c)
 
-        self.IS = np.zeros(K.IS_SIZE, dtype=np.int64)
-        self.FS = np.zeros(K.FS_SIZE)
-        IS, FS = self.IS, self.FS
-        IS[K.S_BUFCAP] = BUFFER_ROWS
-        IS[K.S_RECB] = int(self.want_b)
-        IS[K.S_RECC] = int(self.want_c)
-        IS[K.S_NC] = nc
-        IS[K.S_N] = n
-        IS[K.S_PF] = int(n >= PREFETCH_FROM_N)
-        FS[K.F_L] = L
-        FS[K.F_G] = g
-        FS[K.F_E] = e
-        FS[K.F_TC] = float(scene.tc)
-        FS[K.F_H] = h
-        FS[K.F_W] = 1.0
-        FS[K.F_IW] = 1.0
-        IS[K.S_NBK] = 16
+        self.S = np.zeros(1, STATE)  # the loop's state: self.st, its one record
+        st = self.st = self.S[0]
+        st["bufcap"], st["recb"], st["recc"] = BUFFER_ROWS, self.want_b, self.want_c
+        st["nc"], st["n"], st["pf"] = nc, n, n >= PREFETCH_FROM_N
+        st["L"], st["g"], st["e"], st["tc"], st["h"] = L, g, e, float(scene.tc), h
+        st["w"], st["iw"], st["nbk"] = 1.0, 1.0, 16
         self.BH = -np.ones(16, dtype=np.int64)
         self.HK = _alloc(n)
         self.HI = _alloc(n, np.int64)
@@ -250,112 +187,17 @@ class _Simulation:
         self.TL = _alloc(n if self.inelastic else 1, fill=-np.inf)
         self._load(x[self.ident], vel[self.ident], 0.0)
 
-    # --- set-up ---------------------------------------------------------------
-    def _neighbour_lists(self, scene: Scene, pairs: bool, sigma: float, h: float) -> bool:
-        """Whether this run uses neighbour lists (dense 2D/3D) or cell-crossing events.
-
-        ``scene.extras['neighbours']`` may force 'lists' or 'cells'; 'auto'
-        picks lists from NEIGHBOUR_LIST_FROM on. Periodic boxes need three
-        list-sized cells per axis (one image per neighbour).
-        """
-        D, L = self.D, self.L
-        choice = scene.extras.get("neighbours", "auto") if scene.extras else "auto"
-        if choice not in ("auto", "lists", "cells"):
-            raise SceneError(f"neighbours {choice!r} is not one of auto, lists, cells")
-        if not pairs or D == 1 or choice == "cells":
-            return False
-        if self.periodic and L < 3.0 * (sigma + 2.0 * h) * (1.0 + 1e-9):
-            return False
-        if choice == "lists":
-            return True
-        return scene.packing_fraction >= NEIGHBOUR_LIST_FROM[D]
-
-    def _wrap(self, x: np.ndarray) -> np.ndarray:
-        x = x - self.L * np.floor(x / self.L)
-        x[x >= self.L] = 0.0
-        return x
-
-    def _space_order(self, x: np.ndarray) -> np.ndarray:
-        """Row order: along the line in 1D, cells along a Z-order curve in 2D/3D (stable).
-
-        The Z (Morton) order keeps the 3^D cells around a particle within a
-        few runs of rows, whichever axis they lie along; row-major cell order
-        put the neighbours along the first axis nc^(D-1) cells away.
-        """
-        if self.D == 1:
-            return np.argsort(x[:, 0], kind="stable")
-        if not self.pairs:
-            return np.arange(self.n)
-        return np.argsort(_morton(self._cell_coords(x)), kind="stable")
-
-    def _cell_coords(self, x: np.ndarray) -> np.ndarray:
-        """Integer cell coordinates (N, D) of positions x, rounded as the kernels round them."""
-        a = self.L / self.nc
-        return np.clip(np.floor(x / a).astype(np.int64), 0, self.nc - 1)
-
-    def _load(self, x: np.ndarray, v: np.ndarray, t: float) -> None:
-        """Fill the particle rows, cells and lists from positions x and velocities v at time t."""
-        n, D, L, nc = self.n, self.D, self.L, self.nc
-        P = _alloc((n, K.P_WIDTH), fill=0.0)
-        P[:, :D] = x
-        P[:, K.PV:K.PV + D] = v
-        P[:, K.PT] = t
-        P[:, K.PR] = self.R
-        I = _alloc((n, K.I_WIDTH), np.int32, fill=0)
-        I[:, K.PART] = -1
-        I[:, K.PART2] = -1
-        self.P, self.I = P, I
-        self.EV = _alloc((n, K.EV_WIDTH), fill=np.inf)
-        self.Q = _alloc((n, 4), np.int32, fill=0)
-        self.Q[:, K.QB] = K.NONE
-        # 1D: rows are in line order, so row k has rank k
-        self.order = np.arange(n, dtype=np.int64) if D == 1 else np.zeros(1, dtype=np.int64)
-        if D == 1:
-            I[:, K.RANK] = np.arange(n)
-        self.XN = _alloc((n if self.use_nl else 1, 3), fill=0.0)
-        if self.use_nl:
-            self.XN[:, :D] = x
-        if self.pairs and D > 1:
-            c = self._cell_coords(x)
-            key = c[:, 0]
-            for d in range(1, D):
-                key = key * nc + c[:, d]
-            fullest = int(np.bincount(key, minlength=nc ** D).max())
-            cap = max(self.cap, _cell_capacity(n / nc ** D), fullest)
-            while True:  # (the kernel's rounding decides; the loop is a safety net)
-                self.cells = _alloc((nc ** D, _cell_width(cap)), np.int32)
-                if K._assign_cells(P, I, self.cells, nc, L / nc, D) == K.DONE:
-                    break
-                cap *= 2
-            self.cap = self.cells.shape[1] - 1
-        else:
-            self.cells = np.zeros((1, K.GATHER_SLOTS + 1), dtype=np.int32)
-        self._gather_buffers()
-        if self.use_nl:
-            while True:
-                self.NB = _alloc((n, self.nb_width), np.int32)
-                self.NN = _alloc(n, np.int32, fill=0)
-                self.SCR = np.empty(self.nb_width, dtype=np.int32)
-                if K._build_nl(P, self.XN, I, self.cells, self.NB, self.NN,
-                               self.SCR, nc, L, self.h, D, self.periodic) == K.DONE:
-                    break
-                self.nb_width *= 2
-        else:
-            self.NB = np.zeros((1, 1), dtype=np.int32)
-            self.NN = np.zeros(1, dtype=np.int32)
-            self.SCR = np.zeros(1, dtype=np.int32)
-
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
                    self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
                    self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
                    self.ci, self.cj, self.cimp)
-        return self.kern.loop(T, self.IS, self.FS, float(t_stop), int(max_events))
+        return self.kern.loop(T, self.S, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
         """Every particle's first predictions from time t (the loop in prediction mode)."""
-        if self._loop(t, -1) != K.DONE:
+        if self._loop(t, -1) != DONE:
             raise EngineError("prediction pass did not complete")
 
     def _warm_up(self) -> float:
@@ -366,59 +208,28 @@ class _Simulation:
         """
         t0 = time.perf_counter()
         self._loop(-1.0, 0)
-        K._build_queue(self.EV[:0], self.Q[:0], self.HK, self.HI, self.BH, self.IS, self.FS)
+        _build_queue(self.EV[:0], self.Q[:0], self.HK, self.HI, self.BH, self.S)
         out = np.empty((0, self.D))
-        K._state_at(self.P[:0], 0.0, self.g, self.D, out, out)
+        _state_at(self.P[:0], 0.0, self.g, self.D, out, out)
         return time.perf_counter() - t0
 
     def _start(self, t: float) -> None:
         """Predict every particle's next event from time t and build the calendar."""
         self._predict(t)
         self._tune_calendar(t)
-        self.FS[K.F_TNOW] = t
-        self._since_restart = int(self.IS[K.S_EVENTS])
-
-    def _calendar_size(self, t_now: float) -> tuple[float, int]:
-        """(bucket width, bucket count) for the pending keys: EVENTS_PER_BUCKET events per bucket
-        (more when MAX_BUCKETS caps the count).
-
-        Each particle's next event comes at a rate ~ ln 2 / median(delay);
-        the median ignores bursts of simultaneous events (a lattice start
-        puts whole planes of particles on cell faces). The buckets span the
-        90th percentile of the delays.
-        """
-        keys = self.EV[:, K.KEY]
-        finite = keys[np.isfinite(keys)] - t_now
-        if finite.size == 0:
-            return self.duration / 1024.0, 16
-        med = float(np.median(finite))
-        if not med > 0.0:
-            med = float(np.mean(finite))
-        if not med > 0.0:
-            med = self.duration * 1e-9
-        w = EVENTS_PER_BUCKET * med / (finite.size * math.log(2.0))
-        if not (w > 0.0 and math.isfinite(w)):
-            return self.duration / 1024.0, 16
-        horizon = float(np.quantile(finite, 0.9))
-        want = max(16, min(1 << 22, int(horizon / w) + 1, 4 * self.n))
-        nbk = 1 << int(math.ceil(math.log2(want)))
-        if nbk > MAX_BUCKETS:
-            w *= nbk / MAX_BUCKETS
-            nbk = MAX_BUCKETS
-        return w, nbk
+        self.st["tnow"] = t
+        self._since_restart = int(self.st["events"])
 
     def _tune_calendar(self, t_now: float) -> None:
-        """Size the calendar for the pending keys (see _calendar_size) and rebuild it."""
-        IS, FS = self.IS, self.FS
-        w, nbk = self._calendar_size(t_now)
-        FS[K.F_W] = w
-        FS[K.F_IW] = 1.0 / w
-        IS[K.S_NBK] = nbk
-        IS[K.S_CUR] = int(math.floor(t_now / w))
+        """Size the calendar for the pending keys (sizing.calendar_size) and rebuild it."""
+        st = self.st
+        w, nbk = sizing.calendar_size(self.EV[:, KEY], t_now, self.duration, self.n)
+        st["w"], st["iw"], st["nbk"] = w, 1.0 / w, nbk
+        st["cur"] = int(math.floor(t_now / w))
         if self.BH.size != nbk:
             self.BH = _alloc(nbk, np.int64, fill=-1)
-        self.Q[:, K.QB] = K.NONE
-        K._build_queue(self.EV, self.Q, self.HK, self.HI, self.BH, IS, FS)
+        self.Q[:, QB] = NONE
+        _build_queue(self.EV, self.Q, self.HK, self.HI, self.BH, self.S)
 
     def _restart(self) -> None:
         """Advance everybody to now, renumber in space order, predict afresh."""
@@ -435,7 +246,7 @@ class _Simulation:
 
     def _now(self) -> tuple[float, np.ndarray, np.ndarray]:
         """(now on the kernels' clock, positions, velocities) in row order, wrapped if periodic."""
-        t = float(self.FS[K.F_TNOW])
+        t = float(self.st["tnow"])
         x, v = self._state_internal(t)
         return t, (self._wrap(x) if self.periodic else x), v
 
@@ -447,152 +258,65 @@ class _Simulation:
         if self.inelastic:
             self.TL -= t
         self.origin += t
-        self._stall_t -= t
+        self.guard.shift(t)
         self._load(x, v, 0.0)
         self._start(0.0)
-        self._rebased_at = int(self.IS[K.S_EVENTS])
+        self._rebased_at = int(self.st["events"])
         self.rebases += 1
 
     def _flush(self) -> None:
-        IS = self.IS
-        nb = int(IS[K.S_NBB])
+        st = self.st
+        nb = int(st["nbb"])
         if nb:
             self.rec.add_bounces(self.bt[:nb] + self.origin, self.bp[:nb].copy(), self.bw[:nb].copy(),
                                  self.bs[:nb].copy(), self.bv[:nb].copy())
-            IS[K.S_NBB] = 0
-        nc = int(IS[K.S_NCB])
+            st["nbb"] = 0
+        nc = int(st["ncb"])
         if nc:
             self.rec.add_collisions(self.ct[:nc] + self.origin, self.ci[:nc].copy(),
                                     self.cj[:nc].copy(), self.cimp[:nc].copy())
-            IS[K.S_NCB] = 0
-
-    def _grow_lists(self) -> None:
-        old = self.NB
-        self.nb_width = 2 * old.shape[1]
-        nb = _alloc((old.shape[0], self.nb_width), np.int32)
-        nb[:, :old.shape[1]] = old
-        self.NB = nb
-        self.SCR = np.empty(self.nb_width, dtype=np.int32)
-
-    def _grow_cells(self) -> None:
-        old = self.cells
-        cells = _alloc((old.shape[0], _cell_width(2 * (old.shape[1] - 1))), np.int32)
-        cells[:, :old.shape[1]] = old
-        self.cells = cells
-        self.cap = cells.shape[1] - 1
-        self._gather_buffers()
-
-    def _gather_buffers(self) -> None:
-        """Room for two scans (a collision's partners) to gather every particle of 3^D full cells
-        (GB) and their image shifts (GS)."""
-        if self.cells.shape[1] < K.GATHER_SLOTS + 1:
-            raise EngineError(f"cell rows of width {self.cells.shape[1]}: the scans copy "
-                              f"{K.GATHER_SLOTS} slots a cell")
-        room = 3 ** self.D * (self.cells.shape[1] - 1) + K.GATHER_SLOTS + 1
-        self.GB = np.empty(2 * room, dtype=np.int32)
-        self.GS = np.empty(2 * room if self.periodic else 1, dtype=np.int32)
-
-    def _state_internal(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        x = np.empty((self.n, self.D))
-        v = np.empty((self.n, self.D))
-        K._state_at(self.P, float(t), self.g, self.D, x, v)
-        return x, v
-
-    def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(positions, velocities) (N, D) at time t in the caller's order, wrapped if periodic."""
-        xi, vi = self._state_internal(t - self.origin)
-        x = np.empty_like(xi)
-        v = np.empty_like(vi)
-        x[self.ident] = xi
-        v[self.ident] = vi
-        if self.periodic:
-            x = self._wrap(x)
-        return x, v
+            st["ncb"] = 0
 
     def _run_to(self, t_stop: float) -> None:
         """Run the event loop up to the absolute time t_stop (s)."""
-        IS = self.IS
+        st = self.st
         while True:
             budget = max(1, min(self._check_at, self._rebased_at + self.rebase_every)
-                         - int(IS[K.S_EVENTS]))
+                         - int(st["events"]))
             if self.restart_every:
                 budget = min(budget, max(1, self._since_restart + self.restart_every
-                                         - int(IS[K.S_EVENTS])))
+                                         - int(st["events"])))
             if self.rec.wants_progress:
                 budget = min(budget, EVENTS_PER_REPORT)
             status = self._loop(t_stop - self.origin, budget)
-            self.rec.progress(float(self.FS[K.F_TNOW]) + self.origin, int(IS[K.S_COLL] + IS[K.S_BOUNCE]))
-            if status == K.DONE:
+            self.rec.progress(float(self.st["tnow"]) + self.origin, int(st["coll"] + st["bounce"]))
+            if status == DONE:
                 return
-            if int(IS[K.S_EVENTS]) >= self._check_at:  # a chunk's worth, whatever ended the call
-                self._check_stall()
-                self._check_at = int(IS[K.S_EVENTS]) + CHUNK
-            if status == K.BUFFER_FULL:
+            if int(st["events"]) >= self._check_at:  # a chunk's worth, whatever ended the call
+                self.guard.check(float(self.st["tnow"]), int(st["events"]), self.origin)
+                self._check_at = int(st["events"]) + CHUNK
+            if status == BUFFER_FULL:
                 self._flush()
-            elif status == K.CELL_FULL:
+            elif status == CELL_FULL:
                 self._grow_cells()
                 self.cell_growths += 1
-            elif status == K.NL_FULL:
+            elif status == NL_FULL:
                 self._grow_lists()
-            elif status == K.PAUSE:
-                if self.restart_every and (int(IS[K.S_EVENTS]) - self._since_restart
+            elif status == PAUSE:
+                if self.restart_every and (int(st["events"]) - self._since_restart
                                            >= self.restart_every):
                     self._restart()
                     continue
-                if int(IS[K.S_EVENTS]) - self._rebased_at >= self.rebase_every:
+                if int(st["events"]) - self._rebased_at >= self.rebase_every:
                     self._rebase()
                     continue
-                t_now = float(self.FS[K.F_TNOW])
-                w, nbk = self._calendar_size(t_now)
-                if not 0.5 <= w / self.FS[K.F_W] <= 2.0:
+                t_now = float(self.st["tnow"])
+                w, nbk = sizing.calendar_size(self.EV[:, KEY], t_now, self.duration, self.n)
+                if not 0.5 <= w / self.st["w"] <= 2.0:
                     self._tune_calendar(t_now)
                 self._tuned = True
             else:
                 raise EngineError(f"event kernel returned unknown status {status}")
-
-    def _check_stall(self) -> None:
-        """Raise EngineError when simulated time stops, when the event rate runs away
-        (inelastic collapse) or when an inelastic run slows down beyond any sensible length,
-        instead of hanging; called once a chunk of events (see STALL_RATE, SLOW_RATE)."""
-        t = float(self.FS[K.F_TNOW])
-        events = int(self.IS[K.S_EVENTS])
-        dt = t - self._stall_t
-        moved = dt > 1e-12 * max(abs(t), self.duration)
-        rate = (events - self._stall_n) / dt if moved else math.inf
-        self._stall_t, self._stall_n = t, events
-        t_abs = t + self.origin
-        if not moved:
-            self._stalled += 1
-        elif self._rate0 is None:
-            self._rate0 = rate
-            self._stalled = 0
-        elif rate > STALL_RATE * self._rate0:
-            self._stalled += 1
-        else:
-            self._stalled = 0
-        if self._stalled >= STALL_CHUNKS:
-            if not moved:
-                raise EngineError(
-                    f"simulated time stopped at t = {t_abs:.6g} s: {events} events, the last "
-                    f"{events - self._moved_n} of them at one instant (particles jammed: "
-                    "rods filling the box, a particle at rest on the floor, or an inelastic "
-                    "collapse); loosen the packing, give the particles speed, or give --tc")
-            raise EngineError(
-                f"the event rate ran away at t = {t_abs:.6g} s ({events} events, {rate:.3g} per "
-                f"simulated second, {rate / self._rate0:.3g} times the rate at the start): "
-                "inelastic collapse, particles colliding ever faster; give a contact time "
-                "--tc (TC model) or raise --restitution")
-        if moved:
-            self._moved_n = events
-        left = self.t_end - t_abs
-        if (self.inelastic and moved and self._rate0 is not None
-                and rate > SLOW_RATE * self._rate0 and rate * left > MAX_PROJECTED_EVENTS):
-            raise EngineError(
-                f"the run slowed down at t = {t_abs:.6g} s of {self.t_end:.6g} s: {rate:.3g} "
-                f"events per simulated second ({rate / self._rate0:.3g} times the rate at the "
-                f"start), so the {left:.3g} s left would take about {rate * left:.2g} events "
-                "(the inelastic particles have settled into a bed, colliding every contact "
-                "time); shorten --duration, raise --restitution or --tc")
 
     def run(self, start_time: float = 0.0) -> RunStats:
         compile_s = self._warm_up()
@@ -604,11 +328,7 @@ class _Simulation:
         self._rebased_at = 0
         self._tuned = False
         self._check_at = FIRST_CHUNK
-        self._stall_t = 0.0
-        self._stall_n = 0
-        self._moved_n = 0
-        self._stalled = 0
-        self._rate0 = None
+        self.guard = RunawayGuard(self.duration, self.t_end, self.inelastic)
         self._start(0.0)
         self.rec.progress(start_time, 0)  # compiled and set up: the run starts
         t_init = time.perf_counter()
@@ -629,30 +349,30 @@ class _Simulation:
         x, v = self.state_at(self.t_end)
         t_end = time.perf_counter()
 
-        IS = self.IS
+        st = self.st
         final = State(x, v, np.asarray(self.scene.kinds()).copy())
         extras = {
-            "cell_crossings": int(IS[K.S_CROSS]),
-            "stale_predictions": int(IS[K.S_STALE]),
-            "overlapping_collisions": int(IS[K.S_OVERLAP]),
-            "second_predictions_used": int(IS[K.S_SECOND]),
-            "queue_events": int(IS[K.S_EVENTS]),
-            "pair_tests": int(IS[K.S_PAIRS]),
-            "calendar_steps": int(IS[K.S_STEPS]),
+            "cell_crossings": int(st["cross"]),
+            "stale_predictions": int(st["stale"]),
+            "overlapping_collisions": int(st["overlap"]),
+            "second_predictions_used": int(st["second"]),
+            "queue_events": int(st["events"]),
+            "pair_tests": int(st["pairs"]),
+            "calendar_steps": int(st["steps"]),
             "cells_per_axis": self.nc if self.D > 1 else 0,
             "neighbour_lists": self.use_nl,
-            "list_rebuilds": int(IS[K.S_REBUILD]),
+            "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,
             "cell_growths": self.cell_growths,
-            "prefetch": bool(IS[K.S_PF]),
-            "bucket_width_s": float(self.FS[K.F_W]),
-            "buckets": int(IS[K.S_NBK]),
+            "prefetch": bool(st["pf"]),
+            "bucket_width_s": float(self.st["w"]),
+            "buckets": int(st["nbk"]),
             "compile_s": compile_s,
             "init_s": t_init - t0,
             "loop_s": t_end - t_init,
         }
-        return RunStats(events=int(IS[K.S_COLL] + IS[K.S_BOUNCE]),
-                        wall_bounces=int(IS[K.S_BOUNCE]), collisions=int(IS[K.S_COLL]),
-                        wall_time_s=t_end - t0, final=final, virial=float(self.FS[K.F_VIRIAL]),
+        return RunStats(events=int(st["coll"] + st["bounce"]),
+                        wall_bounces=int(st["bounce"]), collisions=int(st["coll"]),
+                        wall_time_s=t_end - t0, final=final, virial=float(self.st["virial"]),
                         extras=extras)

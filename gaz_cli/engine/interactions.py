@@ -63,6 +63,15 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
 
 @_inline
+def _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, rm, D):
+    """Time until the next event of a pair at separation dx, relative velocity dv (the
+    other's minus this one's), radii rk and rm: the hard-core contact at rk + rm (inf if
+    none). Every neighbour scan predicts pairs through this function, the one place that
+    knows the pair's interaction."""
+    return _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + rm, D)
+
+
+@_inline
 def _collide(P, M, TL, k, j, t, L, e, tc, inel, D, PER):
     """The hard-sphere collision rule for k and j, both rows at the contact time t.
 

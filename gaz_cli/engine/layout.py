@@ -16,6 +16,8 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
+import numpy as np
+
 INF = math.inf
 
 # --- row layouts ------------------------------------------------------------
@@ -34,14 +36,29 @@ EV_WIDTH = 4
 QB, QN, QP, HP = 0, 1, 2, 3
 HEAP, OVER, NONE = -1, -2, -3
 
-# IS int64 state vector
-(S_CUR, S_HSIZE, S_OHEAD, S_NBK, S_EVENTS, S_COLL, S_BOUNCE, S_CROSS, S_STALE,
- S_NBB, S_NCB, S_BUFCAP, S_RECB, S_RECC, S_NC, S_REBUILD, S_STEPS, S_N, S_SECOND, S_PF,
- S_OVERLAP, S_PAIRS) = range(22)
-IS_SIZE = 22
-# FS float64 state vector
-F_W, F_IW, F_VIRIAL, F_L, F_G, F_E, F_TC, F_H, F_TNOW = range(9)
-FS_SIZE = 9
+# the loop's scalars: one record (np.zeros(1, STATE)), read at the loop's entry, written back
+# at its exit, so that a call resumes exactly where the last one stopped
+STATE = np.dtype([
+    # calendar: current bucket, heap size, overflow list's head, buckets
+    ("cur", np.int64), ("hsize", np.int64), ("ohead", np.int64), ("nbk", np.int64),
+    # counts: queue events, collisions, wall bounces, cell crossings, stale predictions,
+    # list rebuilds, calendar steps, second predictions used, overlapping collisions, pair times
+    ("events", np.int64), ("coll", np.int64), ("bounce", np.int64), ("cross", np.int64),
+    ("stale", np.int64), ("rebuild", np.int64), ("steps", np.int64), ("second", np.int64),
+    ("overlap", np.int64), ("pairs", np.int64),
+    # record buffers: rows held (bounces, collisions), room, whether each is recorded
+    ("nbb", np.int64), ("ncb", np.int64), ("bufcap", np.int64), ("recb", np.int64),
+    ("recc", np.int64),
+    # cells an axis, particles, whether to prefetch (large systems)
+    ("nc", np.int64), ("n", np.int64), ("pf", np.int64),
+    # bucket width and its inverse; collision virial; box, gravity, restitution, TC contact
+    # time, neighbour-list skin h; the time reached
+    ("w", np.float64), ("iw", np.float64), ("virial", np.float64), ("L", np.float64),
+    ("g", np.float64), ("e", np.float64), ("tc", np.float64), ("h", np.float64),
+    ("tnow", np.float64),
+])
+"""The loop's state and settings under their names (a numpy record: named fields of both
+types in one argument, no compiled accessor; the loop keeps them in registers)."""
 
 OVERLAP_TOL = 1.0 - 1e-9
 """A colliding pair closer than sqrt(OVERLAP_TOL) (R_i + R_j) counts as found overlapping."""
@@ -72,5 +89,5 @@ Tables = namedtuple("Tables", [
     "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
 ])
 """The event loop's arrays under their names (one argument instead of 28; Numba types it as
-a named tuple of arrays and reads the fields at compile time). The loop's scalars stay in
-the IS / FS vectors."""
+a named tuple of arrays and reads the fields at compile time). The loop's scalars are in
+one ``STATE`` record."""

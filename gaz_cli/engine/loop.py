@@ -33,7 +33,9 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
 The loop composes the modules (docs/architecture.md): :mod:`.calendar` orders the
 events, :mod:`.dynamics` moves rows along their paths, :mod:`.interactions` and
 :mod:`.boundaries` apply and time the events, :mod:`.neighbours` finds the partners to
-scan, :mod:`.prefetch` requests memory ahead of use. Every helper is inlined
+scan, :mod:`.predict` writes a particle's next events, :mod:`.records` the buffers' rows,
+:mod:`.prefetch` requests memory ahead of use; its scalars are one :data:`.layout.STATE`
+record. Every helper is inlined
 (``_inline``, Numba-IR level) or register-only (``_helper``) and takes borrowed arrays
 (:func:`.intrinsics._borrow`): Numba's atomic reference counting, paid at every call
 taking an array, cost more than the physics when the loop called helpers on owned
@@ -48,58 +50,47 @@ Units are whatever the caller uses (SI in gaz); times are absolute.
 from __future__ import annotations
 
 import functools
-import math
 
-from gaz_cli.engine.boundaries import _bounce, _crossing, _wrap
+from gaz_cli.engine.boundaries import _bounce, _wrap
 from gaz_cli.engine.calendar import _heap_remove, _next_bucket, _q_insert, _q_remove
 from gaz_cli.engine.dynamics import _advance
 from gaz_cli.engine.interactions import _collide
 from gaz_cli.engine.intrinsics import _borrow, _inline, _sources_digest
-from gaz_cli.engine.layout import (BUFFER_FULL, CELL, CELL_FULL, CNT, CODE, DONE, F_E,
-                                   F_G, F_H, F_IW, F_L, F_TC, F_TNOW, F_VIRIAL, INF, KEY,
-                                   NL_FULL, NLCODE, NONE, PART, PART2, PAUSE, PCNT, PCNT2, PV, QB,
-                                   RANK, S_BOUNCE, S_BUFCAP, S_COLL, S_CROSS, S_CUR, S_EVENTS,
-                                   S_HSIZE, S_NBB, S_NBK, S_NC, S_NCB, S_OHEAD, S_OVERLAP,
-                                   S_PAIRS, S_PF, S_REBUILD, S_RECB, S_RECC, S_SECOND, S_STALE,
-                                   S_STEPS, SURE, TCOL, TCOL2, TX, C0)
-from gaz_cli.engine.neighbours.cells import (_cell_entered, _cell_of, _cross_face, _gather_cells,
-                                             _predict_pairs)
-from gaz_cli.engine.neighbours.line import _scan_1d
-from gaz_cli.engine.neighbours.lists import _gather_nl, _nl_exit, _recentre, _scan_nl
+from gaz_cli.engine.layout import (BUFFER_FULL, C0, CELL, CELL_FULL, CNT, CODE, DONE, KEY,
+                                   NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, TCOL, TX)
+from gaz_cli.engine.neighbours.cells import (_block_entered, _cell_entered, _cell_of,
+                                             _cross_face, _gather_cells, _predict_pairs)
+from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
+from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engine.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
                                      _prefetch_listed, _prefetch_next_events)
+from gaz_cli.engine.records import _record_bounce, _record_collision
 from gaz_cli.numba_config import njit
 
 
 @_inline
-def _take_second(I, EV, k):
-    """k's stale first prediction replaced by its second, if that still holds and is sure
-    (the partners that changed since predicted theirs with k themselves): what k's scans
-    did not keep comes after it, but the one after it is unknown from now on. Whether
-    it was taken (else k must look again from now)."""
-    j2 = I[k, PART2]
-    if j2 >= 0 and I[j2, CNT] == I[k, PCNT2] and I[k, SURE] != 0:
-        I[k, SURE] = 0
-        EV[k, TCOL] = EV[k, TCOL2]
-        I[k, PART] = j2
-        I[k, PCNT] = I[k, PCNT2]
-        EV[k, TCOL2] = INF
-        I[k, PART2] = -1
-        return True
-    return False
-
-
-@_inline
-def _record_bounce(P, k, t, ident, d, up, D, bt, bp, bw, bs, bv, nbb):
-    """One row of the bounce buffers (time, particle, signed wall 1..D, speed, |v_d|)."""
-    sp = P[k, PV] * P[k, PV]
-    for a in range(1, D):
-        sp += P[k, PV + a] * P[k, PV + a]
-    bt[nbb] = t
-    bp[nbb] = ident
-    bw[nbb] = (d + 1) if up else -(d + 1)
-    bs[nbb] = math.sqrt(sp)
-    bv[nbb] = abs(P[k, PV + d])
+def _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D, PER, GRAV, pf):
+    """Before a list rebuild changes anything: k moved to t (and wrapped), its cell, and its
+    new neighbours gathered into SCR. Returns (their number, or -1 if a list is full; the
+    cell, or -1 if it is full; the cell's coordinates)."""
+    _advance(P, k, t, g, D, GRAV)
+    if PER:
+        _wrap(P, k, L, D)
+    nn0, nn1, nn2, newcell = _cell_of(P, k, ainv, nc, D)
+    if newcell != I[k, CELL] and cells[newcell, 0] >= cells.shape[1] - 1:
+        return 0, -1, nn0, nn1, nn2
+    x2 = P[k, 2] if D > 2 else 0.0
+    if pf:
+        # k leaves the lists of its old neighbours: their rows
+        for s in range(NN[k]):
+            _prefetch_list(NN, NB, NB[k, s])
+    ng = _gather_nl(P, XN, cells, NN, SCR, k, P[k, 0], P[k, 1], x2, nn0, nn1, nn2, nc, L, h,
+                    D, PER, pf)
+    if pf and ng > 0:
+        # and joins those of its new ones
+        for s in range(ng):
+            _prefetch_list(NN, NB, SCR[s])
+    return ng, newcell, nn0, nn1, nn2
 
 
 @functools.lru_cache(maxsize=None)
@@ -120,116 +111,57 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     SOURCES = _sources_digest()
 
     @njit
-    def loop(T, IS, FS, t_stop, max_events):
-        """Process events in time order up to t_stop (keys <= t_stop).
+    def loop(T, S, t_stop, max_events):
+        """Process events in time order up to t_stop (keys <= t_stop); T the arrays
+        (:class:`.layout.Tables`), S the loop's state (a :data:`.layout.STATE` record).
 
-        With max_events < 0 it only makes the first predictions of every
-        particle at time t_stop (rows all stamped t_stop), for the caller to
-        build the calendar from EV[:, KEY].
-
-        Returns DONE, BUFFER_FULL (a record buffer is full: flush and call
-        again), CELL_FULL / NL_FULL (grow the cells / neighbour lists and
-        call again) or PAUSE (after max_events, for the caller to retune the
-        calendar). All loop state lives in the arrays, so a call resumes
-        exactly where the last one stopped; a status other than DONE is
-        returned before the pending event changes anything (a list rebuild
-        may have advanced its particle along its own path first, which the
-        event, taken again, does not notice). Records name the
-        particles by ID[k], the caller's numbering.
-
-        One iteration: take the earliest key; a stale collision (partner's
-        counter changed) only rescans; a collision updates both velocities;
-        a wall bounce reflects; a cell crossing moves the particle between
-        cells; a neighbour-list rebuild re-centres its list. Then every
-        particle whose course or surroundings changed predicts its next
-        collision (full scan, or only the new cells after a crossing) and
-        its next wall/crossing/rebuild, and goes back in the calendar.
+        With max_events < 0 it only makes the first predictions of every particle at time
+        t_stop (rows all stamped t_stop), for the caller to build the calendar from
+        EV[:, KEY]. Returns DONE, BUFFER_FULL (flush the records and call again),
+        CELL_FULL / NL_FULL (grow the cells / lists and call again) or PAUSE (after
+        max_events, for the caller to retune the calendar). A status other than DONE is
+        returned before the pending event changes anything (a list rebuild may have moved
+        its particle along its own path first, which the event, taken again, does not
+        notice). Records name the particles by ID[k], the caller's numbering.
         """
         if SOURCES < 0:  # never (the digest is >= 0): keys Numba's cache on every module
             return DONE
-        P = _borrow(T.P)
-        M = _borrow(T.M)
-        TL = _borrow(T.TL)
-        XN = _borrow(T.XN)
-        I = _borrow(T.I)
-        EV = _borrow(T.EV)
-        Q = _borrow(T.Q)
-        HK = _borrow(T.HK)
-        HI = _borrow(T.HI)
-        BH = _borrow(T.BH)
-        cells = _borrow(T.cells)
-        GB = _borrow(T.GB)
-        GS = _borrow(T.GS)
-        NB = _borrow(T.NB)
-        NN = _borrow(T.NN)
-        SCR = _borrow(T.SCR)
-        order = _borrow(T.order)
-        edges = _borrow(T.edges)
-        ID = _borrow(T.ID)
-        bt = _borrow(T.bt)
-        bp = _borrow(T.bp)
-        bw = _borrow(T.bw)
-        bs = _borrow(T.bs)
-        bv = _borrow(T.bv)
-        ct = _borrow(T.ct)
-        ci = _borrow(T.ci)
-        cj = _borrow(T.cj)
-        cimp = _borrow(T.cimp)
+        P, M, TL, XN = _borrow(T.P), _borrow(T.M), _borrow(T.TL), _borrow(T.XN)
+        I, EV, Q = _borrow(T.I), _borrow(T.EV), _borrow(T.Q)
+        HK, HI, BH = _borrow(T.HK), _borrow(T.HI), _borrow(T.BH)
+        cells, GB, GS = _borrow(T.cells), _borrow(T.GB), _borrow(T.GS)
+        NB, NN, SCR = _borrow(T.NB), _borrow(T.NN), _borrow(T.SCR)
+        order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
+        bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
+        ct, ci, cj, cimp = _borrow(T.ct), _borrow(T.ci), _borrow(T.cj), _borrow(T.cimp)
+        st = S[0]
         n = P.shape[0]
-        pf = IS[S_PF] != 0  # large systems: prefetch, and gather a collision's scans first
+        pf = st.pf != 0  # large systems: prefetch, and gather a collision's scans first
         GROOM = GB.shape[0] // 2  # where j's gather goes in GB when both are gathered first
-        cur = IS[S_CUR]
-        hsize = IS[S_HSIZE]
-        ohead = IS[S_OHEAD]
-        nbk = IS[S_NBK]
-        nc = IS[S_NC]
+        cur, hsize, ohead, nbk, nc = st.cur, st.hsize, st.ohead, st.nbk, st.nc
         cap = cells.shape[1] - 1
-        bufcap = IS[S_BUFCAP]
-        recb = IS[S_RECB] != 0
-        recc = IS[S_RECC] != 0
-        nbb = IS[S_NBB]
-        ncb = IS[S_NCB]
-        iw = FS[F_IW]
-        L = FS[F_L]
+        bufcap, recb, recc, nbb, ncb = st.bufcap, st.recb != 0, st.recc != 0, st.nbb, st.ncb
+        iw, L, g, e, tc, h, virial, tnow = st.iw, st.L, st.g, st.e, st.tc, st.h, st.virial, st.tnow
         hl = 0.5 * L
-        g = FS[F_G]
-        e = FS[F_E]
-        tc = FS[F_TC]
         inel = e < 1.0  # restitution < 1: a branch taken at collisions only
-        h = FS[F_H]
         ainv = nc / L
-        virial = FS[F_VIRIAL]
         tstop_b = t_stop * iw
-        n_coll = 0
-        n_bounce = 0
-        n_cross = 0
-        n_stale = 0
-        n_steps = 0
-        n_rebuild = 0
-        n_second = 0
+        n_coll = n_bounce = n_cross = n_stale = n_steps = n_rebuild = n_second = 0
         n_overlap = 0
         n_pairs = 0  # pair times computed (the work of the scans)
         done = 0
-        tnow = FS[F_TNOW]
         predicting = max_events < 0
         pk = 0
         wb = cur  # the calendar bucket whose list the prefetch walk is in (pf)
         pw = -1  # the walk's particle in it (-1: the list is done)
         status = DONE
         while True:
-            # who looks for new events after this one, and where: by default k
-            # alone, a full scan, a new crossing time (the event changes these)
+            # who looks for new events after this one, and where: by default k alone, a
+            # full scan (cells c + (lo..hi) an axis), a new crossing time
             j = -1
             nres = 1
-            full = True
-            newcross = True
-            rescan = True
-            lo0 = -1
-            hi0 = 1
-            lo1 = -1
-            hi1 = 1
-            lo2 = -1
-            hi2 = 1
+            full = newcross = rescan = True
+            lo0, hi0, lo1, hi1, lo2, hi2 = -1, 1, -1, 1, -1, 1
             if predicting:
                 # first predictions: every particle in turn, from time t_stop
                 if pk >= n:
@@ -256,35 +188,16 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     status = BUFFER_FULL
                     break
                 code = I[k, CODE]
-                # checks that need room, done before anything changes
+                # room for what the event adds, checked before anything changes
                 rebuild = NL and (not is_col) and code == NLCODE
-                newcell = -1
-                ng = 0
-                nn0 = 0
-                nn1 = 0
-                nn2 = 0
+                ng, newcell, nn0, nn1, nn2 = 0, -1, 0, 0, 0
                 if NL and rebuild:
-                    _advance(P, k, t, g, D, GRAV)
-                    if PER:
-                        _wrap(P, k, L, D)
-                    nn0, nn1, nn2, newcell = _cell_of(P, k, ainv, nc, D)
-                    if newcell != I[k, CELL] and cells[newcell, 0] >= cap:
-                        status = CELL_FULL
+                    ng, newcell, nn0, nn1, nn2 = _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k,
+                                                                 t, ainv, nc, L, h, g, D, PER,
+                                                                 GRAV, pf)
+                    if newcell < 0 or ng < 0:
+                        status = CELL_FULL if newcell < 0 else NL_FULL
                         break
-                    x2 = P[k, 2] if D > 2 else 0.0
-                    if pf:
-                        # k leaves the lists of its old neighbours below: their rows
-                        for s in range(NN[k]):
-                            _prefetch_list(NN, NB, NB[k, s])
-                    ng = _gather_nl(P, XN, cells, NN, SCR, k, P[k, 0], P[k, 1], x2,
-                                    nn0, nn1, nn2, nc, L, h, D, PER, pf)
-                    if ng < 0:
-                        status = NL_FULL
-                        break
-                    if pf:
-                        # and joins those of its new ones
-                        for s in range(ng):
-                            _prefetch_list(NN, NB, SCR[s])
                 if CELLS and not is_col and (code & 1) == 0:
                     cell = _cell_entered(I, k, code, nc, D)
                     if cell != I[k, CELL] and cells[cell, 0] >= cap:
@@ -297,8 +210,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     _prefetch_next_events(M, P, I, EV, Q, NN, NB, HI, hsize, NL)
                 tnow = t
 
-                # --- apply: what the event changes, then who must look for new
-                # events: k alone (stale, wall, crossing, rebuild) or k and j (collision)
+                # --- stale? apply: what the event changes, then who looks for new events:
+                # k alone (stale, wall, crossing, rebuild) or k and j (collision)
                 _advance(P, k, t, g, D, GRAV)
                 if NL and rebuild:
                     n_rebuild += 1
@@ -313,7 +226,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             n_second += 1
                             rescan = False
                     else:
-                        # a real collision between k and j at t
+                        # a collision between k and j at t
                         nres = 2
                         if pf and CELLS:
                             _prefetch_block(cells, I[j, C0], I[j, C0 + 1], I[j, C0 + 2],
@@ -325,17 +238,13 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         hit, jmag, sg, overlap = _collide(P, M, TL, k, j, t, L, e, tc, inel,
                                                           D, PER)
                         if hit:
-                            if overlap:
-                                n_overlap += 1
+                            n_overlap += overlap
                             virial += jmag * sg
                             I[k, CNT] += 1
                             I[j, CNT] += 1
                             n_coll += 1
                             if recc:
-                                ct[ncb] = t
-                                ci[ncb] = ID[k]
-                                cj[ncb] = ID[j]
-                                cimp[ncb] = jmag
+                                _record_collision(t, ID[k], ID[j], jmag, ct, ci, cj, cimp, ncb)
                                 ncb += 1
                 else:
                     d = code >> 2
@@ -353,16 +262,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         n_cross += 1
                         full = False
                         _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
-                        o = 1 if up else -1
-                        if d == 0:
-                            lo0 = o
-                            hi0 = o
-                        elif d == 1:
-                            lo1 = o
-                            hi1 = o
-                        else:
-                            lo2 = o
-                            hi2 = o
+                        lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             # --- predict and push, in steps: a gather of a side's cells, then the
             # rest for that side. Large systems (pf) gather both sides first (a
@@ -395,24 +295,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         ng1 = ng
                     continue
                 if newcross:
-                    tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL)
-                    if NL:
-                        te = _nl_exit(P, XN, p, h, g, D, GRAV)
-                        if te < tx:
-                            tx = te
-                            cd = NLCODE
-                    EV[p, TX] = tx
-                    I[p, CODE] = cd
+                    _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS,
+                                   NL)
                 if PAIRS and (D == 1 or NL) and rescan:
-                    if D == 1:
-                        best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
-                        n_pairs += 2
-                    else:
-                        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV, pf)
-                        n_pairs += NN[p]
-                    EV[p, TCOL] = best
-                    I[p, PART] = bj
-                    I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
+                    n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, D, PER,
+                                             GRAV, pf)
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
                     _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV,
@@ -426,23 +313,19 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 wb, pw = _prefetch_after_event(M, P, I, EV, Q, BH, HI, NN, NB, cells, hsize, cur,
                                                nbk, wb, pw, nc, D, CELLS, NL)
 
-        IS[S_CUR] = cur
-        IS[S_HSIZE] = hsize
-        IS[S_OHEAD] = ohead
-        IS[S_NBB] = nbb
-        IS[S_NCB] = ncb
-        IS[S_EVENTS] += done
-        IS[S_COLL] += n_coll
-        IS[S_BOUNCE] += n_bounce
-        IS[S_CROSS] += n_cross
-        IS[S_STALE] += n_stale
-        IS[S_STEPS] += n_steps
-        IS[S_REBUILD] += n_rebuild
-        IS[S_SECOND] += n_second
-        IS[S_OVERLAP] += n_overlap
-        IS[S_PAIRS] += n_pairs
-        FS[F_VIRIAL] = virial
-        FS[F_TNOW] = tnow
+        st.cur, st.hsize, st.ohead, st.nbb, st.ncb = cur, hsize, ohead, nbb, ncb
+        st.events += done
+        st.coll += n_coll
+        st.bounce += n_bounce
+        st.cross += n_cross
+        st.stale += n_stale
+        st.steps += n_steps
+        st.rebuild += n_rebuild
+        st.second += n_second
+        st.overlap += n_overlap
+        st.pairs += n_pairs
+        st.virial = virial
+        st.tnow = tnow
         return status
 
     class Kernels:

@@ -116,23 +116,29 @@ def _grow_i(a):
 
 # --- forces --------------------------------------------------------------------
 @njit
+def _add_pair(pos, mass, G, eps2, i, j, acc):
+    """The Plummer-softened pull between bodies i and j added to their rows of acc (N, D)."""
+    r2 = eps2
+    for d in range(pos.shape[1]):
+        dx = pos[j, d] - pos[i, d]
+        r2 += dx * dx
+    if r2 <= 0.0:
+        return
+    inv = G / (r2 * math.sqrt(r2))
+    for d in range(pos.shape[1]):
+        dx = pos[j, d] - pos[i, d]
+        acc[i, d] += mass[j] * inv * dx
+        acc[j, d] -= mass[i] * inv * dx
+
+
+@njit
 def _pair_acc_serial(pos, mass, G, eps2, acc):
     """Plummer-softened Newtonian accelerations, O(N^2/2), into acc (N, D) m/s^2."""
-    n, dim = pos.shape
+    n = pos.shape[0]
     acc[:] = 0.0
     for i in range(n):
         for j in range(i + 1, n):
-            r2 = eps2
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 <= 0.0:
-                continue
-            inv = G / (r2 * math.sqrt(r2))
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                acc[i, d] += mass[j] * inv * dx
-                acc[j, d] -= mass[i] * inv * dx
+            _add_pair(pos, mass, G, eps2, i, j, acc)
 
 
 @pnjit
@@ -146,19 +152,10 @@ def _pair_acc_parallel(pos, mass, G, eps2, acc, nthreads):
     n, dim = pos.shape
     buf = np.zeros((nthreads, n, dim))
     for t in prange(nthreads):
+        mine = buf[t]
         for i in range(t, n, nthreads):
             for j in range(i + 1, n):
-                r2 = eps2
-                for d in range(dim):
-                    dx = pos[j, d] - pos[i, d]
-                    r2 += dx * dx
-                if r2 <= 0.0:
-                    continue
-                inv = G / (r2 * math.sqrt(r2))
-                for d in range(dim):
-                    dx = pos[j, d] - pos[i, d]
-                    buf[t, i, d] += mass[j] * inv * dx
-                    buf[t, j, d] -= mass[i] * inv * dx
+                _add_pair(pos, mass, G, eps2, i, j, mine)
     for i in prange(n):
         for d in range(dim):
             s = 0.0

@@ -12,12 +12,25 @@ import math
 import numpy as np
 
 from gaz_cli.engine.intrinsics import _inline, _prefetch
-from gaz_cli.engine.interactions import _pair_dt
+from gaz_cli.engine.dynamics import _relative_at
+from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
-                                   KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PT, PV, SLOT, SURE,
+                                   KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PV, SLOT, SURE,
                                    TCOL, TCOL2)
 from gaz_cli.engine.prefetch import _prefetch_block
 from gaz_cli.numba_config import njit
+
+@_inline
+def _beside(c, nc, PER):
+    """A cell coordinate c next to the box's cells (c in -1..nc): (c wrapped around a
+    periodic box, its image w = 0, 1, 2 for a shift of -L, 0, +L, whether there is such a
+    cell: with walls none beyond them)."""
+    if c < 0:
+        return c + nc, 0, PER
+    if c >= nc:
+        return c - nc, 2, PER
+    return c, 1, True
+
 
 @_inline
 def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc,
@@ -46,51 +59,19 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
     # gather (cells hold at least GATHER_SLOTS slots)
     w = base
     for o0 in range(lo0, hi0 + 1):
-        n0 = c0 + o0
-        w0 = 1
-        if n0 < 0:
-            if PER:
-                n0 += nc
-                w0 = 0
-            else:
-                continue
-        elif n0 >= nc:
-            if PER:
-                n0 -= nc
-                w0 = 2
-            else:
-                continue
+        n0, w0, in0 = _beside(c0 + o0, nc, PER)
+        if not in0:
+            continue
         for o1 in range(lo1, hi1 + 1):
-            n1 = c1 + o1
-            w1 = 1
-            if n1 < 0:
-                if PER:
-                    n1 += nc
-                    w1 = 0
-                else:
-                    continue
-            elif n1 >= nc:
-                if PER:
-                    n1 -= nc
-                    w1 = 2
-                else:
-                    continue
+            n1, w1, in1 = _beside(c1 + o1, nc, PER)
+            if not in1:
+                continue
             for o2 in range(lo2, hi2 + 1):
                 w2 = 1
                 if D > 2:
-                    n2 = c2 + o2
-                    if n2 < 0:
-                        if PER:
-                            n2 += nc
-                            w2 = 0
-                        else:
-                            continue
-                    elif n2 >= nc:
-                        if PER:
-                            n2 -= nc
-                            w2 = 2
-                        else:
-                            continue
+                    n2, w2, in2 = _beside(c2 + o2, nc, PER)
+                    if not in2:
+                        continue
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
@@ -135,38 +116,21 @@ def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, D, PER
     iL = 1.0 / L
     for u in range(base, base + ng):
         m = GB[u]
-        dtm = t - P[m, PT]
-        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
-        dv0 = P[m, PV] - vk0
-        dx1 = 0.0
-        dv1 = 0.0
-        dx2 = 0.0
-        dv2 = 0.0
-        if D > 1:
-            dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
-            dv1 = P[m, PV + 1] - vk1
-        if D > 2:
-            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
-            dv2 = P[m, PV + 2] - vk2
+        # (a periodic box has no gravity: the image shift and the fall never meet)
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2, g,
+                                                    D, GRAV)
         if IMG:
             code = GS[u]
             dx0 += L * (code // 9 - 1)
             dx1 += L * ((code // 3) % 3 - 1)
             dx2 += L * (code % 3 - 1)
-        if GRAV:
-            if D == 3:
-                dx2 -= 0.5 * g * dtm * dtm
-                dv2 -= g * dtm
-            else:
-                dx1 -= 0.5 * g * dtm * dtm
-                dv1 -= g * dtm
         if PER and not IMG:
             dx0 -= L * np.rint(dx0 * iL)
             if D > 1:
                 dx1 -= L * np.rint(dx1 * iL)
             if D > 2:
                 dx2 -= L * np.rint(dx2 * iL)
-        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], D)
         if tp < best2 and m != k:
             if tp < best:
                 best2 = best
@@ -256,6 +220,18 @@ def _cell_entered(I, k, code, nc, D):
     elif c >= nc:
         c -= nc
     return I[k, CELL] + (c - I[k, C0 + d]) * _stride(d, nc, D)
+
+
+@_inline
+def _block_entered(d, up):
+    """The offsets (lo0, hi0, lo1, hi1, lo2, hi2) of the cells that come into view when a
+    particle crosses into the next cell along axis d (up: the one above): the layer beyond."""
+    o = 1 if up else -1
+    if d == 0:
+        return o, o, -1, 1, -1, 1
+    if d == 1:
+        return -1, 1, o, o, -1, 1
+    return -1, 1, -1, 1, o, o
 
 
 @_inline

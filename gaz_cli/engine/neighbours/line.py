@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from gaz_cli.engine.intrinsics import _inline
-from gaz_cli.engine.interactions import _pair_dt
+from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import INF, PR, PT, PV
 
 @_inline
@@ -37,7 +37,7 @@ def _scan_1d(P, order, k, rank, n, t, L, g, PER, GRAV):
         if GRAV:
             dx -= 0.5 * g * dtm * dtm
             dv -= g * dtm
-        tp = t + _pair_dt(dx, 0.0, 0.0, dv, 0.0, 0.0, P[k, PR] + P[m, PR], 1)
+        tp = t + _pair_time(dx, 0.0, 0.0, dv, 0.0, 0.0, P[k, PR], P[m, PR], 1)
         if tp < best:
             best = tp
             bj = m

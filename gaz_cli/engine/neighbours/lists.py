@@ -6,7 +6,9 @@ from __future__ import annotations
 import math
 
 from gaz_cli.engine.intrinsics import _inline
-from gaz_cli.engine.interactions import _pair_dt
+from gaz_cli.engine.boundaries import _nearest_near
+from gaz_cli.engine.dynamics import _relative_at
+from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import C0, CELL, DONE, INF, NL_FULL, PR, PT, PV
 from gaz_cli.engine.neighbours.cells import _move
 from gaz_cli.engine.prefetch import _prefetch_block, _prefetch_block_rows, _prefetch_listed
@@ -68,38 +70,14 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
     rk = P[k, PR]
     for s in range(NN[k]):
         m = NB[k, s]
-        dtm = t - P[m, PT]
-        dx0 = P[m, 0] + P[m, PV] * dtm - xk0
-        dv0 = P[m, PV] - vk0
-        dx1 = P[m, 1] + P[m, PV + 1] * dtm - xk1
-        dv1 = P[m, PV + 1] - vk1
-        dx2 = 0.0
-        dv2 = 0.0
-        if D > 2:
-            dx2 = P[m, 2] + P[m, PV + 2] * dtm - xk2
-            dv2 = P[m, PV + 2] - vk2
-        if GRAV:
-            if D == 3:
-                dx2 -= 0.5 * g * dtm * dtm
-                dv2 -= g * dtm
-            else:
-                dx1 -= 0.5 * g * dtm * dtm
-                dv1 -= g * dtm
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2, g,
+                                                    D, GRAV)
         if PER:
-            if dx0 > hl:
-                dx0 -= L
-            elif dx0 < -hl:
-                dx0 += L
-            if dx1 > hl:
-                dx1 -= L
-            elif dx1 < -hl:
-                dx1 += L
+            dx0 = _nearest_near(dx0, L, hl)
+            dx1 = _nearest_near(dx1, L, hl)
             if D > 2:
-                if dx2 > hl:
-                    dx2 -= L
-                elif dx2 < -hl:
-                    dx2 += L
-        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
+                dx2 = _nearest_near(dx2, L, hl)
+        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], D)
         if tp < best:
             best = tp
             bj = m
@@ -158,18 +136,9 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
                     d1 = x1 - XN[m, 1]
                     d2 = x2 - XN[m, 2] if D > 2 else 0.0
                     if PER:
-                        if d0 > hl:
-                            d0 -= L
-                        elif d0 < -hl:
-                            d0 += L
-                        if d1 > hl:
-                            d1 -= L
-                        elif d1 < -hl:
-                            d1 += L
-                        if d2 > hl:
-                            d2 -= L
-                        elif d2 < -hl:
-                            d2 += L
+                        d0 = _nearest_near(d0, L, hl)
+                        d1 = _nearest_near(d1, L, hl)
+                        d2 = _nearest_near(d2, L, hl)
                     lim = rk + P[m, PR] + 2.0 * h
                     if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
                         if cnt >= capnb or NN[m] >= capnb:

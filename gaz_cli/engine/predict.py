@@ -1,0 +1,65 @@
+"""What a particle predicts after an event: its next wall bounce, cell crossing or list
+rebuild, its next partner on the line or in its neighbour list, or the second prediction
+that takes over a stale first.
+
+(Cell scans predict in :func:`.neighbours.cells._predict_pairs`; every pair time comes
+from :func:`.interactions._pair_time`, every wall time from :func:`.boundaries._crossing`.)
+"""
+
+from __future__ import annotations
+
+from gaz_cli.engine.boundaries import _crossing
+from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.layout import (CNT, CODE, INF, NLCODE, PART, PART2, PCNT, PCNT2, RANK, SURE,
+                                   TCOL, TCOL2, TX)
+from gaz_cli.engine.neighbours.line import _scan_1d
+from gaz_cli.engine.neighbours.lists import _nl_exit, _scan_nl
+
+
+@_inline
+def _take_second(I, EV, k):
+    """k's stale first prediction replaced by its second, if that still holds and is sure
+    (the partners that changed since predicted theirs with k themselves): what k's scans
+    did not keep comes after it, but the one after it is unknown from now on. Whether
+    it was taken (else k must look again from now)."""
+    j2 = I[k, PART2]
+    if j2 >= 0 and I[j2, CNT] == I[k, PCNT2] and I[k, SURE] != 0:
+        I[k, SURE] = 0
+        EV[k, TCOL] = EV[k, TCOL2]
+        I[k, PART] = j2
+        I[k, PCNT] = I[k, PCNT2]
+        EV[k, TCOL2] = INF
+        I[k, PART2] = -1
+        return True
+    return False
+
+
+@_inline
+def _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS, NL):
+    """Particle p's next wall bounce or cell crossing (or, NL, the rebuild of its list when it
+    leaves its sphere of radius h), into EV[p, TX] and its code into I[p, CODE]."""
+    tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL)
+    if NL:
+        te = _nl_exit(P, XN, p, h, g, D, GRAV)
+        if te < tx:
+            tx = te
+            cd = NLCODE
+    EV[p, TX] = tx
+    I[p, CODE] = cd
+
+
+@_inline
+def _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, D, PER, GRAV, PF):
+    """Particle p's earliest collision (its row at t) with its two neighbours on the line
+    (1D) or those of its neighbour list, into its first prediction, stamped with the
+    partner's counter; returns the pair times computed."""
+    if D == 1:
+        best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
+        tests = 2
+    else:
+        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV, PF)
+        tests = NN[p]
+    EV[p, TCOL] = best
+    I[p, PART] = bj
+    I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
+    return tests

@@ -1,0 +1,112 @@
+"""How big the engine's structures are: cells, neighbour lists, the calendar's buckets.
+
+Functions of the scene and of the pending events only; each constant is a tuning, with
+what it was measured on. The driver calls them at set-up and when it retunes the calendar.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from gaz_cli.engine.layout import GATHER_SLOTS
+from gaz_cli.errors import SceneError
+
+CELLS_PER_PARTICLE = 2.0
+"""At most this many cells per particle (dilute gases); cells stay at least one diameter wide."""
+
+NEIGHBOUR_SKIN = 0.25
+"""Neighbour lists: a particle may move this many largest diameters from its list's centre."""
+
+NEIGHBOUR_LIST_FROM = {2: 0.55, 3: 0.33}
+"""'auto' uses neighbour lists from this packing fraction on (cell crossings below);
+crossovers measured on periodic fluids of N = 4000 with each search forced."""
+
+EVENTS_PER_BUCKET = 4.0
+"""Calendar tuning: mean number of events per bucket of the calendar."""
+
+MAX_BUCKETS = 1 << 13
+"""Calendar tuning: at most this many buckets (their heads, 64 KB, stay in the cache; larger
+systems get wider buckets, hence more events a bucket). Every event inserts into a bucket
+at random: with one bucket per particle, as EVENTS_PER_BUCKET alone gives, each insertion
+of a system of 10^5-10^6 particles missed the cache (measured: 12% of the event loop's
+time at 10^6; capped, 10^5 and 10^6 run 11-12% faster, 10^4 the same)."""
+
+
+def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bool,
+                        sigma: float, h: float, packing: float) -> bool:
+    """Whether a run uses neighbour lists (dense 2D/3D) or cell-crossing events.
+
+    ``choice`` (scene.extras['neighbours']) may force 'lists' or 'cells'; 'auto' picks
+    lists from NEIGHBOUR_LIST_FROM on. Periodic boxes need three list-sized cells per axis
+    (one image per neighbour): narrower ones use cells.
+    """
+    if choice not in ("auto", "lists", "cells"):
+        raise SceneError(f"neighbours {choice!r} is not one of auto, lists, cells")
+    if not pairs or D == 1 or choice == "cells":
+        return False
+    if periodic and L < 3.0 * (sigma + 2.0 * h) * (1.0 + 1e-9):
+        return False
+    if choice == "lists":
+        return True
+    return packing >= NEIGHBOUR_LIST_FROM[D]
+
+
+def cells_per_axis(D: int, n: int, L: float, pairs: bool, periodic: bool, sigma: float,
+                   h: float, use_nl: bool) -> int:
+    """Cells along each axis: as many as fit cells wider than a pair's reach (sigma, or
+    sigma + 2 h with lists), at most CELLS_PER_PARTICLE per particle; 1 without pairs or
+    in 1D."""
+    if not (pairs and D > 1):
+        return 1
+    reach = sigma + 2.0 * h if use_nl else sigma
+    by_size = int(math.floor(L / (reach * (1.0 + 1e-9))))
+    by_count = int(math.ceil((CELLS_PER_PARTICLE * n) ** (1.0 / D)))
+    nc = max(1, min(by_size, by_count))
+    if use_nl and periodic:
+        # a list gathers from 3 cells an axis, each once: fewer would list a
+        # neighbour once per image (by_size >= 3 here, see use_neighbour_lists)
+        nc = max(nc, 3)
+    return nc
+
+
+def _cell_capacity(per_cell: float) -> int:
+    """Initial room of a cell for ``per_cell`` particles a cell on average (grown when full)."""
+    return int(max(4, math.ceil(2.0 * per_cell + 3.0 * math.sqrt(per_cell) + 2)))
+
+
+def _cell_width(cap: int) -> int:
+    """Row width of the cell table for ``cap`` particles a cell: the count, then the
+    particles, rounded up to whole 16-byte blocks (a cell's row never straddles more
+    cache lines than it must)."""
+    return max(4 * ((cap + 1 + 3) // 4), GATHER_SLOTS + 1)
+
+
+def calendar_size(keys: np.ndarray, t_now: float, duration: float, n: int) -> tuple[float, int]:
+    """(bucket width, bucket count) for the pending keys (N,) at t_now: EVENTS_PER_BUCKET
+    events per bucket (more when MAX_BUCKETS caps the count).
+
+    Each particle's next event comes at a rate ~ ln 2 / median(delay);
+    the median ignores bursts of simultaneous events (a lattice start
+    puts whole planes of particles on cell faces). The buckets span the
+    90th percentile of the delays.
+    """
+    finite = keys[np.isfinite(keys)] - t_now
+    if finite.size == 0:
+        return duration / 1024.0, 16
+    med = float(np.median(finite))
+    if not med > 0.0:
+        med = float(np.mean(finite))
+    if not med > 0.0:
+        med = duration * 1e-9
+    w = EVENTS_PER_BUCKET * med / (finite.size * math.log(2.0))
+    if not (w > 0.0 and math.isfinite(w)):
+        return duration / 1024.0, 16
+    horizon = float(np.quantile(finite, 0.9))
+    want = max(16, min(1 << 22, int(horizon / w) + 1, 4 * n))
+    nbk = 1 << int(math.ceil(math.log2(want)))
+    if nbk > MAX_BUCKETS:
+        w *= nbk / MAX_BUCKETS
+        nbk = MAX_BUCKETS
+    return w, nbk
