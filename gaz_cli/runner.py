@@ -187,8 +187,9 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
             if db is not None:
-                from gaz_cli.store import Store
-                store = stack.enter_context(Store(db))  # refused or failing: before placing
+                # a SQLite file without SQLAlchemy's import when it can (gaz_cli.sqlite_writer)
+                from gaz_cli.sqlite_writer import open_for_writing
+                store = stack.enter_context(open_for_writing(db))  # refused or failing: before placing
                 writer = stack.enter_context(store.simulation(scene))
             if state is None:
                 state = initial_state(scene)

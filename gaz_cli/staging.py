@@ -79,6 +79,41 @@ def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns:
         conn.execute(head + ", ".join([row] * ((len(flat) - full) // len(names))), flat[full:])
 
 
+def move_in(conn: sqlite3.Connection, stage: "Stage", table: str, names: list[str], si_num: int,
+            pa_nums: list[int] | None = None) -> None:
+    """The rows of ``table`` staged in ``stage`` into the database on ``conn``, in its open
+    transaction, under their real SI_NUM (``si_num``) and, with ``pa_nums`` (species index
+    -> PA_NUM), their real PA_NUM. ``names``: the table's columns, SI_NUM first.
+
+    In memory: one pass, each row bound once (:func:`insert_rows`); one species: PA_NUM
+    written in the SQL. Spilled: one ``INSERT ... SELECT`` from the scratch file, attached
+    as ``stage`` (its rows in RE_NUM order, the rowid's: it has no index).
+    """
+    if not stage.rows[table]:
+        return
+    if stage.in_memory:
+        constants = {"si_num": int(si_num)}
+        if pa_nums is not None and len(set(pa_nums)) == 1:
+            constants["pa_num"] = int(pa_nums[0])
+        for staged in stage.chunks(table):
+            staged = dict(zip(names[1:], staged[1:]))
+            if "pa_num" in constants:
+                del staged["pa_num"]
+            elif pa_nums is not None:
+                staged["pa_num"] = np.asarray(pa_nums, dtype=np.int64)[staged["pa_num"]]
+            insert_rows(conn, table, list(staged), list(staged.values()), constants)
+        return
+    values = ["?"]
+    for name in names[1:]:
+        if name == "pa_num" and pa_nums is not None:
+            cases = " ".join(f"WHEN {k} THEN {int(n)}" for k, n in enumerate(pa_nums))
+            values.append(f"CASE pa_num {cases} END")
+        else:
+            values.append(name)
+    conn.execute(f"INSERT INTO {table} ({', '.join(names)}) SELECT {', '.join(values)} "
+                 f"FROM stage.{table} ORDER BY rowid", (int(si_num),))
+
+
 class Stage:
     """Rows of ``tables`` (name -> column names) waiting for the commit; see the module docstring.
 

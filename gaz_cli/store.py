@@ -61,7 +61,7 @@ import numpy as np
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
-from gaz_cli import __version__, interrupts, staging
+from gaz_cli import __version__, interrupts, sqlite_writer, staging
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.scene import Scene
@@ -166,8 +166,9 @@ SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows; 3: adds SCENE.SC_F
 place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
 indices map to species). A column added in version v carries ``info={"since": v}``."""
 
-BUSY_TIMEOUT_S = 60.0
-"""How long a SQLite writer waits for another one's commit before giving up, s."""
+BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
+"""How long a SQLite writer waits for another one's commit before giving up, s (the one
+figure is sqlite_writer's, which its messages quote)."""
 
 CONNECT_TIMEOUT_S = 10
 """How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
@@ -304,27 +305,7 @@ class Store:
 
     def _explain(self, err: BaseException) -> str:
         """One line for a driver or OS error, naming the database and the fix."""
-        if isinstance(err, OSError) and not isinstance(err, sqlite3.Error):
-            text = err.strerror or str(err)
-        else:
-            text = " ".join(str(err).split())
-        text = text.replace(self.db, self.shown)
-        low = text.lower()
-        where = f"database {self.shown!r}"
-        if "locked" in low:
-            return (f"{where} is locked by another process (waited {BUSY_TIMEOUT_S:g} s); "
-                    "try again when it has finished")
-        if "readonly" in low or "read-only" in low:
-            return f"{where} is read-only ({text}); make it and its folder writable, or choose another --db"
-        if "disk is full" in low or "no space" in low or "disk full" in low:
-            return f"no space left for {where} ({text}); free some space or choose another --db"
-        if "not a database" in low:
-            return f"{where} is not a database ({text}); point --db at a gaz database or a new file"
-        if "unable to open" in low or "permission denied" in low:
-            return (f"cannot open {where} ({text}); check that its folder exists and is writable")
-        if "connection" in low and ("failed" in low or "refused" in low or "timeout" in low):
-            return f"cannot connect to {where}: {text}"
-        return f"{where}: {text}"
+        return sqlite_writer.explain(err, self.db, self.shown)
 
     # --- schema -----------------------------------------------------------------
     def _prepare(self) -> None:
@@ -507,7 +488,7 @@ def _make_engine(url: sa.URL, display: str) -> sa.Engine:
     backend = url.get_backend_name()
     connect_args = {}
     if backend == "sqlite":
-        connect_args["timeout"] = BUSY_TIMEOUT_S
+        connect_args["timeout"] = sqlite_writer.BUSY_TIMEOUT_S
     elif backend == "postgresql" and "connect_timeout" not in url.query:
         connect_args["connect_timeout"] = CONNECT_TIMEOUT_S
     try:
@@ -678,33 +659,10 @@ class _StagedRun(_Run):
         self.stage.discard()
 
     def _move_in(self, conn, table: sa.Table, si_num: int, pa_nums=None) -> None:
-        """The staged rows of ``table`` into the database, under their real SI_NUM and PA_NUM."""
-        if not self._n[table.name]:
-            return
-        columns = list(table.columns)  # (SQLAlchemy 2.0.0's column collections take no slices)
-        if self.stage.in_memory:  # one pass: each row bound once, straight into the table
-            names = [c.name for c in columns[1:]]
-            constants = {"si_num": si_num}
-            if pa_nums is not None and len(set(pa_nums)) == 1:  # one species: PA_NUM written in the SQL
-                constants["pa_num"] = pa_nums[0]
-            raw = conn.connection.driver_connection  # (inside the transaction begun above)
-            for staged in self.stage.chunks(table.name):
-                staged = dict(zip(names, staged[1:]))
-                if "pa_num" in constants:
-                    del staged["pa_num"]
-                elif pa_nums is not None:
-                    staged["pa_num"] = np.asarray(pa_nums, dtype=np.int64)[staged["pa_num"]]
-                staging.insert_rows(raw, table.name, list(staged), list(staged.values()), constants)
-            return
-        staged = sa.table(table.name, *[sa.column(c.name) for c in table.columns], schema="stage")
-        values = [sa.literal(si_num, sa.Integer).label("si_num")]
-        for c in columns[1:]:
-            col = staged.c[c.name]
-            values.append(sa.case({k: n for k, n in enumerate(pa_nums)}, value=col).label(c.name)
-                          if c.name == "pa_num" else col)
-        # the scratch table has no index: its rows are in RE_NUM order, the rowid's
-        conn.execute(table.insert().from_select(
-            [c.name for c in columns], sa.select(*values).order_by(sa.literal_column("rowid"))))
+        """The staged rows of ``table`` into the database, under their real SI_NUM and PA_NUM
+        (:func:`gaz_cli.staging.move_in`, which the SQLite writer without SQLAlchemy shares)."""
+        staging.move_in(conn.connection.driver_connection, self.stage, table.name,
+                        [c.name for c in table.columns], si_num, pa_nums)
 
     def abort(self) -> None:
         self.stage.discard()

@@ -18,7 +18,7 @@ import sqlalchemy as sa
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
-from gaz_cli import staging
+from gaz_cli import sqlite_writer, staging
 from gaz_cli import store as st
 
 # a run of the exam's own engine (no JIT to wait for), a few ms long
@@ -220,7 +220,7 @@ def test_full_disk_at_the_commit_removes_the_state_file(tmp_path, monkeypatch):
         raise sqlite3.OperationalError("database or disk is full")
 
     db, state = tmp_path / "gaz.db", tmp_path / "final.csv"
-    monkeypatch.setattr(st._StagedRun, "_move_in", full)
+    monkeypatch.setattr(staging, "move_in", full)  # both SQLite writers move rows in through it
     res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", str(state)])
     assert res.exit_code == 1, res.output
     assert res.stderr == f"gaz: error: no space left for database '{db}' (database or disk is full); " \
@@ -233,7 +233,7 @@ def test_full_disk_at_the_commit_removes_the_state_file(tmp_path, monkeypatch):
 def test_locked_database_is_one_line_before_the_run(tmp_path, monkeypatch):
     db = tmp_path / "gaz.db"
     assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
-    monkeypatch.setattr(st, "BUSY_TIMEOUT_S", 0.2)
+    monkeypatch.setattr(sqlite_writer, "BUSY_TIMEOUT_S", 0.2)  # the one figure both SQLite writers use
     holder = sqlite3.connect(db, isolation_level=None)
     holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
     traj = tmp_path / "run.h5"

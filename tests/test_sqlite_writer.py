@@ -1,0 +1,182 @@
+"""The SQLite writer without SQLAlchemy (gaz_cli.sqlite_writer): its schema is SQLAlchemy's,
+its database is the store's table by table, it hands older and foreign databases to the
+store, and a tiny ``gaz simulate --db FILE`` imports neither SQLAlchemy nor pandas.
+
+(Concurrent writers, interrupts, a full disk, a locked file and foreign databases through
+the CLI, which now takes this writer, are tests/test_store_cli.py's.)"""
+
+import datetime as dt
+import sqlite3
+import subprocess
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from gaz_cli import sqlite_writer, staging
+from gaz_cli import store as st
+from gaz_cli.errors import StoreError
+from gaz_cli.recording import RunStats
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species, lookup
+
+STARTED = dt.datetime(2026, 11, 22, 23, 30, 5)
+
+
+def test_the_packaged_schema_is_what_sqlalchemy_emits():
+    """sql/schema/sqlite.sql is SQLAlchemy's CREATE TABLE of store.metadata on SQLite, and
+    the schema version row of store.SCHEMA_VERSION (regenerate it with generated_schema())."""
+    assert sqlite_writer.schema_text() == sqlite_writer.generated_schema()
+    assert sqlite_writer.layout().version == st.SCHEMA_VERSION
+    assert sqlite_writer.layout().columns == {t.name: [c.name for c in t.columns]
+                                              for t in st.metadata.sorted_tables}
+
+
+def runs():
+    """Two scenes: a mixture recording everything, and a custom species (a new PARTICULE row)."""
+    mixture = Scene(dim=2, length=1e-7, duration=1e-10, seed=3, record="all",
+                    components=((lookup("Ar"), 20), (lookup("He"), 10)))
+    custom = replace(mixture, seed=4, record="bounces", components=((Species("X", 3e-26, 1e-10), 30),))
+    return mixture, custom
+
+
+def write(opened, scene, k=3000, chunks=3):
+    """k random bounces (and collisions) of ``scene`` through ``opened``'s writer."""
+    rng = np.random.default_rng(scene.seed)
+    t = np.sort(rng.random(k)) * scene.duration
+    particle = rng.integers(0, scene.n, k)
+    wall = (rng.integers(0, scene.dim, k) + 1) * rng.choice([-1, 1], k)
+    vperp = rng.random(k) * 500
+    speed = vperp * (1 + rng.random(k))
+    i, j, imp = rng.integers(0, scene.n, k), rng.integers(0, scene.n, k), rng.random(k) * 1e-23
+    with opened.simulation(scene, started=STARTED) as w:
+        for part in np.array_split(np.arange(k), chunks):
+            w.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
+            if w.want_collisions:
+                w.add_collisions(t[part], i[part], j[part], imp[part])
+        w.finish(RunStats(2 * k, k, k, 0.25, initial_state(scene), virial=1.5e-20), 1.0, 2.0)
+    return w.si_num
+
+
+def content(path):
+    """Every table's rows with each value's SQLite storage class, its CREATE TABLE, the journal mode."""
+    con = sqlite3.connect(path)
+    try:
+        tables = [r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")]
+        out = {"journal": con.execute("PRAGMA journal_mode").fetchone()}
+        for t in tables:
+            cols = [r[1] for r in con.execute(f"PRAGMA table_info({t})")]
+            typed = ", ".join(f"{c}, typeof({c})" for c in cols)
+            out[t] = con.execute(f"SELECT {typed} FROM {t} ORDER BY {', '.join(cols)}").fetchall()
+            out[t, "info"] = con.execute(f"PRAGMA table_info({t})").fetchall()
+            out[t, "keys"] = con.execute(f"PRAGMA foreign_key_list({t})").fetchall()
+            (sql,) = con.execute("SELECT sql FROM sqlite_master WHERE name = ?", (t,)).fetchone()
+            out[t, "sql"] = " ".join(sql.split())  # the CREATE TABLE as SQLite keeps it
+        return out
+    finally:
+        con.close()
+
+
+@pytest.mark.parametrize("where", ["memory", "scratch file"])
+def test_both_writers_give_the_same_database(tmp_path, monkeypatch, where):
+    """The same two runs through SQLAlchemy's store and through the plain sqlite3 writer give
+    the same database: every table's rows and their storage classes, columns, keys, WAL --
+    rows staged in memory, or spilled to a scratch file after the first chunk."""
+    if where == "scratch file":
+        monkeypatch.setattr(staging, "MEMORY_ROWS", 1500)
+    a, b = tmp_path / "sqlalchemy.db", tmp_path / "sqlite3.db"
+    with st.Store(str(a)) as store:
+        assert [write(store, scene) for scene in runs()] == [1, 2]
+    with sqlite_writer.open_for_writing(str(b)) as light:
+        assert isinstance(light, sqlite_writer.SqliteFile)
+        assert [write(light, scene) for scene in runs()] == [1, 2]
+    found, expected = content(b), content(a)
+    assert found.keys() == expected.keys() and len(found["rebond"]) == 6000 and len(found["choc"]) == 3000
+    for key in expected:
+        assert found[key] == expected[key], key
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sqlalchemy.db", "sqlite3.db"]
+
+
+def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_store(tmp_path):
+    """A file at this layout is opened by the light writer; one at schema version 2 goes to
+    the store, which migrates it (then the light writer takes it); a newer version and a
+    foreign file are refused with the store's words, the foreign file left untouched."""
+    db = str(tmp_path / "g.db")
+    with st.Store(db):
+        pass
+    with sqlite_writer.open_for_writing(db) as opened:
+        assert isinstance(opened, sqlite_writer.SqliteFile)
+    con = sqlite3.connect(db)
+    con.execute("ALTER TABLE scene DROP COLUMN sc_file")  # version 2's layout
+    con.execute("ALTER TABLE composition DROP COLUMN co_rank")
+    con.execute("UPDATE schema_version SET sv_version = 2")
+    con.commit()
+    con.close()
+    with sqlite_writer.open_for_writing(db) as opened:
+        assert isinstance(opened, st.Store) and opened.schema_version() == st.SCHEMA_VERSION
+    with sqlite_writer.open_for_writing(db) as opened:
+        assert isinstance(opened, sqlite_writer.SqliteFile)
+        assert write(opened, runs()[0]) == 1
+    con = sqlite3.connect(db)
+    con.execute("UPDATE schema_version SET sv_version = sv_version + 1")  # a later gaz's file
+    con.commit()
+    con.close()
+    with pytest.raises(StoreError, match="newer than this gaz"):
+        sqlite_writer.open_for_writing(db)
+    foreign = tmp_path / "foreign.db"
+    con = sqlite3.connect(foreign)
+    con.execute("CREATE TABLE rebond (x INTEGER)")
+    con.commit()
+    con.close()
+    before = foreign.read_bytes()
+    with pytest.raises(StoreError, match="not a gaz database: its table REBOND has columns"):
+        sqlite_writer.open_for_writing(str(foreign))
+    assert foreign.read_bytes() == before
+
+
+def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch):
+    """A failure while the rows move in rolls the whole run back: no SIMULATION, SCENE,
+    COMPOSITION or REBOND row, the file consistent; one StoreError line."""
+    db = tmp_path / "g.db"
+
+    def full(*args, **kwargs):
+        raise sqlite3.OperationalError("database or disk is full")
+
+    with sqlite_writer.open_for_writing(str(db)) as opened:
+        monkeypatch.setattr(staging, "move_in", full)
+        with pytest.raises(StoreError, match="no space left for database"):
+            write(opened, runs()[0])
+    con = sqlite3.connect(db)
+    counts = [con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0]
+              for t in ("simulation", "scene", "composition", "rebond", "resultat")]
+    assert counts == [0] * 5 and con.execute("PRAGMA integrity_check").fetchone() == ("ok",)
+    con.close()
+
+
+_PROBE = """
+import sys
+from gaz_cli.cli import main
+for seed in ("1", "2"):  # a new file, then a file at the current layout
+    try:
+        main(["simulate", "--dim", "3", "--n", "100", "--length", "1e-8", "--duration", "1e-12",
+              "--seed", seed, "--db", sys.argv[1], "--json"])
+    except SystemExit as exit:
+        assert not exit.code, exit.code
+print(sorted(m for m in ("sqlalchemy", "pandas", "matplotlib", "h5py", "dask") if m in sys.modules),
+      file=sys.stderr)
+"""
+
+
+def test_a_tiny_run_into_a_sqlite_file_imports_no_sqlalchemy(tmp_path):
+    """Start-up (issue 15 item 4): ``gaz simulate --db FILE`` into a new file and into a
+    current one imports neither SQLAlchemy nor pandas (nor matplotlib, h5py, dask), and
+    stores both runs."""
+    db = tmp_path / "new.db"
+    out = subprocess.run([sys.executable, "-c", _PROBE, str(db)], capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.strip().splitlines()[-1] == "[]", out.stderr
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT si_num, sc_seed FROM scene ORDER BY si_num").fetchall() == [(1, 1), (2, 2)]
+    assert con.execute("SELECT COUNT(*) FROM rebond").fetchone()[0] > 0
+    con.close()
