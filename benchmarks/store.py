@@ -22,9 +22,11 @@ down). The engine is not run: this is the store's cost alone.
 SQLite: rows go to the scratch file during the run, and move in at the
 commit (both timed; the commit alone is also given, as it is the time the
 database's write lock is held). PostgreSQL: binary COPY into the run's
-transaction; the line says whether the role may set
-session_replication_role (the path without per-row foreign-key triggers) or
-not (every row checked by the two key triggers).
+transaction; the line says which path the role takes: into the run's own
+table, attached whole to the partitioned REBOND at the commit (schema 4, a
+role owning REBOND: the commit builds its index and checks its keys in bulk,
+and is timed), or into REBOND itself, with or without the per-row key
+triggers (session_replication_role).
 """
 
 from __future__ import annotations
@@ -77,9 +79,17 @@ def describe(db: str) -> str:
             return "SQLite (WAL; rows staged in a scratch file, moved in at the commit)"
         with store.engine.connect() as conn:
             version = conn.exec_driver_sql("SHOW server_version").scalar()
+            superuser = conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on"
+            attach = st._may_attach(conn)
             fast = st._may_skip_key_triggers(conn)
-    how = ("role may set session_replication_role: COPY without the per-row key triggers"
-           if fast else "role may not set session_replication_role: every row checked by the key triggers")
+    role = "superuser" if superuser else "ordinary role"
+    if attach:
+        how = (f"{role}: COPY into the run's own table, attached as REBOND's partition at the commit "
+               "(keys checked in bulk)")
+    elif fast:
+        how = f"{role} that may set session_replication_role: COPY without the per-row key triggers"
+    else:
+        how = f"{role}, may not attach partitions to REBOND: every row checked by the key triggers"
     return f"PostgreSQL {version} (binary COPY; {how})"
 
 

@@ -98,6 +98,9 @@ rebond = sa.Table(
     sa.Column("re_vit", sa.Float, nullable=False),
     sa.Column("re_vp", sa.Float, nullable=False),
     sqlite_with_rowid=False,  # the primary key is the storage order: one B-tree, not two
+    # PostgreSQL (schema 4): one partition per run, attached whole at its commit (_DirectRun);
+    # the same columns and keys, the exam's queries unchanged
+    postgresql_partition_by="RANGE (si_num)",
 )
 
 scene_table = sa.Table(
@@ -159,7 +162,7 @@ schema_version = sa.Table(
 EXAM_TABLES = ("simulation", "particule", "rebond")
 
 SCHEMA_VERSION = 3
-"""Version of the layout this gaz writes. 1: the tables above but SCHEMA_VERSION
+"""Version of the layout this gaz writes into SQLite. 1: the tables above but SCHEMA_VERSION
 (rollback journal, PostgreSQL's PARTICULE sequence left at 1 by seeding); 2: adds
 SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows; 3: adds SCENE.SC_FILE
 (the scene file that re-runs the simulation) and COMPOSITION.CO_RANK (the species'
@@ -169,6 +172,18 @@ indices map to species). A column added in version v carries ``info={"since": v}
 BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s (the one
 figure is sqlite_writer's, which its messages quote)."""
+
+POSTGRES_SCHEMA_VERSION = 4
+"""Version of the layout this gaz writes into PostgreSQL: 3, and REBOND partitioned by
+RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
+(``rebond_default``) for rows written any other way; same columns, same keys. SQLite
+has no version 4 (nothing changed there)."""
+
+
+def latest_version(dialect_name: str) -> int:
+    """The schema version this gaz writes for a backend ('sqlite', 'postgresql', ...)."""
+    return POSTGRES_SCHEMA_VERSION if dialect_name == "postgresql" else SCHEMA_VERSION
+
 
 CONNECT_TIMEOUT_S = 10
 """How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
@@ -354,25 +369,29 @@ class Store:
         if schema_version.name not in names:
             return 1
         version = conn.execute(sa.select(sa.func.max(schema_version.c.sv_version))).scalar() or 1
-        if version > SCHEMA_VERSION:
+        latest = latest_version(conn.dialect.name)
+        if version > latest:
             raise StoreError(f"{self.shown!r} has schema version {version}, newer than this gaz "
-                             f"({__version__}, schema {SCHEMA_VERSION}) knows; upgrade gaz to use it")
+                             f"({__version__}, schema {latest}) knows; upgrade gaz to use it")
         return int(version)
 
     def _create_or_migrate(self, conn, version: int) -> None:
-        if version == SCHEMA_VERSION:
+        latest = latest_version(conn.dialect.name)
+        if version == latest:
             return
         if version == 0:
             metadata.create_all(conn)  # checkfirst: IF NOT EXISTS
+            if conn.dialect.name == "postgresql":
+                _pg_default_partition(conn)
             if not conn.execute(sa.select(sa.func.count()).select_from(particule)).scalar():
                 # no explicit ids: the database numbers them, so its sequence stays in step
                 conn.execute(particule.insert(), [
                     {"pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius} for s in BUILTIN.values()])
-            conn.execute(schema_version.insert().values(sv_version=SCHEMA_VERSION))
+            conn.execute(schema_version.insert().values(sv_version=latest))
             return
-        for step in range(version, SCHEMA_VERSION):
+        for step in range(version, latest):
             MIGRATIONS[step](conn)
-        conn.execute(schema_version.update().values(sv_version=SCHEMA_VERSION))
+        conn.execute(schema_version.update().values(sv_version=latest))
 
     # --- writing ------------------------------------------------------------
     @contextlib.contextmanager
@@ -471,7 +490,35 @@ def _add_columns(conn, since: int) -> None:
                 conn.exec_driver_sql(f"ALTER TABLE {table.name} ADD COLUMN {col.name} {kind}")
 
 
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3}
+def _v3_to_v4(conn) -> None:
+    """3 -> 4, PostgreSQL only: REBOND becomes a table partitioned by RANGE (SI_NUM); the
+    rows already there stay where they are, as its partition ``rebond_v3`` for every
+    SI_NUM up to the largest in SIMULATION (attaching it checks them against that range
+    once); a default partition takes rows written any other way."""
+    conn.exec_driver_sql("LOCK TABLE rebond IN ACCESS EXCLUSIVE MODE")  # writers of version 3 wait
+    kind, pkey = conn.exec_driver_sql(
+        "SELECT c.relkind, i.relname FROM pg_class c "
+        "JOIN pg_constraint k ON k.conrelid = c.oid AND k.contype = 'p' "
+        "JOIN pg_class i ON i.oid = k.conindid WHERE c.oid = 'rebond'::regclass").one()
+    if kind == "p":
+        return
+    conn.exec_driver_sql("ALTER TABLE rebond RENAME TO rebond_v3")
+    conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO rebond_v3_pkey')  # index names are the schema's
+    rebond.create(conn)
+    top = conn.exec_driver_sql(
+        "SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM rebond_v3))").scalar()
+    conn.exec_driver_sql("ALTER TABLE rebond ATTACH PARTITION rebond_v3 "
+                         f"FOR VALUES FROM (MINVALUE) TO ({int(top or 0) + 1})")
+    _pg_default_partition(conn)
+
+
+def _pg_default_partition(conn) -> None:
+    """PostgreSQL: REBOND's default partition, where rows land that no run's partition holds
+    (an INSERT by hand, a role that may not attach partitions: see _DirectRun)."""
+    conn.exec_driver_sql("CREATE TABLE IF NOT EXISTS rebond_default PARTITION OF rebond DEFAULT")
+
+
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
@@ -531,13 +578,17 @@ def _write_transaction(engine: sa.Engine):
 
 
 # --- one simulation's rows --------------------------------------------------------
-def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime) -> tuple[int, list[int]]:
-    """SIMULATION, COMPOSITION and SCENE rows of one run; returns SI_NUM and each species' PA_NUM."""
+def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime, si_num: int | None = None,
+                           nums: list[int] | None = None) -> tuple[int, list[int]]:
+    """SIMULATION, COMPOSITION and SCENE rows of one run; returns SI_NUM and each species' PA_NUM.
+
+    ``si_num``, ``nums``: numbers drawn before (PostgreSQL's attach path); by default the
+    database numbers the run, and species are looked up (or added) here."""
     res = conn.execute(simulation.insert().values(
         si_deb=started, si_dur=float(scene.duration), si_dim=int(scene.dim),
-        si_n=int(scene.n), si_l=float(scene.length)))
+        si_n=int(scene.n), si_l=float(scene.length), **({} if si_num is None else {"si_num": si_num})))
     si_num = int(res.inserted_primary_key[0])
-    nums = [_pa_num(conn, sp) for sp in scene.species]
+    nums = [_pa_num(conn, sp) for sp in scene.species] if nums is None else nums
     conn.execute(composition.insert(), [
         {"si_num": si_num, "pa_num": num, "co_n": int(k), "co_rank": rank}
         for rank, (num, (_, k)) in enumerate(zip(nums, scene.components))])
@@ -552,13 +603,16 @@ def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime) -> tuple[i
     return si_num, nums
 
 
-def _pa_num(conn, sp: Species) -> int:
-    """PA_NUM of a species; custom species get a row of their own on first use."""
+def _pa_num(conn, sp: Species, insert: bool = True) -> int | None:
+    """PA_NUM of a species; custom species get a row of their own on first use (None
+    instead if not ``insert``)."""
     rows = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
                         .where(particule.c.pa_nom == sp.name).order_by(particule.c.pa_num)).all()
     for num, m_g, r in rows:
         if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
             return int(num)
+    if not insert:
+        return None
     res = conn.execute(particule.insert().values(pa_nom=sp.name, pa_m=sp.mass_g, pa_r=sp.radius))
     return int(res.inserted_primary_key[0])
 
@@ -733,50 +787,134 @@ def _may_skip_key_triggers(conn) -> bool:
         "SELECT has_parameter_privilege('session_replication_role', 'SET')").scalar())
 
 
+def _may_attach(conn) -> bool:
+    """Whether REBOND is partitioned (PostgreSQL schema 4) and this role may attach
+    partitions to it: it owns REBOND, or is a member of the role that does (a superuser)."""
+    return bool(conn.exec_driver_sql(
+        "SELECT c.relkind = 'p' AND pg_has_role(c.relowner, 'USAGE') FROM pg_class c "
+        "WHERE c.oid = to_regclass('rebond')").scalar())
+
+
 class _DirectRun(_Run):
     """PostgreSQL (and other servers): rows go straight into the run's open transaction,
-    by COPY with psycopg, executemany otherwise; the commit adds the results row."""
+    by COPY with psycopg, executemany otherwise; the commit adds the results row.
+
+    PostgreSQL, REBOND partitioned (schema 4) and a role that may attach partitions
+    (:func:`_may_attach`), the usual case: the run's REBOND rows go into a table of
+    their own, ``rebond_<SI_NUM>`` (created in the run's transaction: no key, no
+    trigger, seen by nobody), and the commit attaches it whole to REBOND
+    (``ALTER TABLE ... ATTACH PARTITION``), which builds its primary key index in one
+    pass and checks both foreign keys in one query each over all its rows (as ``ALTER
+    TABLE ... ADD FOREIGN KEY`` does; PostgreSQL's RI_Initial_Check), rather than one
+    trigger query per row: a row naming a SIMULATION or PARTICULE that does not exist
+    fails the commit as it would fail an INSERT. Attaching locks SIMULATION and
+    PARTICULE in SHARE ROW EXCLUSIVE mode, which waits for every transaction that has
+    written to them; so such a run writes nothing to them before its commit: SI_NUM
+    and the PA_NUM of a new species are drawn from their sequences at the start, the
+    rows written at the commit, and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
+    (what attaching takes) first, one at a time, so that two commits never wait on
+    each other (a deadlock otherwise). CHOC's rows (``--record all``) wait in a
+    temporary table and go in at the commit.
+
+    Otherwise (a role that may not attach, a database of schema 3 being read by an
+    older gaz...): rows go into REBOND itself (its default partition), each checked by
+    the two key triggers unless the role may skip them
+    (:func:`_may_skip_key_triggers`).
+    """
 
     def __init__(self, store, scene, started):
         super().__init__(store, scene, started)
         self.conn = store.engine.connect()
+        self._targets = {}  # table name -> where its rows go until the commit (attach path)
         try:
             self.trans = self.conn.begin()
-            self._si, nums = _write_simulation_rows(self.conn, scene, started)
+            self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
+            if self._attach:
+                self._si = self._next("simulation", "si_num")
+                nums = [_pa_num(self.conn, sp, insert=False) for sp in scene.species]
+                self._new_species = {k: self._next("particule", "pa_num")
+                                     for k, num in enumerate(nums) if num is None}
+                nums = [self._new_species.get(k, num) for k, num in enumerate(nums)]
+            else:
+                self._si, nums = _write_simulation_rows(self.conn, scene, started)
+            self._copy = self.conn.dialect.driver == "psycopg"
+            self._keys_by_hand = self._copy and _may_skip_key_triggers(self.conn)
+            if self._keys_by_hand and not self._attach:
+                # what the key triggers would do row by row, once: lock the species rows
+                # against deletion (our SIMULATION row is not visible to anyone else yet)
+                self.conn.execute(sa.select(particule.c.pa_num).where(particule.c.pa_num.in_(nums))
+                                  .with_for_update(key_share=True))
         except BaseException:
             self.conn.close()
             raise
+        self._nums = nums
         self._pa_of_particle = np.array(nums, dtype=np.int64)[scene.kinds()]
-        self._copy = self.conn.dialect.driver == "psycopg"
-        self._keys_by_hand = self._copy and _may_skip_key_triggers(self.conn)
-        if self._keys_by_hand:
-            # what the key triggers would do row by row, once: lock the species rows
-            # against deletion (our SIMULATION row is not visible to anyone else yet)
-            self.conn.execute(sa.select(particule.c.pa_num).where(particule.c.pa_num.in_(nums))
-                              .with_for_update(key_share=True))
+
+    def _next(self, table: str, column: str) -> int:
+        return int(self.conn.exec_driver_sql(
+            f"SELECT nextval(pg_get_serial_sequence('{table}', '{column}'))").scalar())
+
+    def _target(self, table: sa.Table) -> str:
+        """The table this run's rows of ``table`` go into now."""
+        if not self._attach:
+            return table.name
+        if table.name not in self._targets:
+            if table is rebond:
+                name = f"rebond_{self._si}"
+                self.conn.exec_driver_sql(f"CREATE TABLE {name} (LIKE rebond)")
+            else:
+                name = f"gaz_{table.name}_{self._si}"
+                self.conn.exec_driver_sql(f"CREATE TEMPORARY TABLE {name} (LIKE {table.name}) ON COMMIT DROP")
+            self._targets[table.name] = name
+        return self._targets[table.name]
 
     def _add(self, table, columns):
         names = [c.name for c in table.columns]
+        target = self._target(table)
+        replica = self._keys_by_hand and target == table.name
         if self._copy:  # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
             raw = self.conn.connection.driver_connection
-            sql = f"COPY {table.name} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
+            sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
             with raw.cursor() as cur:
-                if self._keys_by_hand:
+                if replica:
                     cur.execute("SET LOCAL session_replication_role = replica")
                 with cur.copy(sql) as copy:
                     copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
-                if self._keys_by_hand:
+                if replica:
                     cur.execute("SET LOCAL session_replication_role = origin")
         else:
             rows = zip(*[np.asarray(c).tolist() for c in columns])
-            self.conn.execute(table.insert(), [dict(zip(names, r)) for r in rows])
+            into = sa.table(target, *[sa.column(n) for n in names])
+            self.conn.execute(into.insert(), [dict(zip(names, r)) for r in rows])
 
     def commit(self) -> None:
         with interrupts.held():
+            if self._attach:
+                self._attach_rows()
             self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
             self.trans.commit()
             self.si_num = self._si
         self.conn.close()
+
+    def _attach_rows(self) -> None:
+        """The attach path's commit (see the class docstring), in this order."""
+        conn, si = self.conn, self._si
+        conn.exec_driver_sql("LOCK TABLE rebond IN SHARE UPDATE EXCLUSIVE MODE")
+        species = dict(enumerate(self.scene.species))
+        if self._new_species:
+            conn.execute(particule.insert(), [
+                {"pa_num": num, "pa_nom": species[k].name, "pa_m": species[k].mass_g, "pa_r": species[k].radius}
+                for k, num in self._new_species.items()])
+        _write_simulation_rows(conn, self.scene, self.started, si_num=si, nums=self._nums)
+        if "rebond" in self._targets:
+            conn.exec_driver_sql(f"ALTER TABLE rebond ATTACH PARTITION {self._targets['rebond']} "
+                                 f"FOR VALUES FROM ({si}) TO ({si + 1})")
+        if "choc" in self._targets:
+            if self._keys_by_hand:
+                conn.exec_driver_sql("SET LOCAL session_replication_role = replica")
+            conn.exec_driver_sql(f"INSERT INTO choc SELECT * FROM {self._targets['choc']} ORDER BY ch_num")
+            if self._keys_by_hand:
+                conn.exec_driver_sql("SET LOCAL session_replication_role = origin")
 
     def abort(self) -> None:
         try:

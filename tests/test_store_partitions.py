@@ -1,0 +1,153 @@
+"""PostgreSQL's REBOND, partitioned by SI_NUM (schema 4): one partition per run, attached
+whole at its commit; the foreign keys still refuse every row that names a SIMULATION or
+a PARTICULE that does not exist; concurrent runs commit without waiting on each other
+for ever; a database of schema 3 is converted, its rows kept."""
+
+import threading
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import sqlalchemy as sa
+
+from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
+from gaz_cli import store as st
+from gaz_cli.errors import StoreError
+from gaz_cli.recording import RunStats
+from gaz_cli.scene import initial_state
+from gaz_cli.species import BUILTIN, Species
+
+pytestmark = pytest.mark.postgres
+
+
+def write(store, scene, k, seed=0, pa_of_particle=None):
+    """One run of ``k`` random bounces (in 2 chunks) through the store's writer; its SI_NUM."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.random(k)) * scene.duration
+    particle = rng.integers(0, scene.n, k)
+    wall = (rng.integers(0, scene.dim, k) + 1) * rng.choice([-1, 1], k)
+    vperp = rng.random(k) * 500
+    with store.simulation(scene) as w:
+        if pa_of_particle is not None:
+            w._pa_of_particle = pa_of_particle
+        for part in np.array_split(np.arange(k), 2):
+            if part.size:
+                w.add_bounces(t[part], particle[part], wall[part], vperp[part] * 1.5, vperp[part])
+        w.finish(RunStats(k, k, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+    return w.si_num
+
+
+def partitions(conn) -> set[str]:
+    return set(conn.exec_driver_sql(
+        "SELECT inhrelid::regclass::text FROM pg_inherits WHERE inhparent = 'rebond'::regclass").scalars())
+
+
+def test_one_partition_per_run_with_bounces(postgres_db, argon_scene):
+    """A run's rows are its own partition; a run without bounces adds none; Q35 reads them all."""
+    with st.Store(postgres_db) as store:
+        scene = argon_scene(dim=3, n=20)
+        counts = {write(store, scene, k, seed=k): k for k in (1000, 0, 37)}
+        with store.engine.connect() as conn:
+            assert partitions(conn) == {"rebond_default"} | {f"rebond_{si}" for si, k in counts.items() if k}
+            assert conn.exec_driver_sql("SELECT count(*) FROM rebond_default").scalar() == 0
+        per_run = store.query("q35_bounces_per_simulation").set_index("SI_NUM").iloc[:, 0].to_dict()
+        assert per_run == counts
+
+
+def test_rows_with_unknown_keys_are_refused(postgres_db, argon_scene):
+    """Whatever way a row comes in -- the writer's attached partition, an INSERT into
+    REBOND (its default partition), a partition attached by hand -- a PA_NUM or an SI_NUM
+    with no row of its own is refused; a refused run leaves nothing behind."""
+    scene = argon_scene(dim=3, n=20)
+    with st.Store(postgres_db) as store:
+        good, empty = write(store, scene, 100), write(store, scene, 0)
+        with pytest.raises(StoreError, match="foreign key"):
+            write(store, scene, 100, pa_of_particle=np.full(scene.n, 9999))
+        with store.engine.connect() as conn:
+            assert store.simulation_numbers() == [good, empty]
+            assert partitions(conn) == {"rebond_default", f"rebond_{good}"}
+        row = "(%s, 1000000, %s, 0.5, 1, 2.0, 1.0)"
+        with store.engine.begin() as conn, pytest.raises(sa.exc.IntegrityError, match="foreign key"):
+            conn.exec_driver_sql(f"INSERT INTO rebond VALUES {row % (good, 9999)}")  # into the run's partition
+        for si, pa in ((empty + 100, 1), (empty, 9999)):  # no SIMULATION row; no PARTICULE row
+            with store.engine.begin() as conn, pytest.raises(sa.exc.IntegrityError, match="foreign key"):
+                conn.exec_driver_sql(f"INSERT INTO rebond VALUES {row % (si, pa)}")  # the default partition
+            with store.engine.begin() as conn, pytest.raises(sa.exc.IntegrityError, match="foreign key"):
+                conn.exec_driver_sql("CREATE TABLE rebond_by_hand (LIKE rebond)")
+                conn.exec_driver_sql(f"INSERT INTO rebond_by_hand VALUES {row % (si, pa)}")
+                conn.exec_driver_sql(f"ALTER TABLE rebond ATTACH PARTITION rebond_by_hand "
+                                     f"FOR VALUES FROM ({si}) TO ({si + 1})")
+
+
+def test_concurrent_runs_all_commit(postgres_db, argon_scene):
+    """Four writers at once (each run's transaction open while the others commit, one
+    with a new species) all commit, with distinct SI_NUM and all their rows."""
+    custom = Species("custom", 3e-26, 1e-10)
+    scenes = [argon_scene(dim=3, n=20, seed=s) for s in range(3)]
+    scenes.append(replace(scenes[0], components=((custom, 20),)))
+    stores = [st.Store(postgres_db) for _ in scenes]
+    barrier, done, errors = threading.Barrier(len(scenes)), {}, []
+
+    def run(k):
+        try:
+            with stores[k].simulation(scenes[k]) as w:
+                w.add_bounces(np.arange(500) * 1e-13, np.arange(500) % 20, np.ones(500, int),
+                              np.ones(500), np.ones(500))
+                barrier.wait(timeout=60)  # every run's transaction is open here
+                w.add_bounces(np.arange(500, 600) * 1e-13, np.arange(100) % 20, np.ones(100, int),
+                              np.ones(100), np.ones(100))
+                w.finish(RunStats(600, 600, 0, 0.1, initial_state(scenes[k])), 1.0, 1.0)
+            done[k] = w.si_num
+        except Exception as err:  # noqa: BLE001 - reported below
+            errors.append(err)
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(len(scenes))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(timeout=120)
+    assert not errors and len(set(done.values())) == len(scenes)
+    counts = stores[0].query("q35_bounces_per_simulation").set_index("SI_NUM").iloc[:, 0].to_dict()
+    assert counts == {si: 600 for si in done.values()}
+    particles = stores[0].table(st.particule)
+    custom_num = int(particles[particles.PA_NOM == "custom"].PA_NUM.iloc[0])
+    assert set(stores[0].table(st.rebond, done[3]).PA_NUM) == {custom_num}
+    for s in stores:
+        s.close()
+
+
+def _version_3(db: str) -> None:
+    """A PostgreSQL database as gaz wrote it at schema 3: REBOND a plain table, one run's rows."""
+    old = sa.MetaData()
+    for table in st.metadata.sorted_tables:
+        table.to_metadata(old)
+    old.tables["rebond"].dialect_options["postgresql"]["partition_by"] = None
+    engine = sa.create_engine(st.url_for(db))
+    with engine.begin() as conn:
+        old.create_all(conn)
+        conn.execute(st.particule.insert(), [{"pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius}
+                                             for s in BUILTIN.values()])
+        conn.execute(st.schema_version.insert().values(sv_version=3))
+        conn.execute(st.simulation.insert().values(si_num=1, si_deb=sa.func.current_timestamp(),
+                                                   si_dur=1.0, si_dim=3, si_n=3, si_l=1.0))
+        conn.execute(sa.select(sa.func.setval(sa.func.pg_get_serial_sequence("simulation", "si_num"), 1)))
+        conn.execute(st.rebond.insert(), [dict(si_num=1, re_num=k, pa_num=1, re_t=k * 0.1, re_dir=1,
+                                               re_vit=2.0, re_vp=1.0) for k in range(1, 11)])
+        assert partitions(conn) == set()
+    engine.dispose()
+
+
+def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
+    _version_3(postgres_db)
+    with st.Store(postgres_db) as store:
+        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 4
+        si = write(store, argon_scene(dim=3, n=20), 50)
+        with store.engine.connect() as conn:
+            assert partitions(conn) == {"rebond_v3", "rebond_default", f"rebond_{si}"}
+            assert conn.exec_driver_sql("SELECT count(*) FROM rebond_v3").scalar() == 10
+            assert {fk["referred_table"] for fk in sa.inspect(conn).get_foreign_keys("rebond")} \
+                == {"simulation", "particule"}
+        assert store.table(st.rebond, 1).RE_NUM.tolist() == list(range(1, 11))
+        assert len(store.table(st.rebond, si)) == 50
+        with store.engine.begin() as conn, pytest.raises(sa.exc.IntegrityError, match="foreign key"):
+            conn.exec_driver_sql("UPDATE rebond SET pa_num = 9999 WHERE si_num = 1 AND re_num = 1")
