@@ -1,0 +1,262 @@
+"""gaz's neighbour lists against F. Smallenburg's C event-driven code (issue 15 item 5).
+
+Not a test: it prints numbers. The C code is the "Single" variant of
+https://github.com/FSmallenburg/EDMD (neighbour lists, one event per particle;
+F. Smallenburg, Eur. Phys. J. E 45, 22, 2022). Give a copy of that repository (a work
+tree, or a bare git directory: its ``Single/`` is read from HEAD); the script patches
+the run's parameters into its globals, builds it with ``--cc`` and ``--cflags`` and
+runs it in a temporary directory. Run from the repository root:
+
+    python benchmarks/smallenburg.py --edmd PATH_TO_EDMD            # 5 pairs, N = 10^4
+    python benchmarks/smallenburg.py --edmd PATH --pairs 3 --per-particle 50
+
+The scene, the same for both: 3D periodic cube, N hard spheres of diameter sigma = 1,
+mass m = 1, k_B T = 1 (the C code's units: lengths in sigma, times in
+tau = sigma sqrt(m / k_B T)); packing fraction 0.45; both start from the same
+positions (gaz's lattice placement melted by a gaz run of ``--equilibrate`` collisions
+per particle, written as the C code's ``init.sph``); gaz keeps that run's velocities,
+the C code draws Maxwell velocities of zero total momentum with its own generator; both
+run for the same simulated time, about ``--per-particle`` collisions per particle
+(N ``--per-particle`` collisions in all, from the Enskog rate with KLM's contact value). Neighbour lists of the same shell: the C code lists
+the pairs within 1.5 (R_i + R_j) (``shellsize`` 1.5) and rebuilds a particle's
+list when it has moved 0.5 R = 0.25 sigma; gaz lists the pairs within
+R_i + R_j + 2h and rebuilds at h, h = 0.25 sigma (``NEIGHBOUR_SKIN``), so the
+same lists. The C code's thermostat is switched off (gaz's runs are
+microcanonical) and it prints every ``--write`` tau (O(N) each).
+
+Each pair runs both codes one after the other (the order alternates from pair to
+pair), and prints for each the collisions per second of wall time and of CPU time,
+and gaz/C. C: the whole process (reading 10^4 lines and building its lists are a few
+ms); CPU from the child's rusage. gaz: RunStats.wall_time_s (set-up, including the
+first lists, and the event loop; the JIT compile is done once before the pairs and
+excluded) and this process's CPU time over engine.run less the compile time. Both
+give beta P sigma^3 from their collision virials, beside KLM's (a check that both
+simulate the same fluid). With ``--count`` the C code is also built with counters
+(pair tests, list rebuilds, stale events per collision; not timed) to compare the
+work per collision with gaz's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from gaz_cli import engine
+from gaz_cli.constants import K_B
+from gaz_cli.engine import driver
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species
+from gaz_cli.theory import contact_value, z_klm
+
+C_SHELL = 1.5
+"""The C code's ``shellsize`` (1 + alpha): lists hold pairs within C_SHELL (R_i + R_j)."""
+
+PARAMS = {
+    # global of mdSingle.c -> its new definition ({} filled by format)
+    r"double maxtime = [^;]*;": "double maxtime = {maxtime!r};",
+    r"int makesnapshots = [^;]*;": "int makesnapshots = 0;",
+    r"double writeinterval = [^;]*;": "double writeinterval = {write!r};",
+    r"double snapshotinterval = [^;]*;": "double snapshotinterval = {write!r};",
+    r"int initialconfig = [^;]*;": "int initialconfig = 0;",
+    r"const int usethermostat = [^;]*;": "const int usethermostat = 0;",
+    r"const double shellsize = [^;]*;": "const double shellsize = {shell!r};",
+}
+
+COUNTERS = [
+    # (after this line of mdSingle.c, insert) -- work counters for --count
+    (r"unsigned int colcounter = 0;[^\n]*\n",
+     "long long cnt_pairs = 0, cnt_rebuilds = 0, cnt_stale = 0, cnt_events = 0;\n"),
+    (r"int findcollision\(particle\* p1, particle\* p2, double\* tmin\)\n\{\n", "    cnt_pairs++;\n"),
+    (r"void makeneighborlist\(particle\* p1\)\n\{\n", "    cnt_rebuilds++;\n"),
+    (r"    if \(p1->counter2 != p2->counter\)\n    \{\n", "        cnt_stale++;\n"),
+    (r"    removeevent\(ev\);\n", "    cnt_events++;\n"),
+    (r"    printstuff\(\);\n",
+     '    printf("COUNTS pairs %lld rebuilds %lld stale %lld events %lld\\n", cnt_pairs, '
+     "cnt_rebuilds, cnt_stale, cnt_events);\n"),
+]
+
+
+def single_source(edmd: Path) -> tuple[str, str, str]:
+    """mdSingle.c, mdSingle.h and mt19937ar.c from a work tree or a bare git directory."""
+    names = ("mdSingle.c", "mdSingle.h", "mt19937ar.c")
+    if (edmd / "Single" / names[0]).is_file():
+        return tuple((edmd / "Single" / f).read_text() for f in names)
+    try:
+        return tuple(subprocess.run(["git", "--git-dir", str(edmd), "show", f"HEAD:Single/{f}"],
+                                    check=True, capture_output=True, text=True).stdout
+                     for f in names)
+    except (OSError, subprocess.CalledProcessError) as exc:
+        sys.exit(f"smallenburg.py: no Single/mdSingle.c in {edmd} ({exc}); give --edmd a copy "
+                 "of github.com/FSmallenburg/EDMD")
+
+
+def build(edmd: Path, where: Path, maxtime: float, write: float, cc: str, cflags: str,
+          count: bool) -> Path:
+    """The patched C code built in ``where``; returns the binary."""
+    src, hdr, rng = single_source(edmd)
+    for pat, new in PARAMS.items():
+        src, k = re.subn(pat, new.format(maxtime=maxtime, write=write, shell=C_SHELL), src)
+        if k != 1:
+            sys.exit(f"smallenburg.py: mdSingle.c has no line matching {pat!r} (another "
+                     "version of the C code?)")
+    if count:
+        for pat, add in COUNTERS:
+            src, k = re.subn(pat, lambda m, add=add: m.group(0) + add, src)
+            if k != 1:
+                sys.exit(f"smallenburg.py: cannot place a counter after {pat!r}")
+    (where / "mdSingle.c").write_text(src)
+    (where / "mdSingle.h").write_text(hdr)
+    (where / "mt19937ar.c").write_text(rng)
+    binary = where / "md"
+    cmd = [cc, *cflags.split(), "mdSingle.c", "-o", "md", "-lm"]
+    res = subprocess.run(cmd, cwd=where, capture_output=True, text=True)
+    if res.returncode != 0:
+        sys.exit(f"smallenburg.py: {' '.join(cmd)} failed:\n{res.stderr}")
+    return binary
+
+
+def write_sph(path: Path, x: np.ndarray, length: float, radius: float) -> None:
+    """Positions (N, 3) in the C code's .sph format (type, x, y, z, radius)."""
+    with open(path, "w") as f:
+        f.write(f"{len(x)}\n{length:.17g} {length:.17g} {length:.17g}\n")
+        for p in x:
+            f.write(f"a {p[0]:.17g} {p[1]:.17g} {p[2]:.17g} {radius:.17g}\n")
+
+
+def run_c(binary: Path, where: Path) -> dict:
+    """One run of the C code in ``where`` (holding init.sph): its wall and CPU time, collisions,
+    pressure (and the counters if built with them)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    res = subprocess.run([str(binary)], cwd=where, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if res.returncode != 0:
+        sys.exit(f"smallenburg.py: the C code failed ({res.returncode}):\n{res.stdout[-2000:]}")
+    cols = [int(c) for c in re.findall(r"Collisions: (\d+)", res.stdout)]
+    press = re.search(r"Measured pressure\s*: \S+ \+ \S+ = (\S+)", res.stdout)
+    out = {"wall": wall, "cpu": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+           "collisions": cols[-1], "beta_p": float(press.group(1))}
+    counts = re.search(r"COUNTS pairs (\d+) rebuilds (\d+) stale (\d+) events (\d+)", res.stdout)
+    if counts:
+        out.update(zip(("pairs", "rebuilds", "stale", "events"), map(int, counts.groups())))
+    return out
+
+
+def run_gaz(scene: Scene, state) -> dict:
+    """One run of gaz: wall (RunStats), CPU (this process, less the compile), collisions,
+    pressure and its work counters."""
+    c0 = time.process_time()
+    rs = engine.run(scene, state, Recorder())
+    cpu = time.process_time() - c0 - rs.extras["compile_s"]
+    m = scene.masses()
+    kT = float(np.sum(m * np.sum(rs.final.velocities ** 2, 1))) / (3 * (scene.n - 1))
+    beta_p = (scene.n / scene.volume + rs.virial / (3.0 * scene.volume * scene.duration) / kT)
+    ex = rs.extras
+    return {"wall": rs.wall_time_s, "cpu": cpu, "collisions": rs.collisions, "beta_p": beta_p,
+            "pairs": ex["pair_tests"], "rebuilds": ex["list_rebuilds"],
+            "stale": ex["stale_predictions"], "events": ex["queue_events"],
+            "lists": ex["neighbour_lists"]}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--edmd", type=Path, required=True,
+                    help="copy of github.com/FSmallenburg/EDMD (work tree or bare git dir)")
+    ap.add_argument("--n", type=int, default=10_000)
+    ap.add_argument("--packing", type=float, default=0.45)
+    ap.add_argument("--per-particle", type=float, default=100.0,
+                    help="collisions per particle of each run (sets the simulated time)")
+    ap.add_argument("--pairs", type=int, default=5)
+    ap.add_argument("--write", type=float, default=None,
+                    help="C code's output interval, tau (default: a tenth of the run)")
+    ap.add_argument("--cc", default="gcc")
+    ap.add_argument("--cflags", default="-O3 -march=native")
+    ap.add_argument("--count", action="store_true",
+                    help="also run a C build with work counters once (not timed)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--equilibrate", type=float, default=30.0,
+                    help="collisions per particle run by gaz from the lattice before the pairs")
+    args = ap.parse_args()
+
+    n, eta = args.n, args.packing
+    sigma = 1.0
+    length = (n * math.pi / 6.0 * sigma ** 3 / eta) ** (1.0 / 3.0)
+    rho = n / length ** 3
+    # Enskog collision rate per particle: 4 sqrt(pi) rho sigma^2 g(sigma) sqrt(kT/m)
+    rate = 4.0 * math.sqrt(math.pi) * rho * sigma ** 2 * float(contact_value(3, eta))
+    # a collision involves two particles: N rate t / 2 collisions in a run of t
+    duration = 2.0 * args.per_particle / rate
+    write = args.write if args.write else duration / 10.0
+    scene = Scene(dim=3, length=length, duration=duration,
+                  components=((Species("X", 1.0, 0.5 * sigma), n),), temperature=1.0 / K_B,
+                  seed=args.seed, boundary="periodic", placement="lattice", record="none",
+                  extras={"neighbours": "lists"})
+    # equilibrate from the lattice (which melts, its pressure low at first) with gaz; both
+    # codes start from the melted fluid's positions (and gaz from its velocities)
+    eq = engine.run(dataclasses.replace(scene, duration=args.equilibrate / rate * 2.0),
+                    initial_state(scene), Recorder())
+    state = eq.final
+    print(f"scene: 3D periodic, N = {n:,}, packing {eta}, L = {length:.4f} sigma, sigma = m = "
+          f"k_B T = 1, simulated time {duration:.4g} tau (~{args.per_particle:g} collisions per "
+          f"particle), lattice start melted by gaz over ~{args.equilibrate:g} collisions per particle; neighbour lists: C shellsize {C_SHELL} (R_i + R_j), gaz "
+          f"skin h = {driver.NEIGHBOUR_SKIN} sigma (reach sigma + 2h = "
+          f"{sigma + 2 * driver.NEIGHBOUR_SKIN * sigma:g} sigma)")
+    print(f"machine: {os.cpu_count()} cores (os.cpu_count), load average "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; C: {args.cc} {args.cflags}", flush=True)
+
+    with tempfile.TemporaryDirectory(prefix="edmd-") as tmp:
+        where = Path(tmp)
+        binary = build(args.edmd, where, duration, write, args.cc, args.cflags, False)
+        write_sph(where / "init.sph", np.asarray(state.positions), length, 0.5 * sigma)
+        # compile gaz's kernels (cached) before timing anything
+        engine.run(dataclasses.replace(scene, duration=duration * 1e-3), state, Recorder())
+        if args.count:
+            cdir = where / "count"
+            cdir.mkdir()
+            cbin = build(args.edmd, cdir, duration, write, args.cc, args.cflags, True)
+            shutil.copy(where / "init.sph", cdir / "init.sph")
+            cc = run_c(cbin, cdir)
+            g = run_gaz(scene, state)
+            print("work per collision (C built with counters, untimed; gaz's RunStats):")
+            for name, r in (("C", cc), ("gaz", g)):
+                col = r["collisions"]
+                print(f"  {name:>3}: {col:,} collisions; per collision: pair tests "
+                      f"{r['pairs'] / col:.2f}, list rebuilds {r['rebuilds'] / col:.3f}, stale "
+                      f"{r['stale'] / col:.3f}, queue events {r['events'] / col:.3f}")
+        ratios_w, ratios_c = [], []
+        print("pair  first  C coll/s wall  C coll/s CPU  gaz coll/s wall  gaz coll/s CPU  "
+              "gaz/C wall  gaz/C CPU  collisions C / gaz  beta P sigma^3 C / gaz")
+        for i in range(args.pairs):
+            order = ("C", "gaz") if i % 2 == 0 else ("gaz", "C")
+            res = {}
+            for who in order:
+                res[who] = run_c(binary, where) if who == "C" else run_gaz(scene, state)
+            c, g = res["C"], res["gaz"]
+            cw, cc_ = c["collisions"] / c["wall"], c["collisions"] / c["cpu"]
+            gw, gc = g["collisions"] / g["wall"], g["collisions"] / g["cpu"]
+            ratios_w.append(gw / cw)
+            ratios_c.append(gc / cc_)
+            print(f"{i + 1:>4}  {order[0]:>5}  {cw:>14,.0f}  {cc_:>12,.0f}  {gw:>15,.0f}  "
+                  f"{gc:>14,.0f}  {gw / cw:>10.3f}  {gc / cc_:>9.3f}  "
+                  f"{c['collisions']:,} / {g['collisions']:,}  {c['beta_p']:.4f} / {g['beta_p']:.4f}")
+        print(f"gaz/C median over {args.pairs} pairs: wall {np.median(ratios_w):.3f}, CPU "
+              f"{np.median(ratios_c):.3f}; KLM beta P sigma^3 = {rho * float(z_klm(eta)):.4f}; "
+              f"gaz used neighbour lists: {g['lists']}")
+
+
+if __name__ == "__main__":
+    main()
