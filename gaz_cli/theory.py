@@ -118,6 +118,14 @@ def _nonnegative(name: str, value, unit: str) -> np.ndarray:
         raise SceneError(f"{name} must be a finite number >= 0 {unit}, got {_show(value)}")
     return a
 
+def _accessible(name: str, length, radius) -> np.ndarray:
+    """The span a centre can reach, length - 2 radius, refused unless > 0 (``name``: the
+    box's dimension as the message says it, e.g. "box length")."""
+    inner = length - 2.0 * radius
+    if not np.all(inner > 0.0):
+        raise SceneError(f"{name} must exceed the particle diameter")
+    return inner
+
 
 def _packing(value, upper: float, inclusive: bool, what: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
@@ -396,9 +404,7 @@ def hard_sphere_wall_pressure(dim: int, length, temperature, number, radius, mod
     kt = K_B * _positive("temperature", temperature, "K")
     n = _nonnegative("number of particles", number, "")
     r = _nonnegative("radius", radius, "m")
-    inner = length - 2.0 * r
-    if not np.all(inner > 0.0):
-        raise SceneError("box length must exceed the particle diameter")
+    inner = _accessible("box length", length, r)
     eta = n * ball_volume(dim, r) / inner ** dim
     z = compressibility_factor(dim, eta, model)
     return _out(n * kt * z / (inner * length ** (dim - 1)))
@@ -454,9 +460,7 @@ def mixture_wall_pressure(dim: int, length, temperature, counts, radii):
     """
     length = _positive("box length", length, "m")
     c, r = _species(counts, radii)
-    inner = length - 2.0 * r
-    if not np.all(inner > 0.0):
-        raise SceneError("box length must exceed the particle diameter")
+    inner = _accessible("box length", length, r)
     n = c / inner ** 3
     kt = K_B * _positive("temperature", temperature, "K")
     z = mixture_pressure(dim, n, 2.0 * r, temperature) / (kt * float(np.sum(n)))
@@ -494,9 +498,7 @@ def wall_adsorption_shift(dim: int, length, number, radius, model: str = "best")
     length = _positive("box length", length, "m")
     n_particles = _positive("number of particles", number, "")
     r = _nonnegative("radius", radius, "m")
-    inner = length - 2.0 * r
-    if not np.all(inner > 0.0):
-        raise SceneError("box length must exceed the particle diameter")
+    inner = _accessible("box length", length, r)
     n = n_particles / inner ** dim
     eta = n * ball_volume(dim, r)
     gamma = wall_adsorption(dim, n, 2.0 * r)
@@ -794,9 +796,7 @@ def barometric_height_pdf(height, temperature, mass, gravity, box_height, radius
     g = _nonnegative("gravity", gravity, "m/s^2")
     big_h = _positive("box height", box_height, "m")
     r = _nonnegative("radius", radius, "m")
-    h = big_h - 2.0 * r
-    if not np.all(h > 0.0):
-        raise SceneError("box height must exceed the particle diameter")
+    h = _accessible("box height", big_h, r)
     s = m * g / kt                                   # 1/lam, 1/m
     with np.errstate(divide="ignore", invalid="ignore"):
         norm = np.where(s > 0.0, -np.expm1(-s * h) / np.where(s > 0.0, s, 1.0), h)  # = lam (1 - e^-h/lam)
@@ -872,9 +872,7 @@ def hard_sphere_gravity_wall_pressures(dim: int, length, temperature, number, ra
     r = float(_nonnegative("radius", radius, "m"))
     m = float(_positive("mass", mass, "kg"))
     g = float(_nonnegative("gravity", gravity, "m/s^2"))
-    inner = length - 2.0 * r
-    if inner <= 0.0:
-        raise SceneError("box length must exceed the particle diameter")
+    inner = float(_accessible("box length", length, r))
     lateral = inner ** (dim - 1)
     v = float(ball_volume(dim, r))
     z = np.linspace(0.0, inner, points)               # height above the lowest centre, m

@@ -755,3 +755,18 @@ def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
     assert th.mixture_pressure(3, ns, s, kt_temperature) == pytest.approx(virial, rel=1e-12)
     with pytest.raises(SceneError, match="2D"):
         th.mixture_pressure(2, ns, s, kt_temperature)
+
+
+@pytest.mark.parametrize("call", [
+    lambda r: th.hard_sphere_wall_pressure(3, 1.0, T_ROOM, 10, r),
+    lambda r: th.mixture_wall_pressure(3, 1.0, T_ROOM, [10, 5], [0.1, r]),
+    lambda r: th.wall_adsorption_shift(3, 1.0, 10, r),
+    lambda r: th.barometric_height_pdf(0.5, T_ROOM, ARGON_MASS, 9.81, 1.0, r),
+    lambda r: th.hard_sphere_gravity_wall_pressures(3, 1.0, T_ROOM, 10, r, ARGON_MASS, 9.81),
+], ids=["wall", "mixture", "adsorption", "barometric", "gravity_walls"])
+def test_box_narrower_than_a_diameter_is_refused(call):
+    """A centre has length - 2R to move in: R = L/2 leaves none, and the formulas would
+    divide by zero; each says so in one line instead."""
+    call(0.01)  # room left: no error
+    with pytest.raises(SceneError, match="must exceed the particle diameter"):
+        call(0.5)
