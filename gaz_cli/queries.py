@@ -87,7 +87,26 @@ def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: 
     query = find(name)
     params = parse_parameters(query, pairs)
     with Store(db, create=False) as store:
+        _check_columns(query, store, db)
         return query, store.read_sql(query.sql, **params)
+
+
+def _check_columns(query: Query, store, db: str) -> None:
+    """Refuse, in one line, a query that reads a column the database's (older) schema
+    version lacks, rather than let the database say "no such column"."""
+    from gaz_cli.store import metadata
+
+    version = store.schema_version()
+    code = re.sub(r"--[^\n]*", "", query.sql).lower()
+    for table in metadata.sorted_tables:
+        for column in table.columns:
+            since = column.info.get("since", 1)
+            if since > version and re.search(rf"\b{column.name.lower()}\b", code):
+                raise QueryError(
+                    f"query {query.name} reads {table.name.upper()}.{column.name.upper()}, added in schema "
+                    f"version {since}; {db!r} is at version {version} (an older gaz): it is migrated "
+                    f"forward the next time gaz writes to it (gaz simulate --db {db} ...), and runs "
+                    "stored before keep no value there")
 
 
 def _number(text: str):

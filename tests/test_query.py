@@ -79,3 +79,21 @@ def test_query_without_name_or_database(tmp_path):
     assert res.exit_code == 1 and "does not exist" in res.stderr and res.stderr.count("\n") == 1
     with pytest.raises(QueryError):
         queries.parse_parameters(queries.find("q36"), ["si_num=1", "extra=2"])
+
+
+@pytest.mark.parametrize("backend", BACKENDS, indirect=True)
+def test_a_column_newer_than_the_database_is_named(backend):
+    """`gaz query scene` and `gaz scene` on a database of schema version 1 (no SC_FILE):
+    one line naming the column, the versions and what migrates it; queries of the exam's
+    columns still run there."""
+    from test_store import _version_1
+
+    _version_1(backend)
+    for args in (["query", "scene", "--param", "si_num=1"], ["scene", "1"]):
+        res = invoke(args + ["--db", backend])
+        assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1
+        assert "SCENE.SC_FILE, added in schema version 3" in res.stderr and "at version 1" in res.stderr
+    res = invoke(["query", "q34", "--db", backend, "--format", "csv"])
+    assert res.exit_code == 0 and "2,1" in res.stdout  # one simulation in 2D
+    with st.Store(backend, create=False) as store:
+        assert store.schema_version() == 1  # reading did not migrate
