@@ -93,8 +93,8 @@ def test_a_scan_finds_the_exams_two_earliest_collisions_around(dim, periodic):
         ng = _gather_cells(P, I, cells, GB, GS, 0, c[0], c[1], c[2], -1, 1, -1, 1, -1, 1, nc,
                            dim, periodic, False, False)
         best, bj, src1, best2, bj2, src2 = _scan_gathered(P, GB, GS, 0, ng, k, t, L, 0.0, INF,
-                                                          -1, INF, -1, dim, periodic, False,
-                                                          False)
+                                                          -1, INF, -1, (1.0, 0.0), dim,
+                                                          periodic, False, False)
         want = []
         for m in range(n):
             off = I[m, C0:C0 + dim] - I[k, C0:C0 + dim]

@@ -102,8 +102,8 @@ def test_collision_rule_is_the_exams_choc(dim):
         x1, v1, x2, v2 = _contact(rng, dim, r1, r2)
         P = _rows(x1, v1, x2, v2, r1, r2, dim)
         TL = np.full(2, -np.inf)
-        hit, jmag, sg, overlap = _collide(P, m, TL, 0, 1, 0.0, 100.0, 1.0, 0.0, False,
-                                          dim, False)
+        hit, jmag, sg, overlap = _collide(P, m, TL, 0, 1, 0.0, 100.0, (1.0, 0.0), dim,
+                                          False)
         p1, p2 = [x1.copy(), v1.copy()], [x2.copy(), v2.copy()]
         reference.choc(p1, p2, masses=m)
         scale = np.abs(np.concatenate([v1, v2])).max()
@@ -125,16 +125,16 @@ def test_restitution_and_the_tc_model():
     for last, want in ((-1.0, e), (9.99, 1.0)):
         P = _rows(x1, v1, x2, v2, 0.5, 0.5, dim)
         TL = np.array([last, -1.0])
-        hit, _, _, _ = _collide(P, np.ones(2), TL, 0, 1, 10.0, 100.0, e, 0.1, True, dim, False)
+        hit, _, _, _ = _collide(P, np.ones(2), TL, 0, 1, 10.0, 100.0, (e, 0.1), dim, False)
         vn0 = np.dot(v2 - v1, n)
         vn1 = np.dot(P[1, PV:PV + dim] - P[0, PV:PV + dim], n)
         assert hit and vn1 == pytest.approx(-want * vn0, rel=1e-12)
         assert np.all(TL == 10.0)
     P = _rows(x1, v2, x2, v1, 0.5, 0.5, dim)  # receding
-    assert not _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, 100.0, 1.0, 0.0, False, dim,
+    assert not _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, 100.0, (1.0, 0.0), dim,
                         False)[0]
     P = _rows(x1, v1, x1 + 0.9 * (x2 - x1), v2, 0.5, 0.5, dim)
-    assert _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, 100.0, 1.0, 0.0, False, dim,
+    assert _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, 100.0, (1.0, 0.0), dim,
                     False)[3]
 
 
@@ -145,7 +145,7 @@ def test_collision_across_a_periodic_face_uses_the_nearest_image():
     x1, v1 = np.array([0.2, 5.0]), np.array([-1.0, 0.3])
     x2, v2 = np.array([L - 0.2, 5.0]), np.array([1.0, -0.1])
     P = _rows(x1, v1, x2, v2, 0.2, 0.2, 2)
-    hit, _, _, _ = _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, L, 1.0, 0.0, False, 2, True)
+    hit, _, _, _ = _collide(P, np.ones(2), np.zeros(2), 0, 1, 0.0, L, (1.0, 0.0), 2, True)
     p1, p2 = [x1.copy(), v1.copy()], [x2 - [L, 0.0], v2.copy()]
     reference.choc(p1, p2)
     assert hit

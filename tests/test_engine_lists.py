@@ -52,7 +52,7 @@ def test_lists_hold_the_neighbours_within_reach_and_their_scan_is_tc(dim, period
         near = np.flatnonzero(np.linalg.norm(sep, axis=1) < 2 * r + 2 * h)
         assert sorted(NB[k, :NN[k]]) == sorted(set(near) - {k})
     for k in range(n):
-        best, bj = _scan_nl(P, NB, NN, k, 0.0, L, 0.5 * L, 0.0, INF, -1, dim, periodic, False,
+        best, bj = _scan_nl(P, NB, NN, k, 0.0, L, 0.5 * L, 0.0, INF, -1, (1.0, 0.0), dim, periodic, False,
                             False)
         want = INF
         for m in NB[k, :NN[k]]:
@@ -75,7 +75,7 @@ def test_a_rod_scans_its_two_neighbours_on_the_line(periodic):
     P[:, 0], P[:, PV], P[:, PR] = x, rng.normal(size=n), 0.01
     order = np.arange(n, dtype=np.int64)
     for k in range(n):
-        best, bj = _scan_1d(P, order, k, k, n, 0.0, L, 0.0, periodic, False)
+        best, bj = _scan_1d(P, order, k, k, n, 0.0, L, 0.0, (1.0, 0.0), periodic, False)
         want = []
         for side in (-1, 1):
             m = k + side

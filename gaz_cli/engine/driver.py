@@ -31,6 +31,7 @@ from gaz_cli.engine import sizing
 from gaz_cli.engine.calendar import _build_queue
 from gaz_cli.engine.dynamics import _state_at
 from gaz_cli.engine.guards import RunawayGuard
+from gaz_cli.engine.interactions import pair_params, pair_reach
 from gaz_cli.engine.layout import (BUFFER_FULL, CELL_FULL, DONE, KEY, NL_FULL, NONE, PAUSE, QB,
                                    STATE, Tables)
 from gaz_cli.engine.loop import build
@@ -138,8 +139,10 @@ class _Simulation(Rows):
         self.D, self.n, self.L, self.g, self.periodic = D, n, L, g, periodic
         self.duration, self.pairs, self.inelastic = duration, pairs, e < 1.0
 
-        # neighbour search: cells with crossing events, or neighbour lists
-        sigma = 2.0 * rmax
+        # neighbour search: cells with crossing events, or neighbour lists, sized on the
+        # interaction's reach
+        self.PP = pair_params(scene)
+        sigma = pair_reach(rmax, self.PP)
         extras = scene.extras or {}
         h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
         use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
@@ -166,7 +169,7 @@ class _Simulation(Rows):
         st = self.st = self.S[0]
         st["bufcap"], st["recb"], st["recc"] = BUFFER_ROWS, self.want_b, self.want_c
         st["nc"], st["n"], st["pf"] = nc, n, n >= PREFETCH_FROM_N
-        st["L"], st["g"], st["e"], st["tc"], st["h"] = L, g, e, float(scene.tc), h
+        st["L"], st["g"], st["h"] = L, g, h
         st["w"], st["iw"], st["nbk"] = 1.0, 1.0, 16
         self.BH = -np.ones(16, dtype=np.int64)
         self.HK = _alloc(n)
@@ -193,7 +196,7 @@ class _Simulation(Rows):
                    self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
                    self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
                    self.ci, self.cj, self.cimp)
-        return self.kern.loop(T, self.S, float(t_stop), int(max_events))
+        return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
         """Every particle's first predictions from time t (the loop in prediction mode)."""

@@ -62,23 +62,38 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
     return t if (b < 0.0 and disc > 0.0) else INF
 
 
+def pair_params(scene) -> tuple:
+    """The interaction's parameters, as the kernels take them (``PP``): (restitution e, TC
+    contact time tc). A tuple of floats: a compile-time type, passed by value through the
+    scans and the collision rule at no cost. An interaction with more parameters (a square
+    well's depth and width) adds them here, and its kernels read them."""
+    return (float(scene.restitution), float(scene.tc))
+
+
+def pair_reach(rmax: float, PP: tuple) -> float:
+    """The largest centre distance at which two particles of radius at most rmax have a pair
+    event (hard spheres: contact, 2 rmax): the cells and neighbour lists are sized on it."""
+    return 2.0 * rmax
+
+
 @_inline
-def _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, rm, D):
+def _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, rm, PP, D):
     """Time until the next event of a pair at separation dx, relative velocity dv (the
-    other's minus this one's), radii rk and rm: the hard-core contact at rk + rm (inf if
-    none). Every neighbour scan predicts pairs through this function, the one place that
-    knows the pair's interaction."""
+    other's minus this one's), radii rk and rm, parameters PP (:func:`pair_params`): the
+    hard-core contact at rk + rm (inf if none). Every neighbour scan predicts pairs through
+    this function, the one place that knows the pair's interaction."""
     return _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + rm, D)
 
 
 @_inline
-def _collide(P, M, TL, k, j, t, L, e, tc, inel, D, PER):
+def _collide(P, M, TL, k, j, t, L, PP, D, PER):
     """The hard-sphere collision rule for k and j, both rows at the contact time t.
 
     If the pair approaches, both velocities change by the impulse J = f dx, f = (1 + e)
     mu (dv.dx) / |dx|^2 along the line of centres dx (the nearest image when PER), with
-    restitution e (inel: e < 1) except within tc of either's last collision (the TC
-    model: elastic then; TL holds each particle's last collision time). Returns
+    restitution e < 1 (PP = (e, tc), :func:`pair_params`) except within tc of either's last
+    collision (the TC model: elastic then; TL holds each particle's last collision time,
+    written only when e < 1). Returns
     (whether they collided, the impulse's magnitude (>= 0), the contact
     distance R_k + R_j, whether the pair was found overlapping beyond round-off: closer
     than sqrt(OVERLAP_TOL) (R_k + R_j), a missed collision that the tests watch).
@@ -109,8 +124,9 @@ def _collide(P, M, TL, k, j, t, L, e, tc, inel, D, PER):
     overlap = r2 < OVERLAP_TOL * sg * sg
     mk = M[k]
     mj = M[j]
+    e, tc = PP[0], PP[1]
     ee = 1.0
-    if inel:
+    if e < 1.0:
         if t - TL[k] >= tc and t - TL[j] >= tc:
             ee = e
         TL[k] = t

@@ -51,11 +51,10 @@ STATE = np.dtype([
     ("recc", np.int64),
     # cells an axis, particles, whether to prefetch (large systems)
     ("nc", np.int64), ("n", np.int64), ("pf", np.int64),
-    # bucket width and its inverse; collision virial; box, gravity, restitution, TC contact
-    # time, neighbour-list skin h; the time reached
+    # bucket width and its inverse; collision virial; box, gravity, neighbour-list skin h;
+    # the time reached (the interaction's parameters: interactions.pair_params)
     ("w", np.float64), ("iw", np.float64), ("virial", np.float64), ("L", np.float64),
-    ("g", np.float64), ("e", np.float64), ("tc", np.float64), ("h", np.float64),
-    ("tnow", np.float64),
+    ("g", np.float64), ("h", np.float64), ("tnow", np.float64),
 ])
 """The loop's state and settings under their names (a numpy record: named fields of both
 types in one argument, no compiled accessor; the loop keeps them in registers)."""

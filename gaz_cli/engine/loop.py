@@ -111,9 +111,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     SOURCES = _sources_digest()
 
     @njit
-    def loop(T, S, t_stop, max_events):
+    def loop(T, S, PP, t_stop, max_events):
         """Process events in time order up to t_stop (keys <= t_stop); T the arrays
-        (:class:`.layout.Tables`), S the loop's state (a :data:`.layout.STATE` record).
+        (:class:`.layout.Tables`), S the loop's state (a :data:`.layout.STATE` record), PP
+        the interaction's parameters (:func:`.interactions.pair_params`).
 
         With max_events < 0 it only makes the first predictions of every particle at time
         t_stop (rows all stamped t_stop), for the caller to build the calendar from
@@ -141,9 +142,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         cur, hsize, ohead, nbk, nc = st.cur, st.hsize, st.ohead, st.nbk, st.nc
         cap = cells.shape[1] - 1
         bufcap, recb, recc, nbb, ncb = st.bufcap, st.recb != 0, st.recc != 0, st.nbb, st.ncb
-        iw, L, g, e, tc, h, virial, tnow = st.iw, st.L, st.g, st.e, st.tc, st.h, st.virial, st.tnow
+        iw, L, g, h, virial, tnow = st.iw, st.L, st.g, st.h, st.virial, st.tnow
         hl = 0.5 * L
-        inel = e < 1.0  # restitution < 1: a branch taken at collisions only
         ainv = nc / L
         tstop_b = t_stop * iw
         n_coll = n_bounce = n_cross = n_stale = n_steps = n_rebuild = n_second = 0
@@ -235,8 +235,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             _prefetch_listed(P, NB, NN, j)
                         hsize, ohead = _q_remove(Q, HK, HI, BH, j, nbk, hsize, ohead)
                         _advance(P, j, t, g, D, GRAV)
-                        hit, jmag, sg, overlap = _collide(P, M, TL, k, j, t, L, e, tc, inel,
-                                                          D, PER)
+                        hit, jmag, sg, overlap = _collide(P, M, TL, k, j, t, L, PP, D, PER)
                         if hit:
                             n_overlap += overlap
                             virial += jmag * sg
@@ -298,12 +297,12 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS,
                                    NL)
                 if PAIRS and (D == 1 or NL) and rescan:
-                    n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, D, PER,
-                                             GRAV, pf)
+                    n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, PP, D,
+                                             PER, GRAV, pf)
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
-                    _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV,
-                                   IMG)
+                    _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, PP, D, PER,
+                                   GRAV, IMG)
                     n_pairs += ng
                 key = min(EV[p, TCOL], EV[p, TX])
                 EV[p, KEY] = key

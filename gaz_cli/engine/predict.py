@@ -49,15 +49,15 @@ def _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS, 
 
 
 @_inline
-def _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, D, PER, GRAV, PF):
+def _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, PP, D, PER, GRAV, PF):
     """Particle p's earliest collision (its row at t) with its two neighbours on the line
     (1D) or those of its neighbour list, into its first prediction, stamped with the
-    partner's counter; returns the pair times computed."""
+    partner's counter (PP: the interaction's parameters); returns the pair times computed."""
     if D == 1:
-        best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
+        best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PP, PER, GRAV)
         tests = 2
     else:
-        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV, PF)
+        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, PP, D, PER, GRAV, PF)
         tests = NN[p]
     EV[p, TCOL] = best
     I[p, PART] = bj

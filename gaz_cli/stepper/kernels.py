@@ -436,6 +436,19 @@ def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want, b
 
 # --- cell list -----------------------------------------------------------------
 @njit
+def _cell_list(radius, length, dim):
+    """(largest radius, cells an axis for its diameter, and the cell list's arrays start,
+    cell_of, order, unfilled) for the bodies of ``radius`` (N,) m in a box of side length."""
+    n = radius.size
+    rmax = 0.0
+    for i in range(n):
+        if radius[i] > rmax:
+            rmax = radius[i]
+    nc = _cells_per_axis(length, 2.0 * rmax, n, dim)
+    return rmax, nc, np.empty(nc ** dim + 1, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
+
+
+@njit
 def _cells_per_axis(length, reach, n, dim):
     """Cells per axis: side at least ``reach`` m, at most about 32N cells in all.
 
@@ -668,14 +681,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     has_kick = has_pair or g > 0.0 or gamma > 0.0
     h = 0.5 * dt
     tbuf = np.zeros(2, np.int64)
-    rmax = 0.0
-    for i in range(n):
-        if radius[i] > rmax:
-            rmax = radius[i]
-    nc_max = _cells_per_axis(length, 2.0 * rmax, n, dim)
-    start = np.empty(nc_max ** dim + 1, np.int64)
-    cell_of = np.empty(n, np.int64)
-    order = np.empty(n, np.int64)
+    rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
     done = np.zeros(n, np.uint8)
     speed = np.zeros(n)
@@ -826,14 +832,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
 def _overlaps_approaching(pos, vel, radius, length):
     """Number of pairs overlapping and approaching (cell list), for tests and checks."""
     n, dim = pos.shape
-    rmax = 0.0
-    for i in range(n):
-        if radius[i] > rmax:
-            rmax = radius[i]
-    nc = _cells_per_axis(length, 2.0 * rmax, n, dim)
-    start = np.empty(nc ** dim + 1, np.int64)
-    cell_of = np.empty(n, np.int64)
-    order = np.empty(n, np.int64)
+    rmax, nc, start, cell_of, order = _cell_list(radius, length, dim)
     _bin(pos, length, nc, cell_of, start, order)
     active = np.ones(n, np.uint8)
     age = np.full(n, np.inf)

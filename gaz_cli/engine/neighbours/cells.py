@@ -96,7 +96,8 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
 
 
 @_inline
-def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, D, PER, GRAV, IMG):
+def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, PP, D, PER, GRAV,
+                   IMG):
     """Two earliest collisions of k (its row at time t) with the ng particles gathered at GB[base:].
 
     Returns the improved (best time, partner, second time, second partner);
@@ -130,7 +131,7 @@ def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, D, PER
                 dx1 -= L * np.rint(dx1 * iL)
             if D > 2:
                 dx2 -= L * np.rint(dx2 * iL)
-        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], D)
+        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
         if tp < best2 and m != k:
             if tp < best:
                 best2 = best
@@ -258,7 +259,18 @@ def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
 
 
 @_inline
-def _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV, IMG):
+def _stamp(I, m, src, oc1, oc2):
+    """The counter a prediction with partner m keeps: m's now if the scan found it (NEW),
+    else that of the kept prediction it comes from (KEPT1: oc1, KEPT2: oc2); 0 if none."""
+    if m < 0:
+        return 0
+    if src == NEW:
+        return I[m, CNT]
+    return oc1 if src == KEPT1 else oc2
+
+
+@_inline
+def _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, PP, D, PER, GRAV, IMG):
     """Particle p's two earliest collisions among the ng particles gathered at GB[base:],
     written to its predictions.
 
@@ -280,22 +292,12 @@ def _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV, I
     oc1 = I[p, PCNT]
     oc2 = I[p, PCNT2]
     best, bj, src1, best2, bj2, src2 = _scan_gathered(
-        P, GB, GS, base, ng, p, t, L, g, b1, p1, b2, p2, D, PER, GRAV, IMG)
+        P, GB, GS, base, ng, p, t, L, g, b1, p1, b2, p2, PP, D, PER, GRAV, IMG)
     EV[p, TCOL] = best
     I[p, PART] = bj
-    if bj < 0:
-        I[p, PCNT] = 0
-    elif src1 == NEW:
-        I[p, PCNT] = I[bj, CNT]
-    else:
-        I[p, PCNT] = oc1 if src1 == KEPT1 else oc2
+    I[p, PCNT] = _stamp(I, bj, src1, oc1, oc2)
     EV[p, TCOL2] = best2
     I[p, PART2] = bj2
     if full:
         I[p, SURE] = 1
-    if bj2 < 0:
-        I[p, PCNT2] = 0
-    elif src2 == NEW:
-        I[p, PCNT2] = I[bj2, CNT]
-    else:
-        I[p, PCNT2] = oc1 if src2 == KEPT1 else oc2
+    I[p, PCNT2] = _stamp(I, bj2, src2, oc1, oc2)

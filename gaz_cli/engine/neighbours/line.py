@@ -7,7 +7,7 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import INF, PR, PT, PV
 
 @_inline
-def _scan_1d(P, order, k, rank, n, t, L, g, PER, GRAV):
+def _scan_1d(P, order, k, rank, n, t, L, g, PP, PER, GRAV):
     """Earliest collision of rod k (its row at time t) with its two neighbours in line order."""
     best = INF
     bj = -1
@@ -37,7 +37,7 @@ def _scan_1d(P, order, k, rank, n, t, L, g, PER, GRAV):
         if GRAV:
             dx -= 0.5 * g * dtm * dtm
             dv -= g * dtm
-        tp = t + _pair_time(dx, 0.0, 0.0, dv, 0.0, 0.0, P[k, PR], P[m, PR], 1)
+        tp = t + _pair_time(dx, 0.0, 0.0, dv, 0.0, 0.0, P[k, PR], P[m, PR], PP, 1)
         if tp < best:
             best = tp
             bj = m

@@ -53,7 +53,7 @@ def _nl_exit(P, XN, k, h, g, D, GRAV):
 
 
 @_inline
-def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
+def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, PP, D, PER, GRAV, PF):
     """Earliest collision of k (its row at time t) with the particles of its neighbour list.
 
     PF (large systems): the neighbours' rows are all requested from memory
@@ -77,7 +77,7 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
             dx1 = _nearest_near(dx1, L, hl)
             if D > 2:
                 dx2 = _nearest_near(dx2, L, hl)
-        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], D)
+        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
         if tp < best:
             best = tp
             bj = m
