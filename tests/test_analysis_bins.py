@@ -118,7 +118,7 @@ def test_a_row_of_another_species_falls_back_to_group_by(backend, argon_scene, r
         helium = list(BUILTIN).index("He") + 1
         with store.engine.begin() as conn:
             conn.execute(sa.text("INSERT INTO rebond VALUES (:si, :k, :pa, :t, 1, 500.0, 400.0)"),
-                         dict(si=si, k=K + 1, pa=helium, t=scene.duration / 2))
+                         dict(si=si, k=K + 1, pa=helium, t=scene.duration))  # in time order
         run = analysis.load_run(store, si)
         assert analysis._bin_sums_by_ranges(store, run) is None
         assert run.hits.NB_REBONDS.sum() == K + 1 and helium in set(run.hits.PA_NUM)
