@@ -6,6 +6,13 @@ Not a test: it prints numbers. Run from the repository root:
     python benchmarks/store.py --db postgresql://gaz@/gaz?host=/tmp/pg --rows 1000000
     python benchmarks/store.py --db URL_1 --db URL_2 --repeat 5
     python benchmarks/store.py --db postgresql://plain@/plaindb?host=/tmp/pg --explain
+    python benchmarks/store.py --db postgresql://gaz@/gaz?host=/tmp/pg --rows 0 --planning 500
+
+--planning N (PostgreSQL) fills the database up to N simulations of 10 bounces
+each (N partitions of REBOND) and prints the planning and execution time
+(EXPLAIN ANALYZE, median of 5) of the queries ``gaz analyse`` runs on REBOND
+(sql/bounce_bins.sql, pressure_per_wall.sql, q35_bounces_per_simulation.sql)
+for one simulation.
 
 --explain (PostgreSQL) adds the server's side of the cost: EXPLAIN ANALYZE of
 one INSERT ... SELECT of --rows rows into REBOND (foreign-key triggers as the
@@ -38,6 +45,7 @@ import tempfile
 import time
 
 import numpy as np
+import sqlalchemy as sa
 
 from gaz_cli import store as st
 from gaz_cli.recording import RunStats
@@ -119,11 +127,41 @@ def explain(db: str, rows: int) -> None:
         conn.rollback()
 
 
+def planning(db: str, runs: int) -> None:
+    """Print the planning and execution times of analyse's REBOND queries with ``runs`` partitions."""
+    import json
+
+    rng = np.random.default_rng(2)
+    with st.Store(db) as store:
+        while len(store.simulation_numbers()) < runs:
+            one_round(db, 10, rng)
+        numbers = store.simulation_numbers()
+        with store.engine.connect() as conn:
+            parts = conn.exec_driver_sql(
+                "SELECT count(*) FROM pg_inherits WHERE inhparent = to_regclass('rebond')").scalar()
+            si = numbers[len(numbers) // 2]
+            params = dict(si_num=si, bins=512, duration=1e-8, half=0.5)
+            print(f"  {len(numbers)} simulations, REBOND in {parts} partitions; queries for SI_NUM {si}:")
+            for name in ("bounce_bins", "pressure_per_wall", "q35_bounces_per_simulation"):
+                plans, runs_ = [], []
+                for _ in range(5):
+                    plan = conn.execute(sa.text("EXPLAIN (ANALYZE, FORMAT JSON) " + st.query_text(name)),
+                                        {k: v for k, v in params.items() if f":{k}" in st.query_text(name)}
+                                        ).scalar()
+                    plan = (json.loads(plan) if isinstance(plan, str) else plan)[0]
+                    plans.append(plan["Planning Time"])
+                    runs_.append(plan["Execution Time"])
+                print(f"    {name}: planning {statistics.median(plans):.2f} ms, "
+                      f"execution {statistics.median(runs_):.2f} ms")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--db", action="append", help="database path or URL (repeatable); default a temporary SQLite file")
     ap.add_argument("--rows", type=int, default=1_000_000, help="REBOND rows per round (default 10^6)")
     ap.add_argument("--repeat", type=int, default=3, help="rounds per database (default 3)")
+    ap.add_argument("--planning", type=int, metavar="N",
+                    help="PostgreSQL: planning time of analyse's queries with N simulations (partitions)")
     ap.add_argument("--explain", action="store_true",
                     help="PostgreSQL: also time the server's side (key triggers or not) by EXPLAIN ANALYZE")
     args = ap.parse_args()
@@ -135,15 +173,18 @@ def main():
             rng = np.random.default_rng(1)
             print(f"\n{st.shown(db)}: {describe(db)}")
             rates, commits = [], []
-            for _ in range(args.repeat):
+            for _ in range(args.repeat if args.rows else 0):
                 total, commit, si = one_round(db, args.rows, rng)
                 rates.append(args.rows / total)
                 commits.append(commit)
                 print(f"  SI_NUM {si}: {total:.2f} s, {args.rows / total:,.0f} rows/s (commit {commit:.2f} s)")
-            print(f"  median {statistics.median(rates):,.0f} rows/s, fastest {max(rates):,.0f} rows/s; "
-                  f"commit median {statistics.median(commits):.2f} s")
+            if rates:
+                print(f"  median {statistics.median(rates):,.0f} rows/s, fastest {max(rates):,.0f} rows/s; "
+                      f"commit median {statistics.median(commits):.2f} s")
             if args.explain and "://" in db:
                 explain(db, args.rows)
+            if args.planning and "://" in db:
+                planning(db, args.planning)
 
 
 if __name__ == "__main__":

@@ -427,6 +427,20 @@ class Store:
         """Run a packaged SQL file by name."""
         return self.read_sql(query_text(name), **params)
 
+    @contextlib.contextmanager
+    def session(self):
+        """One connection for many small reads: yields ``run(name, **params)``, which runs a
+        packaged SQL file and returns its rows as tuples (no DataFrame: ~50 us a query on SQLite)."""
+        with self._errors(), self.engine.connect() as conn:
+            texts = {}
+
+            def run(name: str, **params) -> list[tuple]:
+                if name not in texts:
+                    texts[name] = sa.text(query_text(name))
+                return [tuple(row) for row in conn.execute(texts[name], params)]
+
+            yield run
+
     def scene_files(self) -> list[str]:
         """The scene file text of every stored simulation that has one (SCENE.SC_FILE)."""
         with self._errors(), self.engine.connect() as conn:

@@ -22,7 +22,8 @@ def test_list_names_every_packaged_file():
     lines = res.stdout.splitlines()
     assert len(lines) == len(st.query_names())
     by_name = {line.split()[0]: line for line in lines}
-    assert set(by_name) == {"bounce", "collision", "pair", "pressure", "q34", "q35", "q36", "scene", "sweep"}
+    assert set(by_name) == {"bounce", "collision", "first", "lookup", "pair", "pressure", "q34", "q35", "q36", "scene",
+                            "sweep", "wall"}
     assert "Q34: number of simulations for each dimension of space." in by_name["q34"]
     assert by_name["q36"].endswith("[--param si_num=...]") and "--param" not in by_name["q34"]
     frame = pd.read_csv(io.StringIO(invoke(["query", "--list", "--format", "csv"]).stdout))
@@ -61,8 +62,8 @@ def test_query_csv_is_the_query_result(backend):
     (["query", "q34", "--param", "x=1"], "gaz: error: query q34 has no parameter 'x'; it takes no parameter\n"),
     (["query", "q36", "--param", "si_num"],
      "gaz: error: --param 'si_num' is not KEY=VALUE (e.g. --param si_num=1)\n"),
-    (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are bounce, collision, pair, "
-                       "pressure, q34, q35, q36, scene, sweep "
+    (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are bounce, collision, first, "
+                       "lookup, pair, pressure, q34, q35, q36, scene, sweep, wall "
                        "(gaz query --list describes them)\n"),
 ])
 def test_query_errors_are_one_line(tmp_path, args, message):

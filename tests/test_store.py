@@ -136,7 +136,9 @@ def test_sqlite3_shell_runs_every_file(tmp_path, argon_scene, rng):
     for name in st.query_names():
         sql_path = tmp_path / name
         sql_path.write_text(st.query_text(name))
-        out = subprocess.run(["sqlite3", "-csv", str(db), f".param set :si_num {si}", f".read {sql_path}"],
+        params = [f".param set :{k} {v}" for k, v in dict(si_num=si, re_num=1, lo=1, hi=10**9, pa_num=3, t_lo=0,
+                                                           t_hi=1, bins=16, duration=1e-10, half=0).items()]
+        out = subprocess.run(["sqlite3", "-csv", str(db), *params, f".read {sql_path}"],
                              capture_output=True, text=True, timeout=60)
         assert out.returncode == 0 and not out.stderr, (name, out.stderr)
         assert out.stdout.strip(), name
@@ -153,7 +155,8 @@ def test_every_packaged_query_runs(backend, argon_scene, rng):
     si, _ = write_fake(store, scene, rng, k=300)
     # CAST truncates on SQLite and rounds on PostgreSQL: the binned queries take the shift
     params = {"si_num": si, "duration": scene.duration, "bins": 16,
-              "half": 0.5 if store.engine.dialect.name == "postgresql" else 0.0}
+              "half": 0.5 if store.engine.dialect.name == "postgresql" else 0.0,
+              "re_num": 1, "lo": 1, "hi": 10**9, "pa_num": 3, "t_lo": 0.0, "t_hi": scene.duration}
     for name in st.query_names():
         text = st.query_text(name)
         frame = store.read_sql(text, **{k: v for k, v in params.items() if f":{k}" in text})
