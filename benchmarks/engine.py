@@ -23,7 +23,12 @@ Not a test: it prints numbers. Run from the repository root:
 (h) a dense fluid (3D periodic, packing 0.45) at N = 10^4 and 10^6, with cell
     crossings and with neighbour lists (what 'auto' picks there);
 (i) an ideal gas (point particles): the ideal path's closed-form bounces per second
-    against the event engine's, on the same scene.
+    against the event engine's, on the same scene;
+(j) the README example end to end (1000 argon atoms, 178 thousand wall bounces into a new
+    SQLite file): start-up, engine and recording, as benchmarks/recording.py measures them
+    (its alternating rounds, --repeat of them).
+
+--markdown prints, after the figures, the README's speed table from this one run.
 
 Rates are given per wall-clock second (what a user waits) and per CPU second
 of this process (what the code costs when the machine is shared); each is
@@ -57,6 +62,18 @@ from gaz_cli.species import Species, lookup
 
 UNIT_T = 1.0 / K_B
 
+ROWS: dict[str, list[str]] = {}
+"""Figure letter -> [scene, figure]: the README's speed table (--markdown), filled as the
+figures run."""
+
+
+def row(key: str, scene: str, figure: str) -> None:
+    ROWS[key] = [scene, figure]
+
+
+def _m(x: float) -> str:
+    return f"{x / 1e6:.2f}"
+
 
 def unit_scene(dim, n, packing, duration, boundary="walls", placement="auto", seed=1):
     unit = {1: 1.0, 2: math.pi / 4.0, 3: math.pi / 6.0}[dim]
@@ -73,6 +90,9 @@ def timed(scene, state, repeat):
     for _ in range(repeat):
         c0 = time.process_time()
         rs = engine.run(scene, state, Recorder())
+        if rs.extras["compile_s"] > 0:  # compiled (wall seconds, not CPU): time a warm run instead
+            c0 = time.process_time()
+            rs = engine.run(scene, state, Recorder())
         cpu = time.process_time() - c0 - rs.extras["compile_s"]
         walls.append(rs.wall_time_s)
         cpus.append(cpu)
@@ -88,6 +108,8 @@ def show(label, t, rs):
     print(f"    collisions/s: {rs.collisions / t['wall']:,.0f} wall, {rs.collisions / t['cpu']:,.0f} CPU"
           f" (fastest run {rs.collisions / t['fastest']:,.0f} wall);"
           f"  events/s (collisions + bounces): {n_ev / t['wall']:,.0f} wall, {n_ev / t['cpu']:,.0f} CPU")
+    return (f"{_m(rs.collisions / t['wall'])} million collisions/s ({_m(rs.collisions / t['cpu'])} per CPU "
+            f"second; fastest run {_m(rs.collisions / t['fastest'])}), {_m(n_ev / t['wall'])} million events/s")
 
 
 def fig_a(args):
@@ -96,7 +118,7 @@ def fig_a(args):
     sc = unit_scene(3, 4000, 0.30, args.t_std, boundary="periodic", placement="lattice")
     st = initial_state(sc)
     t, rs = timed(sc, st, args.repeat)
-    show("run", t, rs)
+    rate = show("run", t, rs)
     m = sc.masses()
     e0 = 0.5 * float(np.sum(m * np.sum(st.velocities ** 2, 1)))
     e1 = 0.5 * float(np.sum(m * np.sum(rs.final.velocities ** 2, 1)))
@@ -106,6 +128,8 @@ def fig_a(args):
     print(f"    beta P sigma^3 = {beta_p:.4f} (KLM fit to simulations 2.2827, Carnahan-Starling 2.2768;"
           " the issue expects 2.27-2.28);"
           f" relative energy drift {(e1 - e0) / e0:.1e}; neighbour lists: {rs.extras['neighbour_lists']}")
+    row("a", f"(a) 3D periodic, N = 4000, packing 0.30, FCC start, σ = m = kT = 1, t = {args.t_std:g}",
+        f"{rate}; βPσ³ = {beta_p:.4f} (KLM 2.2827; Carnahan–Starling 2.2768); energy drift {(e1 - e0) / e0:.1e}")
 
 
 def fig_b(args):
@@ -121,21 +145,21 @@ def fig_b(args):
     sc = Scene(dim=3, length=length, duration=duration, components=((ar, n),), seed=2,
                record="none")
     t, rs = timed(sc, initial_state(sc), args.repeat)
-    show("run", t, rs)
+    row("b", "(b) argon, 300 K, 3D box with walls, N = 10⁴, packing 0.01", show("run", t, rs))
 
 
 def fig_c(args):
     print("(c) 2D, N = 1000 disks, area fraction 0.2, walls, sigma = m = kT = 1")
     sc = unit_scene(2, 1000, 0.2, 200.0 * args.scale)
     t, rs = timed(sc, initial_state(sc), args.repeat)
-    show("run", t, rs)
+    row("c", "(c) 2D, N = 1000 disks, area fraction 0.2, walls", show("run", t, rs))
 
 
 def fig_d(args):
     print("(d) 1D, N = 1000 rods, packing 0.5, walls, sigma = m = kT = 1")
     sc = unit_scene(1, 1000, 0.5, 2000.0 * args.scale)
     t, rs = timed(sc, initial_state(sc), args.repeat)
-    show("run", t, rs)
+    row("d", "(d) 1D, N = 1000 rods, packing 0.5", show("run", t, rs))
 
 
 def fig_e(args):
@@ -144,6 +168,7 @@ def fig_e(args):
     print("    the reference's catalogue keeps every prediction (exam Q30), so its rate falls as a run "
           "goes on: it is timed on a short and on a longer run")
     durations = {200: (6.0, 24.0), 1000: (0.3, 1.0)}
+    said = []
     for n in (200, 1000):
         sc = unit_scene(2, n, 0.2, 200.0 * args.scale if n == 1000 else 1000.0 * args.scale)
         t, rs = timed(sc, initial_state(sc), args.repeat)
@@ -155,6 +180,9 @@ def fig_e(args):
             ref_rate = rr.events / rr.wall_time_s
             print(f"    reference over t = {d:g} ({rr.events:,} events, {rr.wall_time_s:.1f} s): "
                   f"{ref_rate:,.0f} events/s; speed-up x{fast_rate / ref_rate:,.0f}")
+            said.append(f"N = {n}: ×{fast_rate / ref_rate:,.0f} against the reference over {d:g} time "
+                        f"units ({rr.events:,} events)")
+    row("e", "(e) speed-up over the exam's algorithm on (c)", "; ".join(said))
 
 
 @numba.njit(cache=False)
@@ -218,6 +246,11 @@ def fig_f(args):
     rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"    time per event ~ N^{slope:.3f} over this range (medians); peak memory of this "
           f"process {rss:,.0f} MB")
+    big = last[sizes[-1]].extras
+    row("f", "(f) cost per queue event (loop only), N = " + " / ".join(f"10^{round(math.log10(n))}" for n in sizes),
+        " / ".join(f"{med[n] / 1e3:.2f}" for n in sizes) + f" µs, medians of {args.repeat} rounds over the "
+        f"sizes in turn (about N^{slope:.3f}); {big['pair_tests'] / big['queue_events']:.1f} pair times per "
+        f"event at the largest; peak memory {rss:,.0f} MB")
 
 
 def fig_h(args):
@@ -244,6 +277,10 @@ def fig_h(args):
                          f"{last[s].collisions:,} collisions)" for s, v in ns.items())
         print(f"  N = {n:>9,}: ns per collision: {line}; 'auto' picks "
               f"{'lists' if auto else 'cells'}")
+        h = ROWS.setdefault("h", ["(h) dense fluid, 3D periodic, packing 0.45: ns per collision, cells "
+                                  "against neighbour lists", ""])
+        h[1] += (f"{'; ' if h[1] else ''}N = {n:,}: " + " against ".join(f"{np.median(v):,.0f}" for v in ns.values())
+                 + f" ('auto' picks {'lists' if auto else 'cells'})")
 
 
 ENGINE_BYTES_PER_PARTICLE = 8 * K.P_WIDTH + 4 * K.I_WIDTH + 8 * K.EV_WIDTH + 4 * 4 + 8 + 2 * 56
@@ -287,10 +324,12 @@ def fig_g(args):
         start, compile_s, _ = _probe(env)
         print(f"  cold (empty cache): JIT compile of the engine {compile_s:.1f} s; process start "
               f"to first event {start:.1f} s (placement kernels compiled too)")
+        warm_with = None
         for flags, what in (((), "with scipy installed"), (("--no-scipy",), "without scipy")):
             runs = [_probe(env, *flags) for _ in range(max(3, args.repeat))]
             warm = [r[0] for r in runs]
             scipy_loaded = "yes" if any(r[2] for r in runs) else "no"
+            warm_with = warm_with or warm
             print(f"  warm cache, {what}: process start to first event {np.median(warm):.2f} s "
                   f"(median of {len(warm)}, range {min(warm):.2f}-{max(warm):.2f}; interpreter, "
                   f"numpy and numba imports, cache loads included; scipy.linalg imported: "
@@ -301,6 +340,9 @@ def fig_g(args):
         print(f"  warm Numba cache, with scipy, PYTHONDONTWRITEBYTECODE=1 (gaz's sources compiled "
               f"to bytecode at each start unless .pyc files sit beside them): "
               f"{np.median(warm):.2f} s (median of {len(warm)})")
+    row("g", "(g) compilation from an empty cache; start-up with a warm cache",
+        f"{compile_s:.1f} s; {np.median(warm_with):.2f} s from process start to the first event "
+        f"(median of {len(warm_with)}, range {min(warm_with):.2f}–{max(warm_with):.2f})")
 
 
 class _Count(Recorder):
@@ -333,6 +375,10 @@ def fig_i(args):
             rec = _Count()
             c0 = time.process_time()
             rs = run(sc, st, rec)
+            if rs.extras.get("compile_s", 0.0) > 0:  # compiled: time a warm run instead
+                rec = _Count()
+                c0 = time.process_time()
+                rs = run(sc, st, rec)
             times[name].append(time.process_time() - c0 - rs.extras.get("compile_s", 0.0))
             counts[name] = rec.k
     for name in times:
@@ -340,18 +386,52 @@ def fig_i(args):
         print(f"  {name}: {counts[name]:,} bounces, {counts[name] / cpu / 1e6:.2f} M bounces/s CPU "
               f"(median of {args.repeat})")
     print(f"    ratio ideal/event: {np.median(times['event']) / np.median(times['ideal']):.2f}x")
+    cpu = {name: float(np.median(v)) for name, v in times.items()}
+    row("i", f"(i) ideal gas: {n:,} point particles of argon's mass, 3D box with walls",
+        f"ideal path {counts['ideal'] / cpu['ideal'] / 1e6:.2f} million bounces per CPU second, event engine "
+        f"{counts['event'] / cpu['event'] / 1e6:.2f} (×{cpu['event'] / cpu['ideal']:.1f})")
+
+
+def fig_j(args):
+    import recording  # benchmarks/recording.py, beside this file
+
+    print(f"(j) the README example end to end ({' '.join(recording.ARGS)} into a new SQLite file): "
+          f"start-up, engine, recording; {args.repeat} alternating rounds of benchmarks/recording.py")
+    med = recording.measure(args.repeat, "bounces", log=print)
+    ratios = med["rounds"]["ratio_cpu"]
+    print(f"  medians: start-up {med['startup']:.2f} s wall; engine {med['engine_cpu']:.3f} s CPU "
+          f"({med['engine_wall']:.2f} s wall); recording {med['rec_cpu']:.3f} s CPU ({med['rec_wall']:.2f} s "
+          f"wall) = {med['ratio_cpu']:.1%} of the engine (rounds {min(ratios):.1%}-{max(ratios):.1%}); end to "
+          f"end {med['e2e_db']:.2f} s with the database, {med['e2e_nodb']:.2f} s without")
+    row("j", f"(j) README example end to end: 1000 argon atoms, {med['bounces']:,} wall bounces into a new "
+             "SQLite file", f"{med['e2e_db']:.2f} s end to end: start-up {med['startup']:.2f} s, engine "
+        f"{med['engine_wall']:.2f} s ({med['engine_cpu']:.2f} s CPU), recording {med['rec_wall']:.2f} s "
+        f"({med['rec_cpu']:.2f} s CPU, {med['ratio_cpu']:.0%} of the engine's; rounds "
+        f"{min(ratios):.0%}–{max(ratios):.0%}); {med['e2e_nodb']:.2f} s with --no-db")
+
+
+def markdown(args, load, seconds) -> str:
+    """The README's speed table from this run's figures."""
+    lines = [f"`python benchmarks/engine.py --repeat {args.repeat}{' --quick' if args.quick else ''} "
+             f"--markdown`: {os.cpu_count()} shared cores, load average {load[0]:.1f} at the start, "
+             f"{seconds / 60:.0f} min; medians of {args.repeat} runs", "",
+             "| scene | figure |", "| --- | --- |"]
+    lines += [f"| {scene} | {figure} |" for _, (scene, figure) in sorted(ROWS.items())]
+    return "\n".join(lines)
 
 
 FIGURES = {"a": fig_a, "b": fig_b, "c": fig_c, "d": fig_d, "e": fig_e, "f": fig_f, "g": fig_g,
-           "h": fig_h, "i": fig_i}
+           "h": fig_h, "i": fig_i, "j": fig_j}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="abcdefghi", help="figures to print, e.g. 'af'")
+    ap.add_argument("--only", default="abcdefghij", help="figures to print, e.g. 'af'")
     ap.add_argument("--repeat", type=int, default=3, help="runs per figure (median)")
     ap.add_argument("--quick", action="store_true", help="shorter runs, N up to 10^5 in (f)")
+    ap.add_argument("--markdown", action="store_true", help="then print the README's speed table")
     args = ap.parse_args()
+    began = time.perf_counter()
     args.scale = 0.2 if args.quick else 1.0
     args.t_std = 20.0 if args.quick else 100.0
     load = os.getloadavg()
@@ -363,6 +443,9 @@ def main():
     for key in args.only:
         FIGURES[key](args)
         sys.stdout.flush()
+    if args.markdown:
+        print()
+        print(markdown(args, load, time.perf_counter() - began))
 
 
 if __name__ == "__main__":

@@ -10,9 +10,10 @@ The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 --length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
 ~178 thousand wall bounces). Each round, alternating:
 
-- in process, ``runner.simulate`` into a new SQLite file, the store's writer
-  timed from outside (every ``add_bounces`` call, the rows' copy, and the
-  commit that moves them in), in CPU seconds (``time.process_time``, what a
+- in process, ``runner.simulate`` into a new SQLite file, the writer
+  (:mod:`gaz_cli.sqlite_writer`) timed from outside (every ``add_bounces`` call, the
+  rows' copy, the commit that moves them in, the close that checkpoints them into the
+  file), in CPU seconds (``time.process_time``, what a
   busy shared host disturbs least) and wall seconds; the engine is the rest of
   the run (``simulate`` minus opening the store minus recording);
 - the same scene with no database (``--no-db``), in process: the engine alone;
@@ -37,7 +38,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from gaz_cli import runner, store as st
+from gaz_cli import runner, sqlite_writer
 from gaz_cli.scene import Scene
 from gaz_cli.species import lookup
 
@@ -87,29 +88,43 @@ def as_process(extra: list[str]) -> tuple[float, float]:
     return time.perf_counter() - w, json.loads(res.stdout)["wall_time_s"]
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--rounds", type=int, default=5, help="alternating rounds (default 5)")
-    ap.add_argument("--record", choices=["bounces", "none", "all"], default="bounces")
-    args = ap.parse_args()
+def measure(rounds: int = 5, record: str = "bounces", log=print) -> dict:
+    """Alternating rounds (see the module docstring); returns the medians (seconds, and
+    ``ratio_cpu``: recording / engine) and ``rounds``: the per-round figures. ``log`` gets one
+    line per round (None: silent). benchmarks/engine.py's figure (j) calls this."""
     recording, opening = Clock(), Clock()
-    for name in ("add_bounces", "add_collisions", "commit"):
-        recording.wrap(st._StagedRun, name)
-    opening.wrap(st.Store, "__init__")
-    opening.wrap(st._StagedRun, "__init__")
-    print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
-          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
-    runner.simulate(scene(args.record), db=None)  # the JIT cache warm, imports done
+    saved = {(cls, name): cls.__dict__[name] for cls, name in WRAPPED}
+    try:
+        for cls, name in WRAPPED:
+            (opening if name == "__init__" else recording).wrap(cls, name)
+        return _rounds(rounds, record, recording, opening, log)
+    finally:
+        for (cls, name), inner in saved.items():
+            setattr(cls, name, inner)
+
+
+WRAPPED = [(sqlite_writer.StagedRun, "add_bounces"), (sqlite_writer.StagedRun, "add_collisions"),
+           (sqlite_writer.StagedRun, "commit"), (sqlite_writer.SqliteFile, "close"),
+           (sqlite_writer.SqliteFile, "__init__"), (sqlite_writer.StagedRun, "__init__")]
+"""What is timed: recording is every chunk handed to the writer, the commit that moves the
+rows in, and the close that checkpoints them into the file (SQLite's WAL); opening is
+opening the file (schema checked or created) and the run's writer."""
+
+
+def _rounds(rounds, record, recording, opening, log) -> dict:
+    runner.simulate(scene(record), db=None)  # the JIT cache warm, imports done
     rows = {k: [] for k in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "alone_cpu", "open_cpu",
                             "startup", "e2e_db", "e2e_nodb", "ratio_cpu")}
+    staged_any = []
     with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:  # the disk a user's gaz.db is on
-        for k in range(args.rounds):
+        for k in range(rounds):
             db = os.path.join(tmp, f"r{k}.db")
-            r = in_process(db, args.record, recording, opening)
+            r = in_process(db, record, recording, opening)
             staged = [p.name for p in Path(tmp).iterdir() if p.name.endswith(".staging")]
-            alone = in_process(None, args.record, recording, opening)
-            wall_db, _ = as_process(["--record", args.record, "--db", os.path.join(tmp, f"p{k}.db")])
-            wall_nodb, run_s = as_process(["--record", args.record, "--no-db"])
+            staged_any += staged
+            alone = in_process(None, record, recording, opening)
+            wall_db, _ = as_process(["--record", record, "--db", os.path.join(tmp, f"p{k}.db")])
+            wall_nodb, run_s = as_process(["--record", record, "--no-db"])
             for key in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "open_cpu"):
                 rows[key].append(r[key])
             rows["alone_cpu"].append(alone["cpu"])
@@ -117,18 +132,34 @@ def main():
             rows["startup"].append(wall_nodb - run_s)
             rows["e2e_db"].append(wall_db)
             rows["e2e_nodb"].append(wall_nodb)
-            print(f"  round {k + 1}: {r['bounces']:,} bounces; engine {r['engine_cpu']:.3f} s CPU "
-                  f"({r['engine_wall']:.2f} s wall), recording {r['rec_cpu']:.3f} s CPU "
-                  f"({r['rec_wall']:.2f} s wall) = {r['rec_cpu'] / r['engine_cpu']:.1%} of the engine; "
-                  f"opening the store {r['open_cpu']:.3f} s CPU; no database {alone['cpu']:.3f} s CPU; "
-                  f"processes: start-up {wall_nodb - run_s:.2f} s, end to end {wall_db:.2f} s with the "
-                  f"database, {wall_nodb:.2f} s without" + (f"; scratch files {staged}" if staged else ""))
+            if log:
+                log(f"  round {k + 1}: {r['bounces']:,} bounces; engine {r['engine_cpu']:.3f} s CPU "
+                    f"({r['engine_wall']:.2f} s wall), recording {r['rec_cpu']:.3f} s CPU "
+                    f"({r['rec_wall']:.2f} s wall) = {r['rec_cpu'] / r['engine_cpu']:.1%} of the engine; "
+                    f"opening the store {r['open_cpu']:.3f} s CPU; no database {alone['cpu']:.3f} s CPU; "
+                    f"processes: start-up {wall_nodb - run_s:.2f} s, end to end {wall_db:.2f} s with the "
+                    f"database, {wall_nodb:.2f} s without" + (f"; scratch files {staged}" if staged else ""))
     med = {k: statistics.median(v) for k, v in rows.items()}
+    med["rounds"] = rows
+    med["bounces"] = r["bounces"]
+    med["staged"] = staged_any
+    return med
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--rounds", type=int, default=5, help="alternating rounds (default 5)")
+    ap.add_argument("--record", choices=["bounces", "none", "all"], default="bounces")
+    args = ap.parse_args()
+    print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
+    med = measure(args.rounds, args.record)
+    ratios = med["rounds"]["ratio_cpu"]
     print(f"median: start-up {med['startup']:.2f} s wall; engine {med['engine_cpu']:.3f} s CPU "
           f"({med['engine_wall']:.2f} s wall; alone {med['alone_cpu']:.3f} s CPU); recording "
           f"{med['rec_cpu']:.3f} s CPU ({med['rec_wall']:.2f} s wall); recording / engine "
-          f"{med['ratio_cpu']:.1%} (CPU); end to end {med['e2e_db']:.2f} s with the database, "
-          f"{med['e2e_nodb']:.2f} s without")
+          f"{med['ratio_cpu']:.1%} (CPU; rounds {min(ratios):.1%}-{max(ratios):.1%}); end to end "
+          f"{med['e2e_db']:.2f} s with the database, {med['e2e_nodb']:.2f} s without")
 
 
 if __name__ == "__main__":
