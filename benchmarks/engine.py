@@ -72,7 +72,12 @@ def row(key: str, scene: str, figure: str) -> None:
 
 
 def _m(x: float) -> str:
-    return f"{x / 1e6:.2f}"
+    """A rate in millions, three significant figures."""
+    return f"{x / 1e6:.3g}"
+
+
+def _pow10(n: int) -> str:
+    return "10" + str(round(math.log10(n))).translate(str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹"))
 
 
 def unit_scene(dim, n, packing, duration, boundary="walls", placement="auto", seed=1):
@@ -247,7 +252,7 @@ def fig_f(args):
     print(f"    time per event ~ N^{slope:.3f} over this range (medians); peak memory of this "
           f"process {rss:,.0f} MB")
     big = last[sizes[-1]].extras
-    row("f", "(f) cost per queue event (loop only), N = " + " / ".join(f"10^{round(math.log10(n))}" for n in sizes),
+    row("f", "(f) cost per queue event (loop only), N = " + " / ".join(_pow10(n) for n in sizes),
         " / ".join(f"{med[n] / 1e3:.2f}" for n in sizes) + f" µs, medians of {args.repeat} rounds over the "
         f"sizes in turn (about N^{slope:.3f}); {big['pair_tests'] / big['queue_events']:.1f} pair times per "
         f"event at the largest; peak memory {rss:,.0f} MB")
