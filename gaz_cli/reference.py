@@ -60,7 +60,6 @@ checked and benchmarked against it.
 from __future__ import annotations
 
 import bisect
-import dataclasses
 import math
 import time
 
@@ -70,7 +69,7 @@ from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
 from gaz_cli.recording import Recorder, RunStats
 from gaz_cli.geometry import DENSEST, packing_fraction
-from gaz_cli.scene import State, _check_engine_options, reference_refusal
+from gaz_cli.scene import STEP_ONLY, State, reference_refusal
 from gaz_cli.species import BUILTIN
 
 MAX_RESTARTS = 10_000
@@ -635,19 +634,22 @@ _CHUNK = 8192
 
 def _check_scene(scene) -> None:
     """SceneError unless the scene is the exam's: hard elastic walls, no force. The tests are
-    scene.validate's for ``engine = "reference"`` (whatever engine the scene names); the
-    messages name the CLI's flags, as this engine's callers expect."""
+    the scene's own (scene.reference_refusal; the step engine's options that change the
+    physics against their values when unused, scene.STEP_ONLY), whatever engine the scene
+    names; the messages name the CLI's flags, as this engine's callers expect."""
     why = reference_refusal(scene)  # "`boundary` periodic"
     if why is not None:
         flag = why.replace("`", "--", 1).replace("`", "")
         raise SceneError(f"--engine reference (the exam's algorithm) handles hard elastic walls "
                          f"without gravity only, not {flag}; use --engine event")
-    try:
-        _check_engine_options(dataclasses.replace(scene, engine="reference"))
-    except SceneError:  # a step engine's option (drag, pair gravity, planes, damped walls...)
+    if any(getattr(scene, name) != STEP_ONLY[name] for name in STEP_PHYSICS):
         raise SceneError("--engine reference handles free flight between hard elastic walls only "
-                         "(no drag, pair gravity, extra planes or damped walls); use --engine step"
-                         ) from None
+                         "(no drag, pair gravity, extra planes or damped walls); use --engine step")
+
+
+STEP_PHYSICS = ("drag", "pair_gravity", "planes", "wall_restitution")
+"""The step engine's options that change the motion (dt, softening without pair gravity and
+print_every do not): the reference engine refuses them."""
 
 
 def run(scene, state: State, recorder: Recorder | None = None) -> RunStats:

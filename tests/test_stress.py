@@ -196,9 +196,9 @@ def test_gravity_inelastic_bed_comes_to_rest(monkeypatch):
     run ends with one line naming the simulated time reached once the time left would take
     beyond the engine's bound of events (lowered here to keep the test short), instead of
     crawling for hours within the event budget."""
-    from gaz_cli.engine import driver
+    from gaz_cli.engine import driver, guards
 
-    monkeypatch.setattr(driver, "MAX_PROJECTED_EVENTS", 1e6)
+    monkeypatch.setattr(guards, "MAX_PROJECTED_EVENTS", 1e6)
     monkeypatch.setattr(driver, "CHUNK", 1 << 16)
     monkeypatch.setattr(driver, "FIRST_CHUNK", 1 << 13)
     case = S.gravity_settling("ci")

@@ -265,6 +265,22 @@ def _wall_contact(d_e, w_h, alpha, h, age, e):
 
 
 @njit
+def _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h):
+    """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
+    an invalid state) the particle is put on the wall, its normal velocity reversed (and
+    tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
+    w_c, d_new, w_new)."""
+    if tau < 0.0:
+        d_new = 0.0
+        if w_c < 0.0:
+            tau = 0.0
+            w_new = -e * w_c - alpha * h
+        else:
+            w_new = w_h
+    return tau, w_c, d_new, w_new
+
+
+@njit
 def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
@@ -282,13 +298,7 @@ def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, wan
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
     tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], ew)
-    if tau < 0.0:
-        d_new = 0.0
-        if w_c < 0.0:
-            tau = 0.0
-            w_new = -ew * w_c - alpha * h
-        else:
-            w_new = w_h
+    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, ew, alpha, h)
     bounced = 0
     if tau >= 0.0:
         if want:
@@ -333,14 +343,8 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
     e = planes[p, 2 * dim]
     alpha = -g * planes[p, 2 * dim - 1]
     tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], e)
+    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h)
     bounced = 0
-    if tau < 0.0:
-        d_new = 0.0
-        if w_c < 0.0:
-            tau = 0.0
-            w_new = -e * w_c - alpha * h
-        else:
-            w_new = w_h
     if tau >= 0.0:
         bounced = 1
         if tau < age[i]:
