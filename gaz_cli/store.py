@@ -38,8 +38,11 @@ its end (:meth:`Store.simulation`):
   and move in at the end (many rows per INSERT, or one ``INSERT ... SELECT``
   from the scratch file); the database's write lock is held for that only, so
   several runs write one file at once and readers read while they do.
-- PostgreSQL (psycopg 3): rows stream by ``COPY`` into the run's open
-  transaction; concurrent runs need no lock.
+- PostgreSQL (psycopg 3): REBOND is partitioned by RANGE (SI_NUM) (schema 4,
+  :data:`POSTGRES_SCHEMA_VERSION`); a run's rows stream by ``COPY`` into a table of
+  its own inside the run's open transaction, attached whole as REBOND's partition
+  at the commit, which checks the foreign keys in bulk (:class:`_DirectRun`);
+  concurrent runs take turns only for their commits.
 
 SIGINT and SIGTERM arriving during the commit itself are held until it ends
 (the run is then stored, and the interrupt takes effect just after). Every

@@ -151,3 +151,37 @@ def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
         assert len(store.table(st.rebond, si)) == 50
         with store.engine.begin() as conn, pytest.raises(sa.exc.IntegrityError, match="foreign key"):
             conn.exec_driver_sql("UPDATE rebond SET pa_num = 9999 WHERE si_num = 1 AND re_num = 1")
+
+
+def test_a_role_that_does_not_own_rebond_writes_row_by_row(postgres_db, postgres_url, argon_scene):
+    """A role granted INSERT on gaz's tables, but not owning REBOND, may not attach
+    partitions: its rows go into REBOND's default partition, checked by the key triggers."""
+    import uuid
+
+    role = f"gaz_guest_{uuid.uuid4().hex[:12]}"
+    schema = sa.make_url(postgres_db).query["options"].split("=", 1)[1]
+    st.Store(postgres_db).close()
+    admin = sa.create_engine(postgres_url)
+    with admin.begin() as conn:
+        conn.exec_driver_sql(f"CREATE ROLE {role} LOGIN NOSUPERUSER")
+        conn.exec_driver_sql(f"GRANT USAGE ON SCHEMA {schema} TO {role}")
+        conn.exec_driver_sql(f"GRANT SELECT, INSERT ON ALL TABLES IN SCHEMA {schema} TO {role}")
+        conn.exec_driver_sql(f"GRANT USAGE ON ALL SEQUENCES IN SCHEMA {schema} TO {role}")
+    guest = sa.make_url(postgres_db).set(username=role, password=None).render_as_string(hide_password=False)
+    try:
+        with st.Store(guest) as store:
+            with store.engine.connect() as conn:
+                assert not st._may_attach(conn)
+            si = write(store, argon_scene(dim=3, n=20), 300)
+            with pytest.raises(StoreError, match="foreign key"):
+                write(store, argon_scene(dim=3, n=20), 10, pa_of_particle=np.full(20, 9999))
+            assert len(store.table(st.rebond, si)) == 300
+        with admin.connect() as conn:
+            conn.exec_driver_sql(f"SET search_path = {schema}")
+            assert partitions(conn) == {"rebond_default"}
+            assert conn.exec_driver_sql("SELECT count(*) FROM rebond_default").scalar() == 300
+    finally:
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"DROP OWNED BY {role}")
+            conn.exec_driver_sql(f"DROP ROLE {role}")
+        admin.dispose()
