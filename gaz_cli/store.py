@@ -511,7 +511,9 @@ def _v3_to_v4(conn) -> None:
     """3 -> 4, PostgreSQL only: REBOND becomes a table partitioned by RANGE (SI_NUM); the
     rows already there stay where they are, as its partition ``rebond_v3`` for every
     SI_NUM up to the largest in SIMULATION (attaching it checks them against that range
-    once); a default partition takes rows written any other way."""
+    once); a default partition takes rows written any other way. Nothing on other backends."""
+    if conn.dialect.name != "postgresql":
+        return
     conn.exec_driver_sql("LOCK TABLE rebond IN ACCESS EXCLUSIVE MODE")  # writers of version 3 wait
     kind, pkey = conn.exec_driver_sql(
         "SELECT c.relkind, i.relname FROM pg_class c "
