@@ -34,7 +34,7 @@ import numpy as np
 
 from gaz_cli import __version__, interrupts, scenefile, staging
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.recording import RunStats, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli.species import BUILTIN, Species
 
@@ -261,7 +261,7 @@ def _transaction(conn: sqlite3.Connection):
 
 
 # --- one simulation ---------------------------------------------------------------
-class StagedRun(Recorder):
+class StagedRun(TableRecorder):
     """A run's rows staged (:mod:`gaz_cli.staging`) until the commit moves them in.
 
     While staged, REBOND.PA_NUM holds the species index and SI_NUM 0; ``si_num``
@@ -269,46 +269,19 @@ class StagedRun(Recorder):
     """
 
     def __init__(self, file: SqliteFile, scene: Scene, started: _dt.datetime):
+        super().__init__(scene, started)
         self.file = file
-        self.scene = scene
-        self.started = started
-        self.want_bounces = scene.record in ("bounces", "all")
-        self.want_collisions = scene.record == "all"
-        self.finished = False
-        self.si_num = None
-        self._result = None
-        self._n = {"rebond": 0, "choc": 0}
+        self._si = 0
         self._pa_of_particle = scene.kinds()
         columns = layout().columns
         staging.remove_stale(file.path)
         self.stage = staging.Stage(file.path, {t: columns[t] for t in self._n})
 
-    def _numbers(self, table: str, k: int) -> np.ndarray:
-        start = self._n[table] + 1
-        self._n[table] += k
-        return np.arange(start, start + k)
+    def _errors(self):
+        return self.file._errors()
 
-    def add_bounces(self, t, particle, wall, speed, vperp):
-        k = len(t)
-        if k:
-            with self.file._errors():
-                self.stage.add("rebond", [np.zeros(k, dtype=np.int64), self._numbers("rebond", k),
-                                          self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
-                                          np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
-                                          np.asarray(vperp, dtype=float)])
-
-    def add_collisions(self, t, i, j, impulse):
-        k = len(t)
-        if k:
-            with self.file._errors():
-                self.stage.add("choc", [np.zeros(k, dtype=np.int64), self._numbers("choc", k),
-                                        np.asarray(t, dtype=float), np.asarray(i, dtype=np.int64),
-                                        np.asarray(j, dtype=np.int64), np.asarray(impulse, dtype=float)])
-
-    def finish(self, stats: RunStats, ke_start: float, ke_end: float) -> None:
-        """Keep the run's results for the commit."""
-        self._result = (stats, ke_start, ke_end)
-        self.finished = True
+    def _add(self, table: str, columns):
+        self.stage.add(table, columns)
 
     def commit(self) -> None:
         self.stage.seal()

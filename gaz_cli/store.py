@@ -66,7 +66,7 @@ from sqlalchemy import exc as sa_exc
 
 from gaz_cli import __version__, interrupts, sqlite_writer, staging
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.recording import RunStats, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli import scenefile
 from gaz_cli.species import BUILTIN, Species
@@ -643,49 +643,15 @@ def _result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) ->
                 rs_wall_time=float(stats.wall_time_s))
 
 
-class _Run(Recorder):
-    """What both writers share: the recorder's flags, row numbering, the results row.
-
-    ``si_num`` is None until the commit has succeeded.
-    """
+class _Run(TableRecorder):
+    """Both SQLAlchemy writers: the store whose failures are turned into one line."""
 
     def __init__(self, store: Store, scene: Scene, started: _dt.datetime):
+        super().__init__(scene, started)
         self.store = store
-        self.scene = scene
-        self.started = started
-        self.want_bounces = scene.record in ("bounces", "all")
-        self.want_collisions = scene.record == "all"
-        self.finished = False
-        self.si_num = None
-        self._n = {"rebond": 0, "choc": 0}
-        self._result = None
 
-    def _rows(self, table: sa.Table, k: int):
-        start = self._n[table.name] + 1
-        self._n[table.name] += k
-        return np.arange(start, start + k)
-
-    def add_bounces(self, t, particle, wall, speed, vperp):
-        k = len(t)
-        if k:
-            with self.store._errors():
-                self._add(rebond, [np.full(k, self._si), self._rows(rebond, k),
-                                   self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
-                                   np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
-                                   np.asarray(vperp, dtype=float)])
-
-    def add_collisions(self, t, i, j, impulse):
-        k = len(t)
-        if k:
-            with self.store._errors():
-                self._add(choc, [np.full(k, self._si), self._rows(choc, k), np.asarray(t, dtype=float),
-                                 np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64),
-                                 np.asarray(impulse, dtype=float)])
-
-    def finish(self, stats: RunStats, ke_start: float, ke_end: float) -> None:
-        """Keep the run's results for the commit."""
-        self._result = (stats, ke_start, ke_end)
-        self.finished = True
+    def _errors(self):
+        return self.store._errors()
 
 
 class _StagedRun(_Run):
@@ -702,8 +668,8 @@ class _StagedRun(_Run):
         staging.remove_stale(store.path)
         self.stage = staging.Stage(store.path, {t.name: [c.name for c in t.columns] for t in (rebond, choc)})
 
-    def _add(self, table, columns):
-        self.stage.add(table.name, columns)
+    def _add(self, table: str, columns):
+        self.stage.add(table, columns)
 
     def commit(self) -> None:
         self.stage.seal()
@@ -887,7 +853,8 @@ class _DirectRun(_Run):
             self._targets[table.name] = name
         return self._targets[table.name]
 
-    def _add(self, table, columns):
+    def _add(self, table: str, columns):
+        table = metadata.tables[table]
         names = [c.name for c in table.columns]
         target = self._target(table)
         replica = self._keys_by_hand and target == table.name
