@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.intrinsics import _helper, _inline
 from gaz_cli.engine.layout import PV
 
 
@@ -23,7 +23,7 @@ def _record_bounce(P, k, t, ident, d, up, D, bt, bp, bw, bs, bv, nbb):
     bv[nbb] = abs(P[k, PV + d])
 
 
-@_inline
+@_helper
 def _record_collision(t, ident_k, ident_j, impulse, ct, ci, cj, cimp, ncb):
     """Row ncb of the collision buffers: time, the two particles, the impulse's magnitude."""
     ct[ncb] = t

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from gaz_cli.engine.intrinsics import _inline, _prefetch
+from gaz_cli.engine.intrinsics import _helper, _inline, _prefetch
 from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
@@ -223,7 +223,7 @@ def _cell_entered(I, k, code, nc, D):
     return I[k, CELL] + (c - I[k, C0 + d]) * _stride(d, nc, D)
 
 
-@_inline
+@_helper
 def _block_entered(d, up):
     """The offsets (lo0, hi0, lo1, hi1, lo2, hi2) of the cells that come into view when a
     particle crosses into the next cell along axis d (up: the one above): the layer beyond."""
@@ -258,7 +258,7 @@ def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
         I[k, C0 + d] = cn
 
 
-@_inline
+@_helper
 def _stamp(I, m, src, oc1, oc2):
     """The counter a prediction with partner m keeps: m's now if the scan found it (NEW),
     else that of the kept prediction it comes from (KEPT1: oc1, KEPT2: oc2); 0 if none."""
