@@ -52,8 +52,8 @@ def test_lists_hold_the_neighbours_within_reach_and_their_scan_is_tc(dim, period
         near = np.flatnonzero(np.linalg.norm(sep, axis=1) < 2 * r + 2 * h)
         assert sorted(NB[k, :NN[k]]) == sorted(set(near) - {k})
     for k in range(n):
-        best, bj = _scan_nl(P, NB, NN, k, 0.0, L, 0.5 * L, 0.0, INF, -1, dim, periodic, False,
-                            False)
+        best, bj, bc = _scan_nl(P, I, NB, NN, k, 0.0, L, 0.5 * L, 0.0, INF, -1, nc, dim,
+                                periodic, False, False)
         want = INF
         for m in NB[k, :NN[k]]:
             sep = P[m, :dim] - P[k, :dim]

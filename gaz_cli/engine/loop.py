@@ -406,13 +406,17 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if PAIRS and (D == 1 or NL) and rescan:
                     if D == 1:
                         best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PER, GRAV)
+                        bc = I[bj, CNT] if bj >= 0 else 0
                         n_pairs += 2
                     else:
-                        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, D, PER, GRAV, pf)
+                        # only collisions before the next rebuild or bounce count (that rescans)
+                        best, bj, bc = _scan_nl(P, I, NB, NN, p, t, L, hl, g, EV[p, TX], -1,
+                                                nc, D, PER, GRAV, pf)
+                        best = best if bj >= 0 else INF
                         n_pairs += NN[p]
                     EV[p, TCOL] = best
                     I[p, PART] = bj
-                    I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
+                    I[p, PCNT] = bc
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
                     _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, D, PER, GRAV,

@@ -7,7 +7,7 @@ import math
 
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.interactions import _pair_dt
-from gaz_cli.engine.layout import C0, CELL, DONE, INF, NL_FULL, PR, PT, PV
+from gaz_cli.engine.layout import C0, CELL, CNT, DONE, INF, NL_FULL, PR, PT, PV
 from gaz_cli.engine.neighbours.cells import _move
 from gaz_cli.engine.prefetch import _prefetch_block, _prefetch_block_rows, _prefetch_listed
 from gaz_cli.numba_config import njit
@@ -51,14 +51,29 @@ def _nl_exit(P, XN, k, h, g, D, GRAV):
 
 
 @_inline
-def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
-    """Earliest collision of k (its row at time t) with the particles of its neighbour list.
+def _scan_nl(P, I, NB, NN, k, t, L, hl, g, best, bj, nc, D, PER, GRAV, PF):
+    """Earliest collision of k (its row at time t) with the particles of its neighbour list
+    before ``best`` (pass INF, -1 for all): its time, the partner (bj if none is earlier)
+    and the partner's event counter I[partner, CNT] (0 if none; read when the partner is
+    found, so that the load overlaps the rest of the scan).
 
     PF (large systems): the neighbours' rows are all requested from memory
     before the first is read, so that their cache misses overlap.
+
+    Periodic: only a list whose centre's cell (I[k, C0:], of nc an axis) touches a face
+    of the box takes nearest images. Inside, every listed pair's centres are within
+    R_k + R_m + 2h < L / 3 of each other without wrapping (a cell is at least that wide)
+    and each particle within h of its centre, which it left unwrapped (as Smallenburg's
+    ``nearboxedge``).
     """
     if PF:
         _prefetch_listed(P, NB, NN, k)
+    wrap = False
+    if PER:
+        for a in range(D):
+            c = I[k, C0 + a]
+            if c == 0 or c == nc - 1:
+                wrap = True
     xk0 = P[k, 0]
     vk0 = P[k, PV]
     xk1 = P[k, 1]
@@ -66,6 +81,7 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
     xk2 = P[k, 2] if D > 2 else 0.0
     vk2 = P[k, PV + 2] if D > 2 else 0.0
     rk = P[k, PR]
+    bc = I[bj, CNT] if bj >= 0 else 0
     for s in range(NN[k]):
         m = NB[k, s]
         dtm = t - P[m, PT]
@@ -85,7 +101,7 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
             else:
                 dx1 -= 0.5 * g * dtm * dtm
                 dv1 -= g * dtm
-        if PER:
+        if PER and wrap:
             if dx0 > hl:
                 dx0 -= L
             elif dx0 < -hl:
@@ -99,11 +115,20 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, D, PER, GRAV, PF):
                     dx2 -= L
                 elif dx2 < -hl:
                     dx2 += L
-        tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, rk + P[m, PR], D)
-        if tp < best:
-            best = tp
-            bj = m
-    return best, bj
+        # cheap rejections first (as Smallenburg's code), in one branch taken by the few
+        # pairs that may collide first: a receding pair (b >= 0) never collides; an
+        # approaching one collides at s with 2 b s + |dv|^2 s^2 = sg^2 - r^2, so not
+        # before best - t if 2 b (best - t) > sg^2 - r^2
+        b = dx0 * dv0 + dx1 * dv1 + dx2 * dv2
+        sg = rk + P[m, PR]
+        room = sg * sg - (dx0 * dx0 + dx1 * dx1 + dx2 * dx2)
+        if (b < 0.0) & (2.0 * b * (best - t) <= room):
+            tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sg, D)
+            if tp < best:
+                best = tp
+                bj = m
+                bc = I[m, CNT]
+    return best, bj, bc
 
 
 @_inline
@@ -113,10 +138,18 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
     Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
     their number, or -1 if SCR or one of their lists would overflow. Needs
     at least 3 cells per axis when periodic (one image per particle).
+
+    Cells are at least 2 R_max + 2 h wide when there are two or more an axis (the
+    driver sizes them so), hence R_m <= rcap = (L / nc - 2 h) / 2: a candidate
+    farther than R_k + rcap + 2 h is out without reading its row of P (most of
+    the 3^D cells' particles are out; their rows would be read for the radius alone).
     """
     capnb = SCR.shape[0]
     hl = 0.5 * L
     rk = P[k, PR]
+    rcap = 0.5 * (L / nc - 2.0 * h) if nc > 1 else INF
+    far = rk + rcap + 2.0 * h
+    far2 = far * far
     cnt = 0
     lo2 = -1 if D > 2 else 0
     hi2 = 1 if D > 2 else 0
@@ -170,8 +203,11 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
                             d2 -= L
                         elif d2 < -hl:
                             d2 += L
+                    d2s = d0 * d0 + d1 * d1 + d2 * d2
+                    if d2s >= far2:
+                        continue
                     lim = rk + P[m, PR] + 2.0 * h
-                    if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
+                    if d2s < lim * lim:
                         if cnt >= capnb or NN[m] >= capnb:
                             return -1
                         SCR[cnt] = m
