@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.intrinsics import _inline, _prefetch
 from gaz_cli.engine.interactions import _pair_dt
 from gaz_cli.engine.layout import C0, CELL, CNT, DONE, INF, NL_FULL, PR, PT, PV
 from gaz_cli.engine.neighbours.cells import _move
@@ -57,7 +57,7 @@ def _scan_nl(P, I, NB, NN, k, t, L, hl, g, best, bj, nc, D, PER, GRAV, PF):
     and the partner's event counter I[partner, CNT] (0 if none; read when the partner is
     found, so that the load overlaps the rest of the scan).
 
-    PF (large systems): the neighbours' rows are all requested from memory
+    PF (large systems): the neighbours' rows of P and I are all requested from memory
     before the first is read, so that their cache misses overlap.
 
     Periodic: only a list whose centre's cell (I[k, C0:], of nc an axis) touches a face
@@ -68,6 +68,8 @@ def _scan_nl(P, I, NB, NN, k, t, L, hl, g, best, bj, nc, D, PER, GRAV, PF):
     """
     if PF:
         _prefetch_listed(P, NB, NN, k)
+        for s in range(NN[k]):  # and their counters (read when one is the best so far)
+            _prefetch(I, NB[k, s])
     wrap = False
     if PER:
         for a in range(D):
@@ -122,7 +124,9 @@ def _scan_nl(P, I, NB, NN, k, t, L, hl, g, best, bj, nc, D, PER, GRAV, PF):
         b = dx0 * dv0 + dx1 * dv1 + dx2 * dv2
         sg = rk + P[m, PR]
         room = sg * sg - (dx0 * dx0 + dx1 * dx1 + dx2 * dx2)
-        if (b < 0.0) & (2.0 * b * (best - t) <= room):
+        # b < 0 and 2 b (best - t) < room as one comparison (one branch, rarely taken;
+        # b = 0 with best = INF gives NaN, which max passes over: rejected as it should)
+        if max(b, 2.0 * b * (best - t) - room) < 0.0:
             tp = t + _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sg, D)
             if tp < best:
                 best = tp
