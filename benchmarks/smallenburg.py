@@ -287,8 +287,9 @@ def main() -> None:
         print("collisions per second (wall, CPU) and ratios to C:")
         print(head + "  collisions  beta P sigma^3")
         for i in range(args.pairs):
+            # each code first in turn; every other round of turns backwards
             order = names[i % len(names):] + names[:i % len(names)]
-            if i % 2:
+            if (i // len(names)) % 2:
                 order = order[::-1]
             res = {}
             for who in order:
