@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import math
 import os
 import re
@@ -156,20 +157,50 @@ def run_c(binary: Path, where: Path) -> dict:
     return out
 
 
-def run_gaz(scene: Scene, state) -> dict:
-    """One run of gaz: wall (RunStats), CPU (this process, less the compile), collisions,
+_WORKER = """
+import dataclasses, json, sys, time
+import numpy as np
+from gaz_cli import engine
+from gaz_cli.recording import Recorder, State
+from gaz_cli.scene import Scene
+from gaz_cli.constants import K_B
+from gaz_cli.species import Species
+a = np.load(sys.argv[1])
+n, length, duration = int(a["n"]), float(a["length"]), float(a["duration"])
+scene = Scene(dim=3, length=length, duration=duration,
+              components=((Species("X", 1.0, 0.5), n),), temperature=1.0 / K_B,
+              boundary="periodic", record="none", extras={"neighbours": "lists"})
+state = State(a["x"], a["v"], np.zeros(n, dtype=np.int64))
+# a short run first: compiled kernels loaded, memory touched (as in a long-lived process)
+engine.run(dataclasses.replace(scene, duration=duration * 1e-3), state, Recorder())
+if sys.argv[2] == "warm":
+    sys.exit(0)
+c0 = time.process_time()
+rs = engine.run(scene, state, Recorder())
+cpu = time.process_time() - c0 - rs.extras["compile_s"]
+m = scene.masses()
+kT = float(np.sum(m * np.sum(rs.final.velocities ** 2, 1))) / (3 * (n - 1))
+beta_p = n / length ** 3 + rs.virial / (3.0 * length ** 3 * duration) / kT
+ex = rs.extras
+print(json.dumps({"wall": rs.wall_time_s, "cpu": cpu, "collisions": rs.collisions,
+                  "beta_p": beta_p, "pairs": ex["pair_tests"], "rebuilds": ex["list_rebuilds"],
+                  "stale": ex["stale_predictions"], "events": ex["queue_events"],
+                  "lists": ex["neighbour_lists"]}))
+"""
+"""A gaz run in its own process, gaz_cli imported from the tree given (PYTHONPATH): the
+state from an .npz, the figures as JSON on stdout."""
+
+
+def run_gaz(tree: Path, state_file: Path, what: str = "run") -> dict:
+    """One run of gaz from ``tree`` (a checkout of this repository) in a child process: wall
+    (RunStats.wall_time_s), CPU (the child's, over engine.run less the compile), collisions,
     pressure and its work counters."""
-    c0 = time.process_time()
-    rs = engine.run(scene, state, Recorder())
-    cpu = time.process_time() - c0 - rs.extras["compile_s"]
-    m = scene.masses()
-    kT = float(np.sum(m * np.sum(rs.final.velocities ** 2, 1))) / (3 * (scene.n - 1))
-    beta_p = (scene.n / scene.volume + rs.virial / (3.0 * scene.volume * scene.duration) / kT)
-    ex = rs.extras
-    return {"wall": rs.wall_time_s, "cpu": cpu, "collisions": rs.collisions, "beta_p": beta_p,
-            "pairs": ex["pair_tests"], "rebuilds": ex["list_rebuilds"],
-            "stale": ex["stale_predictions"], "events": ex["queue_events"],
-            "lists": ex["neighbour_lists"]}
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    res = subprocess.run([sys.executable, "-c", _WORKER, str(state_file), what], env=env,
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        sys.exit(f"smallenburg.py: gaz from {tree} failed:\n{res.stderr[-3000:]}")
+    return json.loads(res.stdout.splitlines()[-1]) if what == "run" else {}
 
 
 def main() -> None:
@@ -188,6 +219,9 @@ def main() -> None:
     ap.add_argument("--count", action="store_true",
                     help="also run a C build with work counters once (not timed)")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--baseline", type=Path, default=None,
+                    help="another checkout of gaz (e.g. git archive of an older commit) run "
+                         "in the same pairs: before and after side by side")
     ap.add_argument("--equilibrate", type=float, default=30.0,
                     help="collisions per particle run by gaz from the lattice before the pairs")
     args = ap.parse_args()
@@ -218,44 +252,74 @@ def main() -> None:
     print(f"machine: {os.cpu_count()} cores (os.cpu_count), load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; C: {args.cc} {args.cflags}", flush=True)
 
+    here = Path(__file__).resolve().parent.parent
+    trees = {"gaz": here}
+    if args.baseline is not None:
+        trees["gaz-base"] = args.baseline.resolve()
+    print("gaz trees: " + ", ".join(f"{k} = {v}" for k, v in trees.items()))
     with tempfile.TemporaryDirectory(prefix="edmd-") as tmp:
         where = Path(tmp)
         binary = build(args.edmd, where, duration, write, args.cc, args.cflags, False)
         write_sph(where / "init.sph", np.asarray(state.positions), length, 0.5 * sigma)
-        # compile gaz's kernels (cached) before timing anything
-        engine.run(dataclasses.replace(scene, duration=duration * 1e-3), state, Recorder())
+        state_file = where / "state.npz"
+        np.savez(state_file, x=np.asarray(state.positions), v=np.asarray(state.velocities), n=n,
+                 length=length, duration=duration)
+        for tree in trees.values():  # compile (or load) each tree's kernels before timing
+            run_gaz(tree, state_file, "warm")
         if args.count:
             cdir = where / "count"
             cdir.mkdir()
             cbin = build(args.edmd, cdir, duration, write, args.cc, args.cflags, True)
             shutil.copy(where / "init.sph", cdir / "init.sph")
-            cc = run_c(cbin, cdir)
-            g = run_gaz(scene, state)
+            counted = {"C": run_c(cbin, cdir)}
+            counted.update({name: run_gaz(tree, state_file) for name, tree in trees.items()})
             print("work per collision (C built with counters, untimed; gaz's RunStats):")
-            for name, r in (("C", cc), ("gaz", g)):
+            for name, r in counted.items():
                 col = r["collisions"]
-                print(f"  {name:>3}: {col:,} collisions; per collision: pair tests "
+                print(f"  {name:>8}: {col:,} collisions; per collision: pair tests "
                       f"{r['pairs'] / col:.2f}, list rebuilds {r['rebuilds'] / col:.3f}, stale "
                       f"{r['stale'] / col:.3f}, queue events {r['events'] / col:.3f}")
-        ratios_w, ratios_c = [], []
-        print("pair  first  C coll/s wall  C coll/s CPU  gaz coll/s wall  gaz coll/s CPU  "
-              "gaz/C wall  gaz/C CPU  collisions C / gaz  beta P sigma^3 C / gaz")
+        names = ["C", *trees]
+        ratios = {name: ([], []) for name in trees}
+        fastest = {name: [0.0, 0.0] for name in names}
+        head = "pair  order" + "".join(f"  {nm:>8} wall/s  {nm:>8} CPU/s" for nm in names)
+        head += "".join(f"  {nm}/C wall  {nm}/C CPU" for nm in trees)
+        print("collisions per second (wall, CPU) and ratios to C:")
+        print(head + "  collisions  beta P sigma^3")
         for i in range(args.pairs):
-            order = ("C", "gaz") if i % 2 == 0 else ("gaz", "C")
+            # each code first in turn; every other round of turns backwards
+            order = names[i % len(names):] + names[:i % len(names)]
+            if (i // len(names)) % 2:
+                order = order[::-1]
             res = {}
             for who in order:
-                res[who] = run_c(binary, where) if who == "C" else run_gaz(scene, state)
-            c, g = res["C"], res["gaz"]
-            cw, cc_ = c["collisions"] / c["wall"], c["collisions"] / c["cpu"]
-            gw, gc = g["collisions"] / g["wall"], g["collisions"] / g["cpu"]
-            ratios_w.append(gw / cw)
-            ratios_c.append(gc / cc_)
-            print(f"{i + 1:>4}  {order[0]:>5}  {cw:>14,.0f}  {cc_:>12,.0f}  {gw:>15,.0f}  "
-                  f"{gc:>14,.0f}  {gw / cw:>10.3f}  {gc / cc_:>9.3f}  "
-                  f"{c['collisions']:,} / {g['collisions']:,}  {c['beta_p']:.4f} / {g['beta_p']:.4f}")
-        print(f"gaz/C median over {args.pairs} pairs: wall {np.median(ratios_w):.3f}, CPU "
-              f"{np.median(ratios_c):.3f}; KLM beta P sigma^3 = {rho * float(z_klm(eta)):.4f}; "
-              f"gaz used neighbour lists: {g['lists']}")
+                res[who] = run_c(binary, where) if who == "C" else run_gaz(trees[who], state_file)
+            rate_w = {nm: r["collisions"] / r["wall"] for nm, r in res.items()}
+            rate_c = {nm: r["collisions"] / r["cpu"] for nm, r in res.items()}
+            for nm in names:
+                fastest[nm] = [max(fastest[nm][0], rate_w[nm]), max(fastest[nm][1], rate_c[nm])]
+            line = f"{i + 1:>4}  {','.join(order):>5}"
+            line += "".join(f"  {rate_w[nm]:>15,.0f}  {rate_c[nm]:>14,.0f}" for nm in names)
+            for nm in trees:
+                ratios[nm][0].append(rate_w[nm] / rate_w["C"])
+                ratios[nm][1].append(rate_c[nm] / rate_c["C"])
+                line += f"  {ratios[nm][0][-1]:>{len(nm) + 7}.3f}  {ratios[nm][1][-1]:>{len(nm) + 6}.3f}"
+            line += "  " + " / ".join(f"{res[nm]['collisions']:,}" for nm in names)
+            line += "  " + " / ".join(f"{res[nm]['beta_p']:.4f}" for nm in names)
+            print(line, flush=True)
+        for nm, (w, c) in ratios.items():
+            print(f"{nm}/C median over {args.pairs} pairs: wall {np.median(w):.3f}, CPU "
+                  f"{np.median(c):.3f}; fastest run against fastest run (a busy host only "
+                  f"slows a run down): wall {fastest[nm][0] / fastest['C'][0]:.3f}, CPU "
+                  f"{fastest[nm][1] / fastest['C'][1]:.3f}")
+        if len(trees) > 1:
+            w, c = (np.array(ratios["gaz"][i]) / np.array(ratios["gaz-base"][i]) for i in (0, 1))
+            print(f"gaz/gaz-base median over the pairs: wall {np.median(w):.3f}, CPU "
+                  f"{np.median(c):.3f}; fastest against fastest: wall "
+                  f"{fastest['gaz'][0] / fastest['gaz-base'][0]:.3f}, CPU "
+                  f"{fastest['gaz'][1] / fastest['gaz-base'][1]:.3f}")
+        print(f"KLM beta P sigma^3 = {rho * float(z_klm(eta)):.4f}; gaz used neighbour lists: "
+              f"{res['gaz']['lists']}")
 
 
 if __name__ == "__main__":

@@ -151,3 +151,27 @@ def test_collision_across_a_periodic_face_uses_the_nearest_image():
     assert hit
     np.testing.assert_allclose(P[0, PV:PV + 2], p1[1], rtol=0, atol=KERNEL_RTOL)
     np.testing.assert_allclose(P[1, PV:PV + 2], p2[1], rtol=0, atol=KERNEL_RTOL)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_pair_time_within_a_horizon_is_the_pair_time_or_inf(dim):
+    """The scans' cheap rejection (_pair_time_within) changes no answer: the pair time when
+    contact comes within the horizon, inf when it comes after, when the pair recedes or
+    misses; an overlapping approaching pair touches at once whatever the horizon."""
+    from gaz_cli.engine.interactions import _pair_time_within
+
+    rng = np.random.default_rng(5)
+    sigma, pp = 1.0, (1.0, 0.0)
+    for _ in range(DRAWS):
+        dx, dv = _approaching_pair(rng, dim, sigma, rng.uniform(0.0, 1.05))  # > 1: a miss
+        x, v = np.zeros(3), np.zeros(3)
+        x[:dim], v[:dim] = dx, dv
+        want = _pair_dt(*x, *v, sigma, dim)
+        finite = math.isfinite(want)
+        for horizon in (math.inf, 1e3, 0.5 * want if finite else 1.0, 1.0001 * want if finite else 2.0):
+            got = _pair_time_within(*x, *v, 0.5 * sigma, 0.5 * sigma, pp, dim, horizon)
+            assert got == (want if want <= horizon else math.inf)
+        assert _pair_time_within(*x, *(-v), 0.5, 0.5, pp, dim, math.inf) == math.inf  # receding
+    x, v = np.zeros(3), np.zeros(3)
+    x[0], v[0] = 0.9 * sigma, -1.0  # overlapping, approaching
+    assert _pair_time_within(*x, *v, 0.5, 0.5, pp, dim, 1e-30) == 0.0

@@ -297,7 +297,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS,
                                    NL)
                 if PAIRS and (D == 1 or NL) and rescan:
-                    n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, PP, D,
+                    n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, nc, PP, D,
                                              PER, GRAV, pf)
                 if cellscan:
                     ng = ng0 if side == 0 else ng1

@@ -49,17 +49,23 @@ def _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS, 
 
 
 @_inline
-def _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, PP, D, PER, GRAV, PF):
+def _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, nc, PP, D, PER, GRAV, PF):
     """Particle p's earliest collision (its row at t) with its two neighbours on the line
     (1D) or those of its neighbour list, into its first prediction, stamped with the
-    partner's counter (PP: the interaction's parameters); returns the pair times computed."""
+    partner's counter (PP: the interaction's parameters); returns the pair times computed.
+
+    A list's scan keeps only collisions before p's next rebuild or bounce (EV[p, TX],
+    set first): p rescans at that event anyway."""
     if D == 1:
         best, bj = _scan_1d(P, order, p, I[p, RANK], n, t, L, g, PP, PER, GRAV)
+        bc = I[bj, CNT] if bj >= 0 else 0
         tests = 2
     else:
-        best, bj = _scan_nl(P, NB, NN, p, t, L, hl, g, INF, -1, PP, D, PER, GRAV, PF)
+        best, bj, bc = _scan_nl(P, I, NB, NN, p, t, L, hl, g, EV[p, TX], -1, nc, PP, D, PER, GRAV,
+                                PF)
+        best = best if bj >= 0 else INF
         tests = NN[p]
     EV[p, TCOL] = best
     I[p, PART] = bj
-    I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
+    I[p, PCNT] = bc
     return tests

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import math
 
-from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.intrinsics import _inline, _prefetch
 from gaz_cli.engine.boundaries import _nearest_near
 from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
-from gaz_cli.engine.layout import C0, CELL, DONE, INF, NL_FULL, PR, PT, PV
+from gaz_cli.engine.interactions import _pair_time_within
+from gaz_cli.engine.layout import C0, CELL, CNT, DONE, INF, NL_FULL, PR, PT, PV
 from gaz_cli.engine.neighbours.cells import _move
 from gaz_cli.engine.prefetch import _prefetch_block, _prefetch_block_rows, _prefetch_listed
 from gaz_cli.numba_config import njit
@@ -53,14 +53,31 @@ def _nl_exit(P, XN, k, h, g, D, GRAV):
 
 
 @_inline
-def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, PP, D, PER, GRAV, PF):
-    """Earliest collision of k (its row at time t) with the particles of its neighbour list.
+def _scan_nl(P, I, NB, NN, k, t, L, hl, g, best, bj, nc, PP, D, PER, GRAV, PF):
+    """Earliest collision of k (its row at time t) with the particles of its neighbour list
+    before ``best`` (pass INF, -1 for all): its time, the partner (bj if none is earlier)
+    and the partner's event counter I[partner, CNT] (0 if none; read when the partner is
+    found, so that the load overlaps the rest of the scan).
 
-    PF (large systems): the neighbours' rows are all requested from memory
+    PF (large systems): the neighbours' rows of P and I are all requested from memory
     before the first is read, so that their cache misses overlap.
+
+    Periodic: only a list whose centre's cell (I[k, C0:], of nc an axis) touches a face
+    of the box takes nearest images. Inside, every listed pair's centres are within
+    R_k + R_m + 2h < L / 3 of each other without wrapping (a cell is at least that wide)
+    and each particle within h of its centre, which it left unwrapped (as Smallenburg's
+    ``nearboxedge``).
     """
     if PF:
         _prefetch_listed(P, NB, NN, k)
+        for s in range(NN[k]):  # and their counters (read when one is the best so far)
+            _prefetch(I, NB[k, s])
+    wrap = False
+    if PER:
+        for a in range(D):
+            c = I[k, C0 + a]
+            if c == 0 or c == nc - 1:
+                wrap = True
     xk0 = P[k, 0]
     vk0 = P[k, PV]
     xk1 = P[k, 1]
@@ -68,20 +85,22 @@ def _scan_nl(P, NB, NN, k, t, L, hl, g, best, bj, PP, D, PER, GRAV, PF):
     xk2 = P[k, 2] if D > 2 else 0.0
     vk2 = P[k, PV + 2] if D > 2 else 0.0
     rk = P[k, PR]
+    bc = I[bj, CNT] if bj >= 0 else 0
     for s in range(NN[k]):
         m = NB[k, s]
         dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2, g,
                                                     D, GRAV)
-        if PER:
+        if PER and wrap:
             dx0 = _nearest_near(dx0, L, hl)
             dx1 = _nearest_near(dx1, L, hl)
             if D > 2:
                 dx2 = _nearest_near(dx2, L, hl)
-        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
+        tp = t + _pair_time_within(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D, best - t)
         if tp < best:
             best = tp
             bj = m
-    return best, bj
+            bc = I[m, CNT]
+    return best, bj, bc
 
 
 @_inline
@@ -91,10 +110,18 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
     Particle m is a neighbour when |x - XN[m]| < R_k + R_m + 2 h. Returns
     their number, or -1 if SCR or one of their lists would overflow. Needs
     at least 3 cells per axis when periodic (one image per particle).
+
+    Cells are at least 2 R_max + 2 h wide when there are two or more an axis (the
+    driver sizes them so), hence R_m <= rcap = (L / nc - 2 h) / 2: a candidate
+    farther than R_k + rcap + 2 h is out without reading its row of P (most of
+    the 3^D cells' particles are out; their rows would be read for the radius alone).
     """
     capnb = SCR.shape[0]
     hl = 0.5 * L
     rk = P[k, PR]
+    rcap = 0.5 * (L / nc - 2.0 * h) if nc > 1 else INF
+    far = rk + rcap + 2.0 * h
+    far2 = far * far
     cnt = 0
     lo2 = -1 if D > 2 else 0
     hi2 = 1 if D > 2 else 0
@@ -139,8 +166,11 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
                         d0 = _nearest_near(d0, L, hl)
                         d1 = _nearest_near(d1, L, hl)
                         d2 = _nearest_near(d2, L, hl)
+                    d2s = d0 * d0 + d1 * d1 + d2 * d2
+                    if d2s >= far2:
+                        continue
                     lim = rk + P[m, PR] + 2.0 * h
-                    if d0 * d0 + d1 * d1 + d2 * d2 < lim * lim:
+                    if d2s < lim * lim:
                         if cnt >= capnb or NN[m] >= capnb:
                             return -1
                         SCR[cnt] = m
