@@ -39,6 +39,7 @@ import time
 from pathlib import Path
 
 from gaz_cli import runner, sqlite_writer
+from gaz_cli.recording import TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli.species import lookup
 
@@ -103,7 +104,7 @@ def measure(rounds: int = 5, record: str = "bounces", log=print) -> dict:
             setattr(cls, name, inner)
 
 
-WRAPPED = [(sqlite_writer.StagedRun, "add_bounces"), (sqlite_writer.StagedRun, "add_collisions"),
+WRAPPED = [(TableRecorder, "add_bounces"), (TableRecorder, "add_collisions"),
            (sqlite_writer.StagedRun, "commit"), (sqlite_writer.SqliteFile, "close"),
            (sqlite_writer.SqliteFile, "__init__"), (sqlite_writer.StagedRun, "__init__")]
 """What is timed: recording is every chunk handed to the writer, the commit that moves the
