@@ -11,6 +11,8 @@ the wall at coordinate L and ``-(d+1)`` the wall at 0.
 
 from __future__ import annotations
 
+import contextlib
+import datetime as _dt
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,6 +66,42 @@ class Recorder:
         """The run reached simulated time t (s) after ``events`` events (wall bounces and
         collisions so far). Called once the kernels are compiled (t = the start), then
         after each kernel call (gaz_cli.progress draws a bar from it)."""
+
+
+class RunStore:
+    """What both database front ends share (:class:`gaz_cli.store.Store`,
+    :class:`gaz_cli.sqlite_writer.SqliteFile`): a context manager (``close`` at the end)
+    whose :meth:`simulation` hands out one run's writer and commits it at the block's end.
+    A front end provides ``close()``, ``_errors()`` (a context turning its database's
+    failures into one StoreError line) and ``_writer(scene, started)`` (a
+    :class:`TableRecorder` with ``commit()`` and ``abort()``)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    @contextlib.contextmanager
+    def simulation(self, scene, started: _dt.datetime | None = None):
+        """One simulation's writer (a :class:`Recorder`), committed at the end.
+
+        Call ``finish(stats, ke_start, ke_end)`` inside the block; the block's
+        normal end commits in one short transaction and sets ``si_num``; an
+        exception (KeyboardInterrupt included) discards everything.
+        """
+        started = started or _dt.datetime.now().replace(microsecond=0)
+        with self._errors():
+            run = self._writer(scene, started)
+        try:
+            yield run
+            if not run.finished:
+                raise RuntimeError("the simulation's finish() was not called")
+            with self._errors():
+                run.commit()
+        except BaseException:
+            run.abort()
+            raise
 
 
 class TableRecorder(Recorder):

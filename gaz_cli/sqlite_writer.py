@@ -34,7 +34,7 @@ import numpy as np
 
 from gaz_cli import __version__, interrupts, scenefile, staging
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats, TableRecorder
+from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli.species import BUILTIN, Species
 
@@ -169,7 +169,7 @@ def open_for_writing(db: str):
     return Store(db)
 
 
-class SqliteFile:
+class SqliteFile(RunStore):
     """A gaz SQLite database opened for writing, new or at the current layout.
 
     Opening creates the schema if the file has none of gaz's tables; raises
@@ -215,12 +215,6 @@ class SqliteFile:
         if conn is not None:
             conn.close()
 
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
     @contextlib.contextmanager
     def _errors(self):
         """Turn database and file-system failures into one StoreError line."""
@@ -229,22 +223,8 @@ class SqliteFile:
         except (sqlite3.Error, OSError) as err:
             raise StoreError(explain(err, self.db, self.shown)) from None
 
-    @contextlib.contextmanager
-    def simulation(self, scene: Scene, started: _dt.datetime | None = None):
-        """One simulation's writer (a :class:`~gaz_cli.recording.Recorder`), committed at the
-        end; as :meth:`gaz_cli.store.Store.simulation`."""
-        started = started or _dt.datetime.now().replace(microsecond=0)
-        with self._errors():
-            run = StagedRun(self, scene, started)
-        try:
-            yield run
-            if not run.finished:
-                raise RuntimeError("the simulation's finish() was not called")
-            with self._errors():
-                run.commit()
-        except BaseException:
-            run.abort()
-            raise
+    def _writer(self, scene: Scene, started: _dt.datetime) -> "StagedRun":
+        return StagedRun(self, scene, started)
 
 
 @contextlib.contextmanager

@@ -66,7 +66,7 @@ from sqlalchemy import exc as sa_exc
 
 from gaz_cli import __version__, interrupts, sqlite_writer, staging
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats, TableRecorder
+from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli import scenefile
 from gaz_cli.species import BUILTIN, Species
@@ -256,7 +256,7 @@ def query_names() -> list[str]:
 
 
 # --- the store ------------------------------------------------------------------
-class Store:
+class Store(RunStore):
     """A results database. ``create=False`` refuses to make a new one (for readers).
 
     Opening checks (and for a writer creates or migrates) the schema; see the
@@ -292,12 +292,6 @@ class Store:
         """Release every connection; idempotent."""
         if self.engine is not None:
             self.engine.dispose()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     # --- errors -----------------------------------------------------------------
     @contextlib.contextmanager
@@ -397,26 +391,9 @@ class Store:
         conn.execute(schema_version.update().values(sv_version=latest))
 
     # --- writing ------------------------------------------------------------
-    @contextlib.contextmanager
-    def simulation(self, scene: Scene, started: _dt.datetime | None = None):
-        """One simulation's writer (a :class:`~gaz_cli.recording.Recorder`), committed at the end.
-
-        Call ``finish(stats, ke_start, ke_end)`` inside the block; the block's
-        normal end commits in one short transaction and sets ``si_num``; an
-        exception (KeyboardInterrupt included) discards everything.
-        """
-        started = started or _dt.datetime.now().replace(microsecond=0)
-        with self._errors():
-            run = (_StagedRun if self.path is not None else _DirectRun)(self, scene, started)
-        try:
-            yield run
-            if not run.finished:
-                raise RuntimeError("the simulation's finish() was not called")
-            with self._errors():
-                run.commit()
-        except BaseException:
-            run.abort()
-            raise
+    def _writer(self, scene: Scene, started: _dt.datetime) -> "_Run":
+        """The run's writer: staged for a SQLite file, direct (COPY) for a server."""
+        return (_StagedRun if self.path is not None else _DirectRun)(self, scene, started)
 
     # --- reading ------------------------------------------------------------
     def read_sql(self, sql: str, **params) -> "pd.DataFrame":
