@@ -117,7 +117,7 @@ def _state(conn: sqlite3.Connection) -> str | None:
     return _CURRENT if version == layout().version else None
 
 
-class _ForTheStore(Exception):
+class ForTheStore(Exception):
     """This database needs SQLAlchemy's store (migration, refusal, a URL)."""
 
 
@@ -162,7 +162,7 @@ def open_for_writing(db: str):
     if is_file_path(db):
         try:
             return SqliteFile(db)
-        except _ForTheStore:
+        except ForTheStore:
             pass
     from gaz_cli.store import Store
 
@@ -173,16 +173,21 @@ class SqliteFile(RunStore):
     """A gaz SQLite database opened for writing, new or at the current layout.
 
     Opening creates the schema if the file has none of gaz's tables; raises
-    ``_ForTheStore`` for anything else (see :func:`open_for_writing`) and
+    ``ForTheStore`` for anything else (see :func:`open_for_writing`) and
     :class:`StoreError` for a failure.
     """
 
-    def __init__(self, db: str):
+    def __init__(self, db: str, path: Path | None = None, connect: tuple = None):
+        """``db``: a file path; or, from :class:`gaz_cli.store.Store`, its URL with the file's
+        ``path`` and ``connect``, sqlite3.connect's (args, kwargs) for that URL (its options,
+        e.g. ``mode=ro``, kept)."""
         self.db = self.shown = db
-        self.path = Path(db).expanduser()
+        self.path = path if path is not None else Path(db).expanduser()
+        args, kwargs = connect if connect is not None else ((self.path,), {})
         self.conn = None
         with self._errors():
-            self.conn = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": BUSY_TIMEOUT_S,
+                                                  "isolation_level": None})
             try:
                 self._prepare()
             except BaseException:
@@ -193,7 +198,7 @@ class SqliteFile(RunStore):
         conn = self.conn
         conn.execute("PRAGMA foreign_keys = ON")
         if _state(conn) is None:  # read only: a database for the store is left as it was
-            raise _ForTheStore
+            raise ForTheStore
         if conn.execute("PRAGMA journal_mode").fetchone()[0] != "wal":
             conn.execute("PRAGMA journal_mode = WAL")
         # also when there is nothing to create: a read-only or locked file fails here,
@@ -201,7 +206,7 @@ class SqliteFile(RunStore):
         with _transaction(conn):
             state = _state(conn)  # again, under the write lock: another process may have created it
             if state is None:
-                raise _ForTheStore
+                raise ForTheStore
             if state == _NEW:
                 for statement in layout().statements:
                     conn.execute(statement)

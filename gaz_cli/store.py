@@ -64,7 +64,7 @@ import numpy as np
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
-from gaz_cli import __version__, interrupts, sqlite_writer, staging
+from gaz_cli import __version__, interrupts, sqlite_writer
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
@@ -273,6 +273,7 @@ class Store(RunStore):
         if self.is_sqlite and not create and not (self.path and self.path.is_file()):
             raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
         self.engine = None
+        self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
         try:
             with self._errors():
                 self.engine = _make_engine(url, self.shown)
@@ -290,6 +291,8 @@ class Store(RunStore):
 
     def close(self) -> None:
         """Release every connection; idempotent."""
+        if self._file is not None:
+            self._file.close()
         if self.engine is not None:
             self.engine.dispose()
 
@@ -391,9 +394,21 @@ class Store(RunStore):
         conn.execute(schema_version.update().values(sv_version=latest))
 
     # --- writing ------------------------------------------------------------
-    def _writer(self, scene: Scene, started: _dt.datetime) -> "_Run":
-        """The run's writer: staged for a SQLite file, direct (COPY) for a server."""
-        return (_StagedRun if self.path is not None else _DirectRun)(self, scene, started)
+    def _writer(self, scene: Scene, started: _dt.datetime):
+        """The run's writer: a SQLite file's runs go through the one SQLite writer
+        (:mod:`gaz_cli.sqlite_writer`; the schema was created or migrated on opening), a
+        server's through COPY (:class:`_DirectRun`)."""
+        if self.path is None:
+            return _DirectRun(self, scene, started)
+        if self._file is None:
+            try:
+                url = url_for(self.db)
+                self._file = sqlite_writer.SqliteFile(self.db, self.path,
+                                                      self.engine.dialect.create_connect_args(url))
+            except sqlite_writer.ForTheStore:
+                raise StoreError(f"{self.shown!r} is not at this gaz's schema; open it for writing "
+                                 "(Store(db), not create=False) to migrate it first") from None
+        return sqlite_writer.StagedRun(self._file, scene, started)
 
     # --- reading ------------------------------------------------------------
     def read_sql(self, sql: str, **params) -> "pd.DataFrame":
@@ -629,59 +644,6 @@ class _Run(TableRecorder):
 
     def _errors(self):
         return self.store._errors()
-
-
-class _StagedRun(_Run):
-    """SQLite: rows wait in memory or a scratch file; the commit moves them in in one transaction.
-
-    While staged, REBOND.PA_NUM holds the species index (0..) and SI_NUM 0;
-    both become the real numbers on the way in.
-    """
-
-    def __init__(self, store, scene, started):
-        super().__init__(store, scene, started)
-        self._si = 0
-        self._pa_of_particle = scene.kinds()
-        staging.remove_stale(store.path)
-        self.stage = staging.Stage(store.path, {t.name: [c.name for c in t.columns] for t in (rebond, choc)})
-
-    def _add(self, table: str, columns):
-        self.stage.add(table, columns)
-
-    def commit(self) -> None:
-        self.stage.seal()
-        attach = self.stage.path is not None
-        with self.store.engine.connect() as conn:
-            raw = conn.connection.driver_connection  # ATTACH, DETACH, PRAGMA outside any transaction
-            if attach:
-                raw.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
-            # no per-row key checks in this transaction (a third of the move-in's time): its
-            # REBOND and CHOC rows hold, by construction, the SI_NUM it has just inserted and
-            # the PA_NUM it has just read or inserted, in the same transaction; the keys stay
-            # declared, and enforced for every other writer (as on PostgreSQL's fast path)
-            raw.execute("PRAGMA foreign_keys = OFF")
-            try:
-                with interrupts.held():
-                    with conn.execution_options(gaz_write=True).begin():
-                        si_num, nums = _write_simulation_rows(conn, self.scene, self.started)
-                        self._move_in(conn, rebond, si_num, pa_nums=nums)
-                        self._move_in(conn, choc, si_num)
-                        conn.execute(resultat.insert().values(_result_row(si_num, *self._result)))
-                    self.si_num = si_num
-            finally:
-                raw.execute("PRAGMA foreign_keys = ON")
-                if attach:
-                    raw.execute("DETACH DATABASE stage")
-        self.stage.discard()
-
-    def _move_in(self, conn, table: sa.Table, si_num: int, pa_nums=None) -> None:
-        """The staged rows of ``table`` into the database, under their real SI_NUM and PA_NUM
-        (:func:`gaz_cli.staging.move_in`, which the SQLite writer without SQLAlchemy shares)."""
-        staging.move_in(conn.connection.driver_connection, self.stage, table.name,
-                        [c.name for c in table.columns], si_num, pa_nums)
-
-    def abort(self) -> None:
-        self.stage.discard()
 
 
 _COPY_TYPES = {"int4": ">i4", "int8": ">i8", "float8": ">f8"}

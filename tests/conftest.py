@@ -76,3 +76,16 @@ rounding at most ~16 times by a relative eps, amplified by the condition number 
 result, which the tests keep below 2 by their draws (pairs at most 3 sigma apart hitting
 with an impact parameter below 0.8 sigma, walls at least 0.01 L away): 2 * 16 * 2 = 64 eps.
 A wrong formula (a sign, a factor 2, a lost term, the wrong wall) is off by O(1)."""
+
+
+def random_rows(scene, k, seed):
+    """k random wall bounces and collisions of ``scene`` in time order, as the engine hands
+    them to a writer: (t, particle, wall, speed, vperp) and (i, j, impulse)."""
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.random(k)) * scene.duration
+    particle = rng.integers(0, scene.n, k)
+    wall = (rng.integers(0, scene.dim, k) + 1) * rng.choice([-1, 1], k)
+    vperp = rng.random(k) * 500
+    speed = vperp * (1 + rng.random(k))
+    i, j, imp = rng.integers(0, scene.n, k), rng.integers(0, scene.n, k), rng.random(k) * 1e-23
+    return (t, particle, wall, speed, vperp), (i, j, imp)

@@ -24,6 +24,19 @@ def _tc(P, k, m, t, dim, shift=0.0):
     return INF if dt is None else t + dt
 
 
+def _built_lists(P, I, n, dim, nc, h, periodic):
+    """Cells and neighbour lists (skin h) of the rows P, centred where the particles are."""
+    cells = np.zeros((nc ** dim, n + GATHER_SLOTS + 1), dtype=np.int32)
+    assert _assign_cells(P, I, cells, nc, L / nc, dim) == DONE
+    XN = np.zeros((n, 3))
+    XN[:, :dim] = P[:, :dim]
+    NB = np.zeros((n, 64), dtype=np.int32)
+    NN = np.zeros(n, dtype=np.int32)
+    SCR = np.zeros(64, dtype=np.int32)
+    assert _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, dim, periodic) == DONE
+    return cells, XN, NB, NN
+
+
 @pytest.mark.parametrize("dim, periodic", [(2, False), (3, True)])
 def test_lists_hold_the_neighbours_within_reach_and_their_scan_is_tc(dim, periodic):
     """Lists built around each centre hold exactly the particles within R_k + R_m + 2h (the
@@ -37,14 +50,7 @@ def test_lists_hold_the_neighbours_within_reach_and_their_scan_is_tc(dim, period
     P[:, PV:PV + dim] = rng.normal(size=(n, dim))
     P[:, PR] = r
     I = np.zeros((n, I_WIDTH), dtype=np.int32)
-    cells = np.zeros((nc ** dim, n + GATHER_SLOTS + 1), dtype=np.int32)
-    assert _assign_cells(P, I, cells, nc, L / nc, dim) == DONE
-    XN = np.zeros((n, 3))
-    XN[:, :dim] = P[:, :dim]
-    NB = np.zeros((n, 64), dtype=np.int32)
-    NN = np.zeros(n, dtype=np.int32)
-    SCR = np.zeros(64, dtype=np.int32)
-    assert _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, dim, periodic) == DONE
+    cells, XN, NB, NN = _built_lists(P, I, n, dim, nc, h, periodic)
     for k in range(n):
         sep = P[:, :dim] - P[k, :dim]
         if periodic:
@@ -117,14 +123,7 @@ def test_a_scan_bounded_by_best_finds_the_earliest_before_it_from_moved_unwrappe
     P[:, PR] = r
     I = np.zeros((n, I_WIDTH), dtype=np.int32)
     I[:, CNT] = rng.integers(0, 1000, size=n)
-    cells = np.zeros((nc ** dim, n + GATHER_SLOTS + 1), dtype=np.int32)
-    assert _assign_cells(P, I, cells, nc, L / nc, dim) == DONE
-    XN = np.zeros((n, 3))
-    XN[:, :dim] = P[:, :dim]
-    NB = np.zeros((n, 64), dtype=np.int32)
-    NN = np.zeros(n, dtype=np.int32)
-    SCR = np.zeros(64, dtype=np.int32)
-    assert _build_nl(P, XN, I, cells, NB, NN, SCR, nc, L, h, dim, True) == DONE
+    cells, XN, NB, NN = _built_lists(P, I, n, dim, nc, h, True)
     # at time t each particle is up to `move` from its centre (not wrapped), its row
     # stamped at its own time before t
     t = 1.0

@@ -13,6 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import random_rows
 
 from gaz_cli import sqlite_writer, staging
 from gaz_cli import store as st
@@ -43,13 +44,7 @@ def runs():
 
 def write(opened, scene, k=3000, chunks=3):
     """k random bounces (and collisions) of ``scene`` through ``opened``'s writer."""
-    rng = np.random.default_rng(scene.seed)
-    t = np.sort(rng.random(k)) * scene.duration
-    particle = rng.integers(0, scene.n, k)
-    wall = (rng.integers(0, scene.dim, k) + 1) * rng.choice([-1, 1], k)
-    vperp = rng.random(k) * 500
-    speed = vperp * (1 + rng.random(k))
-    i, j, imp = rng.integers(0, scene.n, k), rng.integers(0, scene.n, k), rng.random(k) * 1e-23
+    (t, particle, wall, speed, vperp), (i, j, imp) = random_rows(scene, k, scene.seed)
     with opened.simulation(scene, started=STARTED) as w:
         for part in np.array_split(np.arange(k), chunks):
             w.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])

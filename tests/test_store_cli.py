@@ -88,13 +88,14 @@ CHILD = textwrap.dedent("""
     from gaz_cli.scene import Scene, initial_state
     from gaz_cli.species import lookup
 
-    st.staging.MEMORY_ROWS = 100_000  # this run's 400 000 rows spill to a scratch file
-    move_in = st._StagedRun._move_in
-    def announced(self, conn, table, *args, **kw):
-        if table is st.rebond:
+    from gaz_cli import staging
+    staging.MEMORY_ROWS = 100_000  # this run's 400 000 rows spill to a scratch file
+    move_in = staging.move_in
+    def announced(conn, stage, table, *args, **kw):
+        if table == "rebond":
             print("moving", flush=True)
-        return move_in(self, conn, table, *args, **kw)
-    st._StagedRun._move_in = announced
+        return move_in(conn, stage, table, *args, **kw)
+    staging.move_in = announced
 
     scene = Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 100),), seed=1)
     rng = np.random.default_rng(1)

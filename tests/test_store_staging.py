@@ -5,6 +5,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import random_rows
 
 from gaz_cli import runner, staging, store as st
 from gaz_cli.recording import RunStats
@@ -19,13 +20,7 @@ def mixture(record="all"):
 
 def write(db, scene, seen, k=5000, chunks=4):
     """Write k random bounces and collisions in chunks; note whether a scratch file existed."""
-    rng = np.random.default_rng(11)
-    t = np.sort(rng.random(k)) * scene.duration
-    particle = rng.integers(0, scene.n, k)
-    wall = (rng.integers(0, scene.dim, k) + 1) * rng.choice([-1, 1], k)
-    vperp = rng.random(k) * 500
-    speed = vperp * (1 + rng.random(k))
-    i, j, imp = rng.integers(0, scene.n, k), rng.integers(0, scene.n, k), rng.random(k) * 1e-23
+    (t, particle, wall, speed, vperp), (i, j, imp) = random_rows(scene, k, 11)
     with st.Store(db) as store:
         with store.simulation(scene) as w:
             for part in np.array_split(np.arange(k), chunks):
