@@ -628,6 +628,23 @@ def _pa_num(conn, sp: Species, insert: bool = True) -> int | None:
     return int(res.inserted_primary_key[0])
 
 
+def _register_species(engine: sa.Engine, species: list[Species]) -> None:
+    """PostgreSQL: give each new species its PARTICULE row before the run, in a short
+    transaction of its own, one such transaction at a time (an advisory lock).
+
+    Inside the run's transaction, two runs started together with the same new species
+    would each see no row and each add one (READ COMMITTED): two PA_NUM for one
+    species. Committed first and in turn, the second finds the first's row. A run that
+    fails afterwards leaves its species in the catalogue, as the built-in ones are."""
+    with engine.connect() as conn:
+        if all(_pa_num(conn, sp, insert=False) is not None for sp in species):
+            return
+    with engine.begin() as conn:
+        conn.exec_driver_sql("SELECT pg_advisory_xact_lock(hashtext('gaz: new species'))")
+        for sp in species:
+            _pa_num(conn, sp)
+
+
 def _result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> dict:
     return dict(si_num=si_num, rs_events=int(stats.events), rs_bounces=int(stats.wall_bounces),
                 rs_collisions=int(stats.collisions), rs_ke_start=float(ke_start),
@@ -734,8 +751,8 @@ class _DirectRun(_Run):
     fails the commit as it would fail an INSERT. Attaching locks SIMULATION and
     PARTICULE in SHARE ROW EXCLUSIVE mode, which waits for every transaction that has
     written to them; so such a run writes nothing to them before its commit: SI_NUM
-    and the PA_NUM of a new species are drawn from their sequences at the start, the
-    rows written at the commit, and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
+    is drawn from its sequence at the start, the rows written at the commit (a new
+    species' PARTICULE row is written before the run, see :func:`_register_species`), and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
     (what attaching takes) first, one at a time, so that two commits never wait on
     each other (a deadlock otherwise). CHOC's rows (``--record all``) wait in a
     temporary table and go in at the commit.
@@ -748,6 +765,8 @@ class _DirectRun(_Run):
 
     def __init__(self, store, scene, started):
         super().__init__(store, scene, started)
+        if store.engine.dialect.name == "postgresql":
+            _register_species(store.engine, scene.species)
         self.conn = store.engine.connect()
         self._targets = {}  # table name -> where its rows go until the commit (attach path)
         try:
@@ -756,9 +775,6 @@ class _DirectRun(_Run):
             if self._attach:
                 self._si = self._next("simulation", "si_num")
                 nums = [_pa_num(self.conn, sp, insert=False) for sp in scene.species]
-                self._new_species = {k: self._next("particule", "pa_num")
-                                     for k, num in enumerate(nums) if num is None}
-                nums = [self._new_species.get(k, num) for k, num in enumerate(nums)]
             else:
                 self._si, nums = _write_simulation_rows(self.conn, scene, started)
             self._copy = self.conn.dialect.driver == "psycopg"
@@ -768,11 +784,11 @@ class _DirectRun(_Run):
                 # against deletion (our SIMULATION row is not visible to anyone else yet)
                 self.conn.execute(sa.select(particule.c.pa_num).where(particule.c.pa_num.in_(nums))
                                   .with_for_update(key_share=True))
+            self._nums = nums
+            self._pa_of_particle = np.array(nums, dtype=np.int64)[scene.kinds()]
         except BaseException:
             self.conn.close()
             raise
-        self._nums = nums
-        self._pa_of_particle = np.array(nums, dtype=np.int64)[scene.kinds()]
 
     def _next(self, table: str, column: str) -> int:
         return int(self.conn.exec_driver_sql(
@@ -825,11 +841,6 @@ class _DirectRun(_Run):
         """The attach path's commit (see the class docstring), in this order."""
         conn, si = self.conn, self._si
         conn.exec_driver_sql("LOCK TABLE rebond IN SHARE UPDATE EXCLUSIVE MODE")
-        species = dict(enumerate(self.scene.species))
-        if self._new_species:
-            conn.execute(particule.insert(), [
-                {"pa_num": num, "pa_nom": species[k].name, "pa_m": species[k].mass_g, "pa_r": species[k].radius}
-                for k, num in self._new_species.items()])
         _write_simulation_rows(conn, self.scene, self.started, si_num=si, nums=self._nums)
         if "rebond" in self._targets:
             conn.exec_driver_sql(f"ALTER TABLE rebond ATTACH PARTITION {self._targets['rebond']} "

@@ -80,11 +80,12 @@ def test_rows_with_unknown_keys_are_refused(postgres_db, argon_scene):
 
 
 def test_concurrent_runs_all_commit(postgres_db, argon_scene):
-    """Four writers at once (each run's transaction open while the others commit, one
-    with a new species) all commit, with distinct SI_NUM and all their rows."""
+    """Five writers at once (each run's transaction open while the others commit, two
+    with the same new species) all commit, with distinct SI_NUM and all their rows;
+    the new species has one PARTICULE row, which both its runs name."""
     custom = Species("custom", 3e-26, 1e-10)
     scenes = [argon_scene(dim=3, n=20, seed=s) for s in range(3)]
-    scenes.append(replace(scenes[0], components=((custom, 20),)))
+    scenes += [replace(scenes[k], components=((custom, 20),)) for k in (0, 1)]
     stores = [st.Store(postgres_db) for _ in scenes]
     barrier, done, errors = threading.Barrier(len(scenes)), {}, []
 
@@ -101,19 +102,22 @@ def test_concurrent_runs_all_commit(postgres_db, argon_scene):
         except Exception as err:  # noqa: BLE001 - reported below
             errors.append(err)
 
-    threads = [threading.Thread(target=run, args=(k,)) for k in range(len(scenes))]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(timeout=120)
-    assert not errors and len(set(done.values())) == len(scenes)
-    counts = stores[0].query("q35_bounces_per_simulation").set_index("SI_NUM").iloc[:, 0].to_dict()
-    assert counts == {si: 600 for si in done.values()}
-    particles = stores[0].table(st.particule)
-    custom_num = int(particles[particles.PA_NOM == "custom"].PA_NUM.iloc[0])
-    assert set(stores[0].table(st.rebond, done[3]).PA_NUM) == {custom_num}
-    for s in stores:
-        s.close()
+    try:
+        threads = [threading.Thread(target=run, args=(k,)) for k in range(len(scenes))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(timeout=120)
+        assert not errors and len(set(done.values())) == len(scenes)
+        counts = stores[0].query("q35_bounces_per_simulation").set_index("SI_NUM").iloc[:, 0].to_dict()
+        assert counts == {si: 600 for si in done.values()}
+        particles = stores[0].table(st.particule)
+        (custom_num,) = particles[particles.PA_NOM == "custom"].PA_NUM
+        for k in (3, 4):
+            assert set(stores[0].table(st.rebond, done[k]).PA_NUM) == {custom_num}
+    finally:  # a failed writer must not leave the schema locked for the teardown
+        for s in stores:
+            s.close()
 
 
 def _version_3(db: str) -> None:
