@@ -140,7 +140,7 @@ def planning(db: str, runs: int) -> None:
             parts = conn.exec_driver_sql(
                 "SELECT count(*) FROM pg_inherits WHERE inhparent = to_regclass('rebond')").scalar()
             si = numbers[len(numbers) // 2]
-            params = dict(si_num=si, bins=512, duration=1e-8, half=0.5)
+            params = dict(si_num=si, bins=512, duration=1e-8)
             print(f"  {len(numbers)} simulations, REBOND in {parts} partitions; queries for SI_NUM {si}:")
             for name in ("bounce_bins", "pressure_per_wall", "q35_bounces_per_simulation"):
                 plans, runs_ = [], []

@@ -334,9 +334,7 @@ def load_run(store, si_num: int) -> Run:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
-    # CAST truncates on SQLite and rounds elsewhere (PostgreSQL): half makes both floor (sql/bounce_bins.sql)
-    half = 0.0 if store.engine.dialect.name == "sqlite" else 0.5
-    bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration, half=half)
+    bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
     # SQLite groups by sorting: one bin's rows at a time sort faster than the run's; PostgreSQL
     # groups by hashing, nothing to gain (its GROUP BY of 10^7 rows: 5.5 s, by ranges 8-9 s)
     run.hits = _bin_sums_by_ranges(store, run) if store.engine.dialect.name == "sqlite" else None

@@ -141,8 +141,7 @@ def _z_error_within(store, si_num: int, dim: int, n: float, duration: float, t: 
 
     if not (np.isfinite(radius) and np.isfinite(t) and t > 0):
         return math.nan
-    bins = store.query("collision_bins", si_num=si_num, bins=errorbars.BINS, duration=duration,
-                       half=0.0 if store.is_sqlite else 0.5)
+    bins = store.query("collision_bins", si_num=si_num, bins=errorbars.BINS, duration=duration)
     bins = bins[bins.BIN.notna()]
     if bins.NB_CHOCS.sum() == 0:
         return math.nan

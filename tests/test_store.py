@@ -137,7 +137,7 @@ def test_sqlite3_shell_runs_every_file(tmp_path, argon_scene, rng):
         sql_path = tmp_path / name
         sql_path.write_text(st.query_text(name))
         params = [f".param set :{k} {v}" for k, v in dict(si_num=si, re_num=1, lo=1, hi=10**9, pa_num=3, t_lo=0,
-                                                           t_hi=1, bins=16, duration=1e-10, half=0).items()]
+                                                           t_hi=1, bins=16, duration=1e-10).items()]
         out = subprocess.run(["sqlite3", "-csv", str(db), *params, f".read {sql_path}"],
                              capture_output=True, text=True, timeout=60)
         assert out.returncode == 0 and not out.stderr, (name, out.stderr)
