@@ -30,7 +30,7 @@ SQLite: rows go to the scratch file during the run, and move in at the
 commit (both timed; the commit alone is also given, as it is the time the
 database's write lock is held). PostgreSQL: binary COPY into the run's
 transaction; the line says which path the role takes: into the run's own
-table, attached whole to the partitioned REBOND at the commit (schema 4, a
+table, attached whole to the partitioned REBOND at the commit (schema 4+, a
 role owning REBOND: the commit builds its index and checks its keys in bulk,
 and is timed), or into REBOND itself, with or without the per-row key
 triggers (session_replication_role).

@@ -154,6 +154,7 @@ choc = sa.Table(
     sa.Column("ch_i", sa.Integer, nullable=False),
     sa.Column("ch_j", sa.Integer, nullable=False),
     sa.Column("ch_imp", sa.Float, nullable=False),
+    postgresql_partition_by="RANGE (si_num)",  # as REBOND (schema 5)
 )
 
 
@@ -176,11 +177,15 @@ BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s (the one
 figure is sqlite_writer's, which its messages quote)."""
 
-POSTGRES_SCHEMA_VERSION = 4
-"""Version of the layout this gaz writes into PostgreSQL: 3, and REBOND partitioned by
+POSTGRES_SCHEMA_VERSION = 5
+"""Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
 RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
-(``rebond_default``) for rows written any other way; same columns, same keys. SQLite
-has no version 4 (nothing changed there)."""
+(``rebond_default``) for rows written any other way; same columns, same keys. 5: CHOC
+partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). SQLite has no version 4
+or 5 (nothing changed there)."""
+
+PARTITIONED = ("rebond", "choc")
+"""PostgreSQL: the tables of one row per event, partitioned by run (schema 4 and 5)."""
 
 
 def latest_version(dialect_name: str) -> int:
@@ -500,36 +505,50 @@ def _add_columns(conn, since: int) -> None:
 
 
 def _v3_to_v4(conn) -> None:
-    """3 -> 4, PostgreSQL only: REBOND becomes a table partitioned by RANGE (SI_NUM); the
-    rows already there stay where they are, as its partition ``rebond_v3`` for every
-    SI_NUM up to the largest in SIMULATION (attaching it checks them against that range
-    once); a default partition takes rows written any other way. Nothing on other backends."""
+    """3 -> 4, PostgreSQL only: REBOND becomes partitioned (:func:`_partition`)."""
+    _partition(conn, rebond, since=3)
+
+
+def _v4_to_v5(conn) -> None:
+    """4 -> 5, PostgreSQL only: CHOC becomes partitioned (:func:`_partition`)."""
+    _partition(conn, choc, since=4)
+
+
+def _partition(conn, table: sa.Table, since: int) -> None:
+    """PostgreSQL: ``table`` becomes a table partitioned by RANGE (SI_NUM); the rows already
+    there stay where they are, as its partition ``<table>_v<since>`` for every SI_NUM up to
+    the largest in SIMULATION (attaching it checks them against that range once); a
+    default partition takes rows written any other way. Nothing on other backends."""
     if conn.dialect.name != "postgresql":
         return
-    conn.exec_driver_sql("LOCK TABLE rebond IN ACCESS EXCLUSIVE MODE")  # writers of version 3 wait
+    name = table.name
+    conn.exec_driver_sql(f"LOCK TABLE {name} IN ACCESS EXCLUSIVE MODE")  # older writers wait
     kind, pkey = conn.exec_driver_sql(
         "SELECT c.relkind, i.relname FROM pg_class c "
         "JOIN pg_constraint k ON k.conrelid = c.oid AND k.contype = 'p' "
-        "JOIN pg_class i ON i.oid = k.conindid WHERE c.oid = 'rebond'::regclass").one()
+        f"JOIN pg_class i ON i.oid = k.conindid WHERE c.oid = '{name}'::regclass").one()
     if kind == "p":
         return
-    conn.exec_driver_sql("ALTER TABLE rebond RENAME TO rebond_v3")
-    conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO rebond_v3_pkey')  # index names are the schema's
-    rebond.create(conn)
+    old = f"{name}_v{since}"
+    conn.exec_driver_sql(f"ALTER TABLE {name} RENAME TO {old}")
+    conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO {old}_pkey')  # index names are the schema's
+    table.create(conn)
     top = conn.exec_driver_sql(
-        "SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM rebond_v3))").scalar()
-    conn.exec_driver_sql("ALTER TABLE rebond ATTACH PARTITION rebond_v3 "
+        f"SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM {old}))").scalar()
+    conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {old} "
                          f"FOR VALUES FROM (MINVALUE) TO ({int(top or 0) + 1})")
     _pg_default_partition(conn)
 
 
 def _pg_default_partition(conn) -> None:
-    """PostgreSQL: REBOND's default partition, where rows land that no run's partition holds
-    (an INSERT by hand, a role that may not attach partitions: see _DirectRun)."""
-    conn.exec_driver_sql("CREATE TABLE IF NOT EXISTS rebond_default PARTITION OF rebond DEFAULT")
+    """PostgreSQL: the partitioned tables' default partitions, where rows land that no run's
+    partition holds (an INSERT by hand, a role that may not attach partitions: see _DirectRun)."""
+    for name in PARTITIONED:
+        if conn.exec_driver_sql(f"SELECT relkind = 'p' FROM pg_class WHERE oid = '{name}'::regclass").scalar():
+            conn.exec_driver_sql(f"CREATE TABLE IF NOT EXISTS {name}_default PARTITION OF {name} DEFAULT")
 
 
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4}
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
@@ -729,37 +748,38 @@ def _may_skip_key_triggers(conn) -> bool:
 
 
 def _may_attach(conn) -> bool:
-    """Whether REBOND is partitioned (PostgreSQL schema 4) and this role may attach
-    partitions to it: it owns REBOND, or is a member of the role that does (a superuser)."""
+    """Whether REBOND and CHOC are partitioned (PostgreSQL schema 5) and this role may
+    attach partitions to them: it owns them, or is a member of the role that does (a
+    superuser)."""
     return bool(conn.exec_driver_sql(
-        "SELECT c.relkind = 'p' AND pg_has_role(c.relowner, 'USAGE') FROM pg_class c "
-        "WHERE c.oid = to_regclass('rebond')").scalar())
+        "SELECT count(*) = 2 AND bool_and(c.relkind = 'p' AND pg_has_role(c.relowner, 'USAGE')) "
+        "FROM pg_class c WHERE c.oid IN (to_regclass('rebond'), to_regclass('choc'))").scalar())
 
 
 class _DirectRun(_Run):
     """PostgreSQL (and other servers): rows go straight into the run's open transaction,
     by COPY with psycopg, executemany otherwise; the commit adds the results row.
 
-    PostgreSQL, REBOND partitioned (schema 4) and a role that may attach partitions
-    (:func:`_may_attach`), the usual case: the run's REBOND rows go into a table of
-    their own, ``rebond_<SI_NUM>`` (created in the run's transaction: no key, no
-    trigger, seen by nobody), and the commit attaches it whole to REBOND
-    (``ALTER TABLE ... ATTACH PARTITION``), which builds its primary key index in one
-    pass and checks both foreign keys in one query each over all its rows (as ``ALTER
-    TABLE ... ADD FOREIGN KEY`` does; PostgreSQL's RI_Initial_Check), rather than one
-    trigger query per row: a row naming a SIMULATION or PARTICULE that does not exist
-    fails the commit as it would fail an INSERT. Attaching locks SIMULATION and
-    PARTICULE in SHARE ROW EXCLUSIVE mode, which waits for every transaction that has
-    written to them; so such a run writes nothing to them before its commit: SI_NUM
-    is drawn from its sequence at the start, the rows written at the commit (a new
-    species' PARTICULE row is written before the run, see :func:`_register_species`), and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
-    (what attaching takes) first, one at a time, so that two commits never wait on
-    each other (a deadlock otherwise). CHOC's rows (``--record all``) wait in a
-    temporary table and go in at the commit.
+    PostgreSQL, REBOND and CHOC partitioned (schema 5) and a role that may attach
+    partitions (:func:`_may_attach`), the usual case: the run's REBOND rows go into a
+    table of their own, ``rebond_<SI_NUM>`` (created in the run's transaction: no key,
+    no trigger, seen by nobody), its CHOC rows (``--record all``) into ``choc_<SI_NUM>``,
+    and the commit attaches each whole (``ALTER TABLE ... ATTACH PARTITION``), which
+    builds its primary key index in one pass and checks each foreign key in one query
+    over all its rows (as ``ALTER TABLE ... ADD FOREIGN KEY`` does; PostgreSQL's
+    RI_Initial_Check), rather than one trigger query per row: a row naming a SIMULATION
+    or PARTICULE that does not exist fails the commit as it would fail an INSERT.
+    Attaching locks SIMULATION and PARTICULE in SHARE ROW EXCLUSIVE mode, which waits
+    for every transaction that has written to them; so such a run writes nothing to
+    them before its commit: SI_NUM is drawn from its sequence at the start, the rows
+    written at the commit (a new species' PARTICULE row is written before the run, see
+    :func:`_register_species`), and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
+    (what attaching takes) first, one at a time, so that two commits never wait on each
+    other (a deadlock otherwise).
 
     Otherwise (a role that may not attach, a database of schema 3 being read by an
-    older gaz...): rows go into REBOND itself (its default partition), each checked by
-    the two key triggers unless the role may skip them
+    older gaz...): rows go into REBOND and CHOC themselves (their default partitions),
+    each checked by the key triggers unless the role may skip them
     (:func:`_may_skip_key_triggers`).
     """
 
@@ -799,12 +819,8 @@ class _DirectRun(_Run):
         if not self._attach:
             return table.name
         if table.name not in self._targets:
-            if table is rebond:
-                name = f"rebond_{self._si}"
-                self.conn.exec_driver_sql(f"CREATE TABLE {name} (LIKE rebond)")
-            else:
-                name = f"gaz_{table.name}_{self._si}"
-                self.conn.exec_driver_sql(f"CREATE TEMPORARY TABLE {name} (LIKE {table.name}) ON COMMIT DROP")
+            name = f"{table.name}_{self._si}"
+            self.conn.exec_driver_sql(f"CREATE TABLE {name} (LIKE {table.name})")
             self._targets[table.name] = name
         return self._targets[table.name]
 
@@ -842,15 +858,9 @@ class _DirectRun(_Run):
         conn, si = self.conn, self._si
         conn.exec_driver_sql("LOCK TABLE rebond IN SHARE UPDATE EXCLUSIVE MODE")
         _write_simulation_rows(conn, self.scene, self.started, si_num=si, nums=self._nums)
-        if "rebond" in self._targets:
-            conn.exec_driver_sql(f"ALTER TABLE rebond ATTACH PARTITION {self._targets['rebond']} "
+        for name, partition in self._targets.items():
+            conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {partition} "
                                  f"FOR VALUES FROM ({si}) TO ({si + 1})")
-        if "choc" in self._targets:
-            if self._keys_by_hand:
-                conn.exec_driver_sql("SET LOCAL session_replication_role = replica")
-            conn.exec_driver_sql(f"INSERT INTO choc SELECT * FROM {self._targets['choc']} ORDER BY ch_num")
-            if self._keys_by_hand:
-                conn.exec_driver_sql("SET LOCAL session_replication_role = origin")
 
     def abort(self) -> None:
         try:

@@ -1,5 +1,5 @@
-"""PostgreSQL's REBOND, partitioned by SI_NUM (schema 4): one partition per run, attached
-whole at its commit; the foreign keys still refuse every row that names a SIMULATION or
+"""PostgreSQL's REBOND and CHOC, partitioned by SI_NUM (schemas 4 and 5): one partition
+per run and table, attached whole at its commit; the foreign keys still refuse every row that names a SIMULATION or
 a PARTICULE that does not exist; concurrent runs commit without waiting on each other
 for ever; a database of schema 3 is converted, its rows kept."""
 
@@ -20,8 +20,9 @@ from gaz_cli.species import BUILTIN, Species
 pytestmark = pytest.mark.postgres
 
 
-def write(store, scene, k, seed=0, pa_of_particle=None):
-    """One run of ``k`` random bounces (in 2 chunks) through the store's writer; its SI_NUM."""
+def write(store, scene, k, seed=0, pa_of_particle=None, collisions=0):
+    """One run of ``k`` random bounces and ``collisions`` collisions (each in 2 chunks)
+    through the store's writer; its SI_NUM."""
     rng = np.random.default_rng(seed)
     t = np.sort(rng.random(k)) * scene.duration
     particle = rng.integers(0, scene.n, k)
@@ -33,25 +34,34 @@ def write(store, scene, k, seed=0, pa_of_particle=None):
         for part in np.array_split(np.arange(k), 2):
             if part.size:
                 w.add_bounces(t[part], particle[part], wall[part], vperp[part] * 1.5, vperp[part])
+        for part in np.array_split(np.arange(collisions), 2):
+            if part.size:
+                w.add_collisions(part * scene.duration / collisions, part % scene.n, (part + 1) % scene.n,
+                                 np.full(part.size, 1e-23))
         w.finish(RunStats(k, k, 0, 0.1, initial_state(scene)), 1.0, 1.0)
     return w.si_num
 
 
-def partitions(conn) -> set[str]:
+def partitions(conn, table="rebond") -> set[str]:
     return set(conn.exec_driver_sql(
-        "SELECT inhrelid::regclass::text FROM pg_inherits WHERE inhparent = 'rebond'::regclass").scalars())
+        f"SELECT inhrelid::regclass::text FROM pg_inherits WHERE inhparent = '{table}'::regclass").scalars())
 
 
 def test_one_partition_per_run_with_bounces(postgres_db, argon_scene):
-    """A run's rows are its own partition; a run without bounces adds none; Q35 reads them all."""
+    """A run's rows are its own partition of REBOND and of CHOC; a run without bounces or
+    collisions adds none; Q35 and the collision bins read them all."""
     with st.Store(postgres_db) as store:
-        scene = argon_scene(dim=3, n=20)
-        counts = {write(store, scene, k, seed=k): k for k in (1000, 0, 37)}
+        scene = replace(argon_scene(dim=3, n=20), record="all")
+        counts = {write(store, scene, k, seed=k, collisions=k // 2): k for k in (1000, 0, 37)}
         with store.engine.connect() as conn:
-            assert partitions(conn) == {"rebond_default"} | {f"rebond_{si}" for si, k in counts.items() if k}
-            assert conn.exec_driver_sql("SELECT count(*) FROM rebond_default").scalar() == 0
+            for table in st.PARTITIONED:
+                assert partitions(conn, table) == {f"{table}_default"} | {f"{table}_{si}" for si, k in counts.items() if k}
+                assert conn.exec_driver_sql(f"SELECT count(*) FROM {table}_default").scalar() == 0
         per_run = store.query("q35_bounces_per_simulation").set_index("SI_NUM").iloc[:, 0].to_dict()
         assert per_run == counts
+        for si, k in counts.items():
+            bins = store.query("collision_bins", si_num=si, bins=4, duration=scene.duration)
+            assert bins.NB_CHOCS.sum() == k // 2
 
 
 def test_rows_with_unknown_keys_are_refused(postgres_db, argon_scene):
@@ -121,11 +131,13 @@ def test_concurrent_runs_all_commit(postgres_db, argon_scene):
 
 
 def _version_3(db: str) -> None:
-    """A PostgreSQL database as gaz wrote it at schema 3: REBOND a plain table, one run's rows."""
+    """A PostgreSQL database as gaz wrote it at schema 3: REBOND and CHOC plain tables, one
+    run's rows."""
     old = sa.MetaData()
     for table in st.metadata.sorted_tables:
         table.to_metadata(old)
-    old.tables["rebond"].dialect_options["postgresql"]["partition_by"] = None
+    for name in st.PARTITIONED:
+        old.tables[name].dialect_options["postgresql"]["partition_by"] = None
     engine = sa.create_engine(st.url_for(db))
     with engine.begin() as conn:
         old.create_all(conn)
@@ -137,18 +149,22 @@ def _version_3(db: str) -> None:
         conn.execute(sa.select(sa.func.setval(sa.func.pg_get_serial_sequence("simulation", "si_num"), 1)))
         conn.execute(st.rebond.insert(), [dict(si_num=1, re_num=k, pa_num=1, re_t=k * 0.1, re_dir=1,
                                                re_vit=2.0, re_vp=1.0) for k in range(1, 11)])
-        assert partitions(conn) == set()
+        conn.execute(st.choc.insert(), [dict(si_num=1, ch_num=k, ch_t=k * 0.1, ch_i=0, ch_j=1, ch_imp=1.0)
+                                         for k in range(1, 6)])
+        assert partitions(conn) == partitions(conn, "choc") == set()
     engine.dispose()
 
 
 def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
     _version_3(postgres_db)
     with st.Store(postgres_db) as store:
-        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 4
-        si = write(store, argon_scene(dim=3, n=20), 50)
+        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 5
+        si = write(store, argon_scene(dim=3, n=20), 50, collisions=20)
         with store.engine.connect() as conn:
             assert partitions(conn) == {"rebond_v3", "rebond_default", f"rebond_{si}"}
+            assert partitions(conn, "choc") == {"choc_v4", "choc_default", f"choc_{si}"}
             assert conn.exec_driver_sql("SELECT count(*) FROM rebond_v3").scalar() == 10
+            assert conn.exec_driver_sql("SELECT count(*) FROM choc_v4").scalar() == 5
             assert {fk["referred_table"] for fk in sa.inspect(conn).get_foreign_keys("rebond")} \
                 == {"simulation", "particule"}
         assert store.table(st.rebond, 1).RE_NUM.tolist() == list(range(1, 11))
@@ -176,13 +192,13 @@ def test_a_role_that_does_not_own_rebond_writes_row_by_row(postgres_db, postgres
         with st.Store(guest) as store:
             with store.engine.connect() as conn:
                 assert not st._may_attach(conn)
-            si = write(store, argon_scene(dim=3, n=20), 300)
+            si = write(store, argon_scene(dim=3, n=20), 300, collisions=40)
             with pytest.raises(StoreError, match="foreign key"):
                 write(store, argon_scene(dim=3, n=20), 10, pa_of_particle=np.full(20, 9999))
-            assert len(store.table(st.rebond, si)) == 300
+            assert len(store.table(st.rebond, si)) == 300 and len(store.table(st.choc, si)) == 40
         with admin.connect() as conn:
             conn.exec_driver_sql(f"SET search_path = {schema}")
-            assert partitions(conn) == {"rebond_default"}
+            assert partitions(conn) == {"rebond_default"} and partitions(conn, "choc") == {"choc_default"}
             assert conn.exec_driver_sql("SELECT count(*) FROM rebond_default").scalar() == 300
     finally:
         with admin.begin() as conn:
