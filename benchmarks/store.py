@@ -43,6 +43,7 @@ import os
 import statistics
 import tempfile
 import time
+from dataclasses import replace
 
 import numpy as np
 import sqlalchemy as sa
@@ -60,9 +61,10 @@ def scene() -> Scene:
     return Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 1000),), seed=1)
 
 
-def one_round(db: str, rows: int, rng) -> tuple[float, float, int]:
-    """Write one simulation of ``rows`` bounces; (seconds in all, seconds of the commit, SI_NUM)."""
-    sc = scene()
+def one_round(db: str, rows: int, rng, table: str = "rebond") -> tuple[float, float, int]:
+    """Write one simulation of ``rows`` bounces (or collisions, ``table`` "choc"); (seconds
+    in all, seconds of the commit, SI_NUM)."""
+    sc = replace(scene(), record="all")
     state = initial_state(sc)
     t = np.sort(rng.random(rows) * sc.duration)
     particle = rng.integers(0, sc.n, rows)
@@ -74,7 +76,10 @@ def one_round(db: str, rows: int, rng) -> tuple[float, float, int]:
         with store.simulation(sc) as writer:
             for lo in range(0, rows, CHUNK):
                 part = slice(lo, lo + CHUNK)
-                writer.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
+                if table == "choc":
+                    writer.add_collisions(t[part], particle[part], (particle[part] + 1) % sc.n, speed[part] * 1e-25)
+                else:
+                    writer.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
             writer.finish(RunStats(rows, rows, 0, 1.0, state), 1.0, 1.0)
             before_commit = time.perf_counter()
         end = time.perf_counter()
@@ -158,8 +163,10 @@ def planning(db: str, runs: int) -> None:
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--db", action="append", help="database path or URL (repeatable); default a temporary SQLite file")
-    ap.add_argument("--rows", type=int, default=1_000_000, help="REBOND rows per round (default 10^6)")
+    ap.add_argument("--rows", type=int, default=1_000_000, help="rows per round (default 10^6)")
     ap.add_argument("--repeat", type=int, default=3, help="rounds per database (default 3)")
+    ap.add_argument("--table", choices=("rebond", "choc"), default="rebond",
+                    help="the rows written: REBOND (wall bounces, default) or CHOC (collisions, --record all)")
     ap.add_argument("--planning", type=int, metavar="N",
                     help="PostgreSQL: planning time of analyse's queries with N simulations (partitions)")
     ap.add_argument("--explain", action="store_true",
@@ -167,14 +174,14 @@ def main():
     args = ap.parse_args()
     load = os.getloadavg()
     print(f"gaz store benchmark: {os.cpu_count()} cores, load average {load[0]:.2f}; "
-          f"{args.rows:,} REBOND rows per round, chunks of {CHUNK:,}, {args.repeat} rounds")
+          f"{args.rows:,} {args.table.upper()} rows per round, chunks of {CHUNK:,}, {args.repeat} rounds")
     with tempfile.TemporaryDirectory() as tmp:
         for db in args.db or [os.path.join(tmp, "bench.db")]:
             rng = np.random.default_rng(1)
             print(f"\n{st.shown(db)}: {describe(db)}")
             rates, commits = [], []
             for _ in range(args.repeat if args.rows else 0):
-                total, commit, si = one_round(db, args.rows, rng)
+                total, commit, si = one_round(db, args.rows, rng, args.table)
                 rates.append(args.rows / total)
                 commits.append(commit)
                 print(f"  SI_NUM {si}: {total:.2f} s, {args.rows / total:,.0f} rows/s (commit {commit:.2f} s)")
