@@ -5,6 +5,7 @@ Not a test: it prints numbers. Run from the repository root:
 
     python benchmarks/recording.py                 # 5 rounds
     python benchmarks/recording.py --rounds 7 --record none
+    python benchmarks/recording.py --rounds 5 --in-process   # recording / engine only
 
 The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 --length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
@@ -89,16 +90,17 @@ def as_process(extra: list[str]) -> tuple[float, float]:
     return time.perf_counter() - w, json.loads(res.stdout)["wall_time_s"]
 
 
-def measure(rounds: int = 5, record: str = "bounces", log=print) -> dict:
+def measure(rounds: int = 5, record: str = "bounces", log=print, processes: bool = True) -> dict:
     """Alternating rounds (see the module docstring); returns the medians (seconds, and
     ``ratio_cpu``: recording / engine) and ``rounds``: the per-round figures. ``log`` gets one
-    line per round (None: silent). benchmarks/engine.py's figure (j) calls this."""
+    line per round (None: silent). ``processes=False``: no process runs (start-up and end to end
+    not measured, NaN). benchmarks/engine.py's figure (j) calls this."""
     recording, opening = Clock(), Clock()
     saved = {(cls, name): cls.__dict__[name] for cls, name in WRAPPED}
     try:
         for cls, name in WRAPPED:
             (opening if name == "__init__" else recording).wrap(cls, name)
-        return _rounds(rounds, record, recording, opening, log)
+        return _rounds(rounds, record, recording, opening, log, processes)
     finally:
         for (cls, name), inner in saved.items():
             setattr(cls, name, inner)
@@ -112,7 +114,7 @@ rows in, and the close that checkpoints them into the file (SQLite's WAL); openi
 opening the file (schema checked or created) and the run's writer."""
 
 
-def _rounds(rounds, record, recording, opening, log) -> dict:
+def _rounds(rounds, record, recording, opening, log, processes=True) -> dict:
     runner.simulate(scene(record), db=None)  # the JIT cache warm, imports done
     rows = {k: [] for k in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "alone_cpu", "open_cpu",
                             "startup", "e2e_db", "e2e_nodb", "ratio_cpu")}
@@ -124,8 +126,12 @@ def _rounds(rounds, record, recording, opening, log) -> dict:
             staged = [p.name for p in Path(tmp).iterdir() if p.name.endswith(".staging")]
             staged_any += staged
             alone = in_process(None, record, recording, opening)
-            wall_db, _ = as_process(["--record", record, "--db", os.path.join(tmp, f"p{k}.db")])
-            wall_nodb, run_s = as_process(["--record", record, "--no-db"])
+            if processes:
+                wall_db, _ = as_process(["--record", record, "--db", os.path.join(tmp, f"p{k}.db")])
+                wall_nodb, run_s = as_process(["--record", record, "--no-db"])
+            else:
+                wall_db = wall_nodb = float("nan")
+                run_s = 0.0
             for key in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "open_cpu"):
                 rows[key].append(r[key])
             rows["alone_cpu"].append(alone["cpu"])
@@ -151,10 +157,12 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=5, help="alternating rounds (default 5)")
     ap.add_argument("--record", choices=["bounces", "none", "all"], default="bounces")
+    ap.add_argument("--in-process", action="store_true",
+                    help="skip the process runs (start-up, end to end): recording / engine only")
     args = ap.parse_args()
     print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
-    med = measure(args.rounds, args.record)
+    med = measure(args.rounds, args.record, processes=not args.in_process)
     ratios = med["rounds"]["ratio_cpu"]
     print(f"median: start-up {med['startup']:.2f} s wall; engine {med['engine_cpu']:.3f} s CPU "
           f"({med['engine_wall']:.2f} s wall; alone {med['alone_cpu']:.3f} s CPU); recording "

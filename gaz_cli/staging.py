@@ -22,7 +22,14 @@ Why this shape (the README example, 178 thousand bounces, CPU seconds on a
 loaded 2-core host; benchmarks/recording.py): binding rows one statement each
 (``executemany``) costs ~2.7 us a row, twice over when rows went to a scratch
 file first and then moved in; :data:`ROWS_PER_STATEMENT` rows per INSERT, bound
-from one flat list, cost ~1.3 us a row, paid once.
+from one flat list, cost ~1.3 us a row, paid once; RE_NUM written in the SQL rather
+than bound (:data:`COUNTERS`), 128 rows a statement, ~1.0 us a row. Of that, SQLite's
+own insert into REBOND's key (a WITHOUT ROWID table) is ~0.6 us a row (the rows fed
+from C arrays through APSW's carray, measured: 105 ms for the example), the rest is
+turning floats into Python objects (``tolist``, ~0.3 us a row) and binding them.
+Measured and left: page size, cache size and ``synchronous`` (no gain beyond the
+noise); staging the rows in a second SQLite table while the engine runs (the move
+by ``INSERT ... SELECT`` costs as much as the direct insert).
 """
 
 from __future__ import annotations
@@ -41,8 +48,9 @@ MEMORY_ROWS = 1 << 20
 """Rows (all tables together) kept in memory before the run spills to a scratch file:
 ~60 MB of arrays for REBOND's seven columns."""
 
-ROWS_PER_STATEMENT = 64
-"""Rows per INSERT statement (448 parameters for REBOND, far below SQLite's limit)."""
+ROWS_PER_STATEMENT = 128
+"""Rows per INSERT statement (513 parameters for REBOND, 641 with several species; far
+below SQLite's limit, 32766 since 3.32)."""
 
 EXACT_INTEGER = 2 ** 53
 """Integers are bound as float64 (one flat list of floats, the cheapest to bind); SQLite's
@@ -55,28 +63,61 @@ def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns:
 
     ``names``/``columns``: the columns bound, one array of k rows each;
     ``constants``: columns given one value for every row (written in the SQL).
-    Integer columns go through float64 (see :data:`EXACT_INTEGER`). Runs in the
-    connection's current transaction.
+    A column named in :data:`COUNTERS` whose values count up by one (RE_NUM, CH_NUM:
+    1, 2, ... in a run) is not bound but written ``?B + j``, row j of a statement, B
+    bound once per statement. Integer columns go through float64 (see
+    :data:`EXACT_INTEGER`). Runs in the connection's current transaction.
     """
     k = len(columns[0]) if columns else 0
     if not k:
         return
     constants = constants or {}
+    columns = [np.asarray(c) for c in columns]
     for column in columns:
-        column = np.asarray(column)
         if column.dtype.kind in "iu" and np.abs(column).max() >= EXACT_INTEGER:
             raise ValueError(f"an integer of table {table} is beyond 2^53")
-    flat = np.column_stack([np.asarray(c, dtype=np.float64) for c in columns]).ravel().tolist()
-    order = [*constants, *names]
-    row = "(" + ", ".join([str(int(v)) for v in constants.values()] + ["?"] * len(names)) + ")"
-    head = f"INSERT INTO {table} ({', '.join(order)}) VALUES "
-    width = len(names) * ROWS_PER_STATEMENT
-    full = (k // ROWS_PER_STATEMENT) * width
+    counter = next((i for i, (n, c) in enumerate(zip(names, columns))
+                    if n in COUNTERS and c.dtype.kind in "iu" and _counts_up(c)), None)
+    bound = [c for i, c in enumerate(columns) if i != counter]
+    first = None if counter is None else int(columns[counter][0])
+    flat = np.column_stack([c.astype(np.float64, copy=False) for c in bound]).ravel()
+    nb = len(bound)
+    order = [*constants, *(n for i, n in enumerate(names) if i != counter)]
+    if counter is not None:
+        order.append(names[counter])
+    given = [str(int(v)) for v in constants.values()]
+
+    def statement(rows: int) -> str:
+        # explicit numbers: the data ?1..?(rows*nb) in row order, then B (the counter's base)
+        tuples = []
+        for j in range(rows):
+            values = given + [f"?{j * nb + m + 1}" for m in range(nb)]
+            if counter is not None:
+                values.append(f"?{rows * nb + 1} + {j}")
+            tuples.append("(" + ", ".join(values) + ")")
+        return f"INSERT INTO {table} ({', '.join(order)}) VALUES " + ", ".join(tuples)
+
+    def params(start: int, rows: int) -> list:
+        values = flat[start * nb:(start + rows) * nb].tolist()
+        if counter is not None:
+            values.append(first + start)
+        return values
+
+    per = ROWS_PER_STATEMENT
+    full = (k // per) * per
     if full:
-        conn.executemany(head + ", ".join([row] * ROWS_PER_STATEMENT),
-                         (flat[i:i + width] for i in range(0, full, width)))
-    if full < len(flat):
-        conn.execute(head + ", ".join([row] * ((len(flat) - full) // len(names))), flat[full:])
+        conn.executemany(statement(per), (params(i, per) for i in range(0, full, per)))
+    if full < k:
+        conn.execute(statement(k - full), params(full, k - full))
+
+
+COUNTERS = frozenset({"re_num", "ch_num"})
+"""Row-number columns (1, 2, ... in a run) that :func:`insert_rows` writes in the SQL."""
+
+
+def _counts_up(column: np.ndarray) -> bool:
+    """Whether ``column`` is first, first + 1, first + 2, ..."""
+    return bool(np.array_equal(column, np.arange(column[0], column[0] + len(column), dtype=column.dtype)))
 
 
 def move_in(conn: sqlite3.Connection, stage: "Stage", table: str, names: list[str], si_num: int,

@@ -175,3 +175,28 @@ def test_a_tiny_run_into_a_sqlite_file_imports_no_sqlalchemy(tmp_path):
     assert con.execute("SELECT si_num, sc_seed FROM scene ORDER BY si_num").fetchall() == [(1, 1), (2, 2)]
     assert con.execute("SELECT COUNT(*) FROM rebond").fetchone()[0] > 0
     con.close()
+
+
+@pytest.mark.parametrize("k", [1, staging.ROWS_PER_STATEMENT, 2 * staging.ROWS_PER_STATEMENT + 3])
+def test_insert_rows_writes_the_row_numbers_in_the_sql_and_every_value_exactly(k):
+    """staging.insert_rows (both writers' insert): a row number counting up (RE_NUM, from 5
+    here, as a later chunk of a run) is written in the SQL, not bound, and comes back as the
+    same integers; one that does not count up is bound as it is; the other values come back
+    bit for bit (floats bound as float64, integers below 2^53 exact), with SQLite's storage
+    classes -- whole statements and a shorter last one."""
+    con = sqlite3.connect(":memory:", isolation_level=None)
+    con.execute("CREATE TABLE rebond (si_num INTEGER NOT NULL, re_num INTEGER NOT NULL, re_t FLOAT, "
+                "re_dir INTEGER, PRIMARY KEY (si_num, re_num)) WITHOUT ROWID")
+    rng = np.random.default_rng(k)
+    t, wall = rng.random(k) * 1e-8, rng.integers(-3, 4, k)
+    counted = np.arange(5, 5 + k)
+    shuffled = counted[::-1].copy() if k > 1 else counted + 1  # not counting up (or another start)
+    staging.insert_rows(con, "rebond", ["re_num", "re_t", "re_dir"], [counted, t, wall], {"si_num": 1})
+    staging.insert_rows(con, "rebond", ["re_t", "re_num", "re_dir"], [t, shuffled, wall], {"si_num": 2})
+    for si, numbers in ((1, counted), (2, shuffled)):
+        rows = con.execute("SELECT re_num, re_t, re_dir, typeof(re_num), typeof(re_t), typeof(re_dir) "
+                           "FROM rebond WHERE si_num = ?", (si,)).fetchall()
+        got = sorted(rows)
+        want = sorted(zip(numbers.tolist(), t.tolist(), wall.tolist()))
+        assert [r[:3] for r in got] == want
+        assert {r[3:] for r in got} == {("integer", "real", "integer")}

@@ -1,0 +1,184 @@
+"""Mixtures of very different sizes (issue 15 item 6): the cost of a 1:100 mixture against
+its small particles alone, old code against new, in alternating runs.
+
+Not a test: it prints numbers. Run from the repository root:
+
+    python benchmarks/mixtures.py                       # this tree only, 3 rounds
+    python benchmarks/mixtures.py --old /tmp/gaz-old    # alternating with another tree
+    python benchmarks/mixtures.py --only 2d --repeat 5
+
+``--old`` is a checkout of another commit (``git archive <commit> | tar -x -C DIR``); each
+run is a child process with PYTHONPATH on its tree and a Numba cache of its own, the trees
+taking turns within a round so that a slow spell of the shared host falls on both.
+
+Scenes (sigma_s = 2 r_s = 2, m_s = k_B T = 1; walls; seed 1):
+
+* ``2d mix``: 2D, 9 900 small disks (r_s = 1) and 100 large (r_L = 100, 1 % by number),
+  box L = 3 236: area fraction 0.30 of large disks, 0.003 of small ones; masses in
+  proportion to the area (m_L = 10^4);
+* ``2d small``: the same 9 900 small disks alone in the same box;
+* ``3d mix``: 3D, 9 900 small spheres and 100 large (r_L = 100), box L = 1 280: packing
+  0.20 of large spheres, 2e-5 of small ones; m_L = 10^6;
+* ``3d small``: the same 9 900 small spheres alone.
+
+The comparisons the issue's target is stated on, the mixture over its small particles
+alone, both on the same tree: (1) CPU time per queue event (every event popped: collisions,
+wall bounces, cell crossings, stale predictions), the cost of the search; (2) CPU time per
+simulated second (both scenes run the same duration): what a user waits, which also pays
+for the physical events the large particles add (the small ones hit them). The figures given per scene: CPU ns per
+queue event and per physical event (collisions + bounces), pair tests per queue event,
+cell crossings per physical event; medians of --repeat runs. CPU time is the child's
+process time around ``engine.run`` after a warm-up run compiled the same kernels; it
+includes the first predictions and the calendar (no placement, no compilation).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+SCENES = {
+    # name: (dim, n_small, n_large, r_large, L, duration)
+    "2d mix": (2, 9_900, 100, 100.0, 3_236.0, 3_000.0),
+    "2d small": (2, 9_900, 0, 100.0, 3_236.0, 3_000.0),
+    "3d mix": (3, 9_900, 100, 100.0, 1_280.0, 2_000.0),
+    "3d small": (3, 9_900, 0, 100.0, 1_280.0, 2_000.0),
+}
+
+
+def _scene(name: str, scale: float):
+    from gaz_cli.constants import K_B
+    from gaz_cli.scene import Scene
+    from gaz_cli.species import Species
+
+    D, ns, nl, rl, L, dur = SCENES[name]
+    comps = ((Species("small", 1.0, 1.0), ns),)
+    if nl:  # the large ones first: random placement puts them down before the small ones
+        comps = ((Species("large", rl ** D, rl), nl),) + comps
+    return Scene(dim=D, length=L, duration=dur * scale, components=comps,
+                 temperature=1.0 / K_B, seed=1)
+
+
+def child(name: str, scale: float) -> dict:
+    """One measured run of scene ``name`` in this process (the tree on sys.path)."""
+    import dataclasses
+
+    from gaz_cli import engine
+    from gaz_cli.scene import initial_state
+
+    sc = _scene(name, scale)
+    st = initial_state(sc)
+    # warm-up: the same kind of scene, a short run (compiles or loads the kernels)
+    engine.run(dataclasses.replace(sc, duration=sc.duration * 1e-3), st)
+    c0 = time.process_time()
+    w0 = time.perf_counter()
+    rs = engine.run(sc, st)
+    cpu = time.process_time() - c0
+    wall = time.perf_counter() - w0
+    ex = rs.extras
+    return {"cpu_s": cpu, "wall_s": wall, "events": rs.events, "collisions": rs.collisions,
+            "bounces": rs.wall_bounces, "queue_events": ex["queue_events"],
+            "pair_tests": ex["pair_tests"], "crossings": ex["cell_crossings"],
+            "cells_per_axis": ex["cells_per_axis"],
+            "search": "classes" if ex.get("size_classes") else "cells"}
+
+
+def _run_child(tree: str, name: str, scale: float) -> dict:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = tree
+    env["NUMBA_CACHE_DIR"] = os.path.join(tempfile.gettempdir(),
+                                          "gaz-mixbench-" + tree.strip("/").replace("/", "_"))
+    out = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", name,
+                          "--scale", repr(scale)], env=env, capture_output=True, text=True,
+                         check=False, cwd=tree)
+    if out.returncode != 0:
+        raise SystemExit(f"child {name} on {tree} failed:\n{out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--old", help="another tree to alternate with (a checkout of a commit)")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", choices=["2d", "3d"])
+    ap.add_argument("--scale", type=float, default=1.0, help="duration factor")
+    ap.add_argument("--old-scale", type=float, default=None,
+                    help="duration factor for --old (a slow tree runs shorter; figures are "
+                         "per event)")
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.child:
+        print(json.dumps(child(a.child, a.scale)))
+        return
+
+    trees = [("new", HERE, a.scale)]
+    if a.old:
+        trees = [("old", os.path.abspath(a.old),
+                  a.old_scale if a.old_scale is not None else a.scale)] + trees
+    names = [s for s in SCENES if a.only is None or s.startswith(a.only)]
+    print(f"# cores: {os.cpu_count()}, load at start: "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}, repeat {a.repeat}")
+    for label, tree, sc in trees:
+        print(f"# {label}: {tree} (duration x{sc})")
+    res: dict[tuple[str, str], list[dict]] = {}
+    for r in range(a.repeat):
+        for name in names:
+            for label, tree, sc in trees:
+                out = _run_child(tree, name, sc)
+                res.setdefault((label, name), []).append(out)
+                print(f"  round {r + 1} {label:3s} {name:9s} cpu {out['cpu_s']:7.2f} s, "
+                      f"{out['queue_events']} events, "
+                      f"{1e9 * out['cpu_s'] / out['queue_events']:8.0f} ns/event, "
+                      f"{out['pair_tests'] / out['queue_events']:8.1f} pairs/event",
+                      flush=True)
+
+    def med(label, name, f):
+        return statistics.median(f(o) for o in res[(label, name)])
+
+    print()
+    print("| tree | scene | search | cells/axis | CPU ns / queue event | CPU ns / physical event"
+          " | pair tests / queue event | crossings / physical event |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for label, _, _ in trees:
+        for name in names:
+            o = res[(label, name)][0]
+            print(f"| {label} | {name} | {o['search']} | {o['cells_per_axis']} | "
+                  f"{med(label, name, lambda o: 1e9 * o['cpu_s'] / o['queue_events']):.0f} | "
+                  f"{med(label, name, lambda o: 1e9 * o['cpu_s'] / max(1, o['events'])):.0f} | "
+                  f"{med(label, name, lambda o: o['pair_tests'] / o['queue_events']):.1f} | "
+                  f"{med(label, name, lambda o: o['crossings'] / max(1, o['events'])):.2f} |")
+    print()
+    for label, _, _ in trees:
+        for d in ("2d", "3d"):
+            if (label, f"{d} mix") not in res:
+                continue
+            per = [1e9 * o["cpu_s"] / o["queue_events"] for o in res[(label, f"{d} mix")]]
+            base = [1e9 * o["cpu_s"] / o["queue_events"] for o in res[(label, f"{d} small")]]
+            ratios = [p / b for p, b in zip(per, base)]
+            print(f"{label} {d}: mixture / small alone, CPU per queue event: "
+                  f"{statistics.median(per) / statistics.median(base):.2f} "
+                  f"(round by round: {', '.join(f'{x:.2f}' for x in ratios)}; target <= 2)")
+            cm = [o["cpu_s"] for o in res[(label, f"{d} mix")]]
+            cs = [o["cpu_s"] for o in res[(label, f"{d} small")]]
+            print(f"{label} {d}: mixture / small alone, CPU per simulated second: "
+                  f"{statistics.median(cm) / statistics.median(cs):.2f} "
+                  f"(round by round: {', '.join(f'{x / y:.2f}' for x, y in zip(cm, cs))})")
+    if a.old:
+        for d in ("2d", "3d"):
+            if ("old", f"{d} mix") not in res:
+                continue
+            o = med("old", f"{d} mix", lambda o: o["cpu_s"] / o["queue_events"])
+            n = med("new", f"{d} mix", lambda o: o["cpu_s"] / o["queue_events"])
+            print(f"{d} mix: old / new CPU per queue event {o / n:.2f}")
+
+
+if __name__ == "__main__":
+    main()
