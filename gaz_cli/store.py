@@ -224,7 +224,9 @@ def _unwrapped(err: BaseException) -> BaseException:
 # --- URLs -----------------------------------------------------------------------
 def url_for(db: str) -> sa.URL:
     """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://`` uses psycopg 3),
-    anything else is a SQLite file path. Raises StoreError for a malformed URL."""
+    anything else is a SQLite file path. Raises StoreError for a malformed URL or a
+    backend other than SQLite and PostgreSQL (the two gaz's schema, SQL files and
+    writers are made and tested for)."""
     if "://" not in db:
         return sa.URL.create("sqlite", database=str(Path(db).expanduser()))
     try:
@@ -233,6 +235,12 @@ def url_for(db: str) -> sa.URL:
         raise StoreError(f"--db {shown(db)!r} is not a valid path or SQLAlchemy URL ({err})") from None
     if url.drivername == "postgresql":
         url = url.set(drivername="postgresql+psycopg")
+    if url.get_backend_name() not in ("sqlite", "postgresql"):
+        raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
+                         f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
+    if url.get_backend_name() == "postgresql" and url.get_driver_name() != "psycopg":
+        raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
+                         f"not {url.get_driver_name()}; write the URL as postgresql://...")
     return url
 
 
@@ -757,8 +765,8 @@ def _may_attach(conn) -> bool:
 
 
 class _DirectRun(_Run):
-    """PostgreSQL (and other servers): rows go straight into the run's open transaction,
-    by COPY with psycopg, executemany otherwise; the commit adds the results row.
+    """PostgreSQL: rows go straight into the run's open transaction,
+    by binary COPY (psycopg); the commit adds the results row.
 
     PostgreSQL, REBOND and CHOC partitioned (schema 5) and a role that may attach
     partitions (:func:`_may_attach`), the usual case: the run's REBOND rows go into a
@@ -797,8 +805,7 @@ class _DirectRun(_Run):
                 nums = [_pa_num(self.conn, sp, insert=False) for sp in scene.species]
             else:
                 self._si, nums = _write_simulation_rows(self.conn, scene, started)
-            self._copy = self.conn.dialect.driver == "psycopg"
-            self._keys_by_hand = self._copy and _may_skip_key_triggers(self.conn)
+            self._keys_by_hand = _may_skip_key_triggers(self.conn)
             if self._keys_by_hand and not self._attach:
                 # what the key triggers would do row by row, once: lock the species rows
                 # against deletion (our SIMULATION row is not visible to anyone else yet)
@@ -829,20 +836,16 @@ class _DirectRun(_Run):
         names = [c.name for c in table.columns]
         target = self._target(table)
         replica = self._keys_by_hand and target == table.name
-        if self._copy:  # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
-            raw = self.conn.connection.driver_connection
-            sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
-            with raw.cursor() as cur:
-                if replica:
-                    cur.execute("SET LOCAL session_replication_role = replica")
-                with cur.copy(sql) as copy:
-                    copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
-                if replica:
-                    cur.execute("SET LOCAL session_replication_role = origin")
-        else:
-            rows = zip(*[np.asarray(c).tolist() for c in columns])
-            into = sa.table(target, *[sa.column(n) for n in names])
-            self.conn.execute(into.insert(), [dict(zip(names, r)) for r in rows])
+        # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
+        raw = self.conn.connection.driver_connection
+        sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
+        with raw.cursor() as cur:
+            if replica:
+                cur.execute("SET LOCAL session_replication_role = replica")
+            with cur.copy(sql) as copy:
+                copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
+            if replica:
+                cur.execute("SET LOCAL session_replication_role = origin")
 
     def commit(self) -> None:
         with interrupts.held():

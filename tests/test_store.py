@@ -2,6 +2,7 @@
 schema versions, foreign databases and one-line errors -- on SQLite and on a real
 PostgreSQL server (see backends.py)."""
 
+import re
 import shutil
 import sqlite3
 import subprocess
@@ -333,6 +334,17 @@ def test_missing_driver_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "psycopg", None)  # import psycopg -> ImportError
     with pytest.raises(StoreError, match=r"needs the psycopg driver; pip install 'gaz\[postgres\]'"):
         st.Store("postgresql://gaz:s3cret@127.0.0.1:1/gaz")
+
+
+@pytest.mark.parametrize("url, says", [
+    ("mysql://gaz:s3cret@127.0.0.1:1/gaz", "SQLite files and PostgreSQL servers, not mysql"),
+    ("postgresql+pg8000://gaz:s3cret@127.0.0.1:1/gaz", "through psycopg 3 (binary COPY), not pg8000")])
+def test_other_backends_and_drivers_are_refused_before_connecting(url, says):
+    """Only SQLite and PostgreSQL through psycopg: what the schema, the SQL files and the
+    writers are made and tested for; refused in one line, nothing touched."""
+    with pytest.raises(StoreError, match=re.escape(says)) as err:
+        st.Store(url)
+    assert "s3cret" not in str(err.value) and "\n" not in str(err.value)
 
 
 def test_read_only_database_is_one_line(tmp_path, argon_scene, rng):
