@@ -4,29 +4,84 @@ Not a test: it prints medians. Alternating runs of
   (base)  python -c "import numpy, numba"
   (nodb)  gaz simulate --dim 3 --n 100 --length 1e-8 --duration 1e-12 --seed 1 --no-db
   (db)    the same into a new SQLite file
-after one warm-up run (Numba's cache filled). Wall and CPU (user + sys of the child).
+after one warm-up run of each (Numba's cache filled, Python's bytecode written). Wall and
+CPU (user + sys of the child; what a host shared with other work disturbs least).
 
-    python benchmarks/startup.py [ROUNDS]      # default 7
+The children run with Python's default bytecode cache: PYTHONDONTWRITEBYTECODE is removed
+from their environment (set, every run would compile gaz's ~40 modules from source again,
+~0.15 s of CPU, which no installed gaz pays). ``--against DIR``: also time the same
+commands with gaz taken from DIR (PYTHONPATH=DIR, e.g. an older commit's tree from
+``git archive``), alternating with this one, and print new / old.
+
+    python benchmarks/startup.py [--rounds 7] [--against /tmp/old]
 """
-import os, subprocess, sys, time, statistics, resource, tempfile
-py = sys.executable
-base = [py, "-c", "import numpy, numba"]
-sim = [py, "-m", "gaz_cli", "simulate", "--dim", "3", "--n", "100", "--length", "1e-8", "--duration", "1e-12", "--seed", "1"]
-def cpu_of(cmd):
-    r0 = resource.getrusage(resource.RUSAGE_CHILDREN); t = time.perf_counter()
-    subprocess.run(cmd, check=True, capture_output=True)
-    w = time.perf_counter() - t; r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+import argparse
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+PY = sys.executable
+BASE = [PY, "-c", "import numpy, numba"]
+SIM = [PY, "-m", "gaz_cli", "simulate", "--dim", "3", "--n", "100", "--length", "1e-8", "--duration", "1e-12",
+       "--seed", "1"]
+
+
+def timed(cmd, env):
+    """(wall s, CPU s) of one child process."""
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    w = time.perf_counter() - t
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     return w, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-subprocess.run(sim + ["--no-db"], check=True, capture_output=True)  # warm the cache
-res = {"base": [], "nodb": [], "db": []}
-for k in range(int(sys.argv[1]) if len(sys.argv) > 1 else 7):
-    res["base"].append(cpu_of(base))
-    res["nodb"].append(cpu_of(sim + ["--no-db"]))
-    d = tempfile.mkdtemp()
-    res["db"].append(cpu_of(sim + ["--db", os.path.join(d, "x.db")]))
-for key in res:
-    w = statistics.median(x[0] for x in res[key]); c = statistics.median(x[1] for x in res[key])
-    print(f"{key:5s} wall {w:.3f} s  cpu {c:.3f} s")
-bw = statistics.median(x[0] for x in res["base"]); bc = statistics.median(x[1] for x in res["base"])
-for key in ("nodb", "db"):
-    print(key, "ratio wall", round(statistics.median(x[0] for x in res[key]) / bw, 2), "cpu", round(statistics.median(x[1] for x in res[key]) / bc, 2))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("rounds_pos", nargs="?", type=int, help=argparse.SUPPRESS)  # the old form: startup.py 7
+    ap.add_argument("--rounds", type=int, default=7)
+    ap.add_argument("--against", metavar="DIR", help="also time gaz from DIR (PYTHONPATH), alternating")
+    args = ap.parse_args()
+    rounds = args.rounds_pos or args.rounds
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    trees = {"": env}
+    if args.against:
+        trees["old "] = {**env, "PYTHONPATH": os.pathsep.join([args.against, env.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
+    series = {"base": (BASE, env)}
+    for tag, e in trees.items():
+        series[tag + "nodb"] = (SIM + ["--no-db"], e)
+        series[tag + "db"] = (SIM + ["--db", "NEW"], e)
+
+    def run(key):
+        cmd, e = series[key]
+        if "NEW" in cmd:
+            cmd = [os.path.join(tempfile.mkdtemp(), "x.db") if c == "NEW" else c for c in cmd]
+        return timed(cmd, e)
+
+    for key in series:  # warm-up: Numba's cache, the bytecode
+        run(key)
+    print(f"gaz start-up: tiny scene (3D, N = 100, T = 1e-12 s); {os.cpu_count()} cores, load average "
+          f"{os.getloadavg()[0]:.2f}; {rounds} alternating rounds; medians")
+    res = {key: [] for key in series}
+    for _ in range(rounds):
+        for key in series:
+            res[key].append(run(key))
+    med = {key: (statistics.median(x[0] for x in v), statistics.median(x[1] for x in v)) for key, v in res.items()}
+    for key, (w, c) in med.items():
+        print(f"{key:8s} wall {w:.3f} s  cpu {c:.3f} s")
+    bw, bc = med["base"]
+    for key in series:
+        if key != "base":
+            print(f"{key:8s} / base: wall {med[key][0] / bw:.2f}  cpu {med[key][1] / bc:.2f}")
+    if args.against:
+        for key in ("nodb", "db"):
+            print(f"{key:8s} new / old: wall {med[key][0] / med['old ' + key][0]:.2f}  "
+                  f"cpu {med[key][1] / med['old ' + key][1]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

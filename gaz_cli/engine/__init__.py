@@ -8,8 +8,18 @@ kernels live by concept (:mod:`.layout`, :mod:`.dynamics`, :mod:`.interactions`,
 :mod:`.boundaries`, :mod:`.neighbours`, :mod:`.calendar`, :mod:`.predict`,
 :mod:`.records`, :mod:`.prefetch`, :mod:`.memory`) and :mod:`.loop` composes them into
 the event loop; docs/architecture.md maps them.
+
+``run`` loads the driver on first use (PEP 562): a module importing one kernel module
+(placement takes the calendar's heap) does not load the whole engine.
 """
 
-from gaz_cli.engine.driver import run
-
 __all__ = ["run"]
+
+
+def __getattr__(name):
+    if name == "run":
+        from gaz_cli.engine.driver import run
+
+        globals()["run"] = run
+        return run
+    raise AttributeError(f"module 'gaz_cli.engine' has no attribute {name!r}")

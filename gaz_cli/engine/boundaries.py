@@ -55,8 +55,10 @@ def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL):
                 lo_wall = False
                 hi_wall = False
             else:
-                lo_wall = c == 0
-                hi_wall = c == nc - 1
+                # (a particle wider than a cell, size classes: its wall plane lies in
+                # the cell its centre reaches last, not only in the box's first or last)
+                lo_wall = c == 0 or edges[c] <= r
+                hi_wall = c == nc - 1 or edges[c + 1] >= L - r
                 lo = r if lo_wall else edges[c]
                 hi = L - r if hi_wall else edges[c + 1]
         dt = INF

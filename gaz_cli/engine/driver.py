@@ -36,6 +36,7 @@ from gaz_cli.engine.layout import (BUFFER_FULL, CELL_FULL, DONE, KEY, NL_FULL, N
                                    STATE, Tables)
 from gaz_cli.engine.loop import build
 from gaz_cli.engine.memory import _alloc
+from gaz_cli.engine.neighbours import classes
 from gaz_cli.engine.rows import Rows
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.progress import EVENTS_PER_REPORT
@@ -153,8 +154,14 @@ class _Simulation(Rows):
         use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
                                             pairs, sigma, h, scene.packing_fraction)
         nc = sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
+        # radii far apart: cells per size class (extras 'classes': 'off' forces one grid)
+        self.mix = None if extras.get("classes", "auto") == "off" else classes.plan(
+            radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, self.PP),
+            sizing.cells_per_axis)
+        nc = self.mix.nc if self.mix is not None else nc
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
+        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
+                          self.mix is not None)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -174,7 +181,12 @@ class _Simulation(Rows):
         st = self.st = self.S[0]
         st["bufcap"], st["recb"], st["recc"] = BUFFER_ROWS, self.want_b, self.want_c
         pf_from = min(PREFETCH_FROM_N, PREFETCH_LISTS_FROM_N) if self.use_nl else PREFETCH_FROM_N
-        st["nc"], st["n"], st["pf"] = nc, n, n >= pf_from
+        st["nc"], st["n"], st["pf"] = nc, n, n >= pf_from and self.mix is None
+        if self.mix is not None:
+            mx = self.mix
+            st["ncl"], st["fcl"], st["rint"], st["bcl"], st["rcut"] = (mx.ncl, mx.f, mx.rint,
+                                                                       mx.bcl, mx.rcut)
+        self.CL = np.zeros((1, 5), dtype=np.int32)  # the coarse table (size classes)
         st["L"], st["g"], st["h"] = L, g, h
         st["w"], st["iw"], st["nbk"] = 1.0, 1.0, 16
         self.BH = -np.ones(16, dtype=np.int64)
@@ -201,7 +213,7 @@ class _Simulation(Rows):
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
                    self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
                    self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
-                   self.ci, self.cj, self.cimp)
+                   self.ci, self.cj, self.cimp, self.CL)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
@@ -370,6 +382,8 @@ class _Simulation(Rows):
             "calendar_steps": int(st["steps"]),
             "cells_per_axis": self.nc if self.D > 1 else 0,
             "neighbour_lists": self.use_nl,
+            "size_classes": self.mix is not None,
+            "coarse_cells_per_axis": self.mix.ncl if self.mix is not None else 0,
             "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,

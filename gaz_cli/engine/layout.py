@@ -55,6 +55,10 @@ STATE = np.dtype([
     # the time reached (the interaction's parameters: interactions.pair_params)
     ("w", np.float64), ("iw", np.float64), ("virial", np.float64), ("L", np.float64),
     ("g", np.float64), ("h", np.float64), ("tnow", np.float64),
+    # size classes (neighbours/classes.py): coarse cells an axis, fine cells a coarse one,
+    # the adjacency bound and the ball's half-width (fine cells), the largest small radius
+    ("ncl", np.int64), ("fcl", np.int64), ("rint", np.int64), ("bcl", np.int64),
+    ("rcut", np.float64),
 ])
 """The loop's state and settings under their names (a numpy record: named fields of both
 types in one argument, no compiled accessor; the loop keeps them in registers)."""
@@ -86,7 +90,8 @@ Tables = namedtuple("Tables", [
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|
     "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
+    "CL",  # size classes: the coarse cell table of the large particles
 ])
-"""The event loop's arrays under their names (one argument instead of 28; Numba types it as
+"""The event loop's arrays under their names (one argument instead of 29; Numba types it as
 a named tuple of arrays and reads the fields at compile time). The loop's scalars are in
 one ``STATE`` record."""

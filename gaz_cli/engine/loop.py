@@ -60,6 +60,8 @@ from gaz_cli.engine.layout import (BUFFER_FULL, C0, CELL, CELL_FULL, CNT, CODE, 
                                    NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, TCOL, TX)
 from gaz_cli.engine.neighbours.cells import (_block_entered, _cell_entered, _cell_of,
                                              _cross_face, _gather_cells, _predict_pairs)
+from gaz_cli.engine.neighbours.classes import (_cross_face_classes, _gather_classes,
+                                               _room_to_cross)
 from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
 from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engine.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
@@ -94,20 +96,23 @@ def _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D, PE
 
 
 @functools.lru_cache(maxsize=None)
-def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False):
+def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False,
+          MIX: bool = False):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
     along axis D-1; PAIRS some radius > 0; NL neighbour lists (2D/3D,
     PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
     four cells an axis (cell scans carry each cell's image shift instead of
-    taking the nearest image). The restitution is a run-time
+    taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
+    the coarse table ``T.CL`` beside the fine one). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
     NL = bool(NL and PAIRS and D > 1)
     IMG = bool(IMG and PER and PAIRS and D > 1 and not NL)
     CELLS = bool(PAIRS and D > 1 and not NL)  # cell lists with crossing events
+    MIX = bool(MIX and CELLS and not IMG)
     SOURCES = _sources_digest()
 
     @njit
@@ -135,6 +140,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
         ct, ci, cj, cimp = _borrow(T.ct), _borrow(T.ci), _borrow(T.cj), _borrow(T.cimp)
+        CL = _borrow(T.CL)
         st = S[0]
         n = P.shape[0]
         pf = st.pf != 0  # large systems: prefetch, and gather a collision's scans first
@@ -146,6 +152,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         hl = 0.5 * L
         ainv = nc / L
         tstop_b = t_stop * iw
+        ncl, fcl, rint, bcl, rcut = st.ncl, st.fcl, st.rint, st.bcl, st.rcut
         n_coll = n_bounce = n_cross = n_stale = n_steps = n_rebuild = n_second = 0
         n_overlap = 0
         n_pairs = 0  # pair times computed (the work of the scans)
@@ -162,6 +169,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
             nres = 1
             full = newcross = rescan = True
             lo0, hi0, lo1, hi1, lo2, hi2 = -1, 1, -1, 1, -1, 1
+            xd, xup, moved = 0, False, False  # MIX: the crossing's axis, way, coarse move
             if predicting:
                 # first predictions: every particle in turn, from time t_stop
                 if pk >= n:
@@ -198,7 +206,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     if newcell < 0 or ng < 0:
                         status = CELL_FULL if newcell < 0 else NL_FULL
                         break
-                if CELLS and not is_col and (code & 1) == 0:
+                if MIX and not is_col and (code & 1) == 0:
+                    if not _room_to_cross(P, I, cells, CL, k, code, nc, fcl, ncl, rcut, D):
+                        status = CELL_FULL
+                        break
+                elif CELLS and not is_col and (code & 1) == 0:
                     cell = _cell_entered(I, k, code, nc, D)
                     if cell != I[k, CELL] and cells[cell, 0] >= cap:
                         status = CELL_FULL
@@ -260,7 +272,12 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         # a cell crossing: then only the cells that just came into view
                         n_cross += 1
                         full = False
-                        _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
+                        if MIX:
+                            moved = _cross_face_classes(P, I, cells, CL, edges, k, d, up, nc,
+                                                        fcl, ncl, L, rcut, D)
+                            xd, xup = d, up
+                        else:
+                            _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
                         lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             # --- predict and push, in steps: a gather of a side's cells, then the
@@ -285,9 +302,14 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 p = k if side == 0 else j
                 base = side * GROOM if pf else 0
                 if gathering:
-                    ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
-                                       I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D, PER,
-                                       IMG, pf)
+                    if MIX:
+                        ng = _gather_classes(P, I, cells, CL, GB, GS, base, p, full, xd, xup,
+                                             moved, lo0, hi0, lo1, hi1, lo2, hi2, nc, ncl, fcl,
+                                             bcl, rint, rcut, D, PER)
+                    else:
+                        ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
+                                           I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D,
+                                           PER, IMG, pf)
                     if side == 0:
                         ng0 = ng
                     else:
@@ -332,5 +354,5 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
 
     ns = Kernels()
     ns.loop = loop
-    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG)
+    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG, MIX)
     return ns

@@ -15,6 +15,7 @@ from gaz_cli.engine.dynamics import _state_at
 from gaz_cli.engine.layout import (DONE, EV_WIDTH, GATHER_SLOTS, I_WIDTH, NONE, P_WIDTH, PART,
                                    PART2, PR, PT, PV, QB, RANK)
 from gaz_cli.engine.memory import _alloc, _morton
+from gaz_cli.engine.neighbours import classes
 from gaz_cli.engine.neighbours.cells import _assign_cells
 from gaz_cli.engine.neighbours.lists import _build_nl
 from gaz_cli.errors import EngineError
@@ -70,7 +71,9 @@ class Rows:
         self.XN = _alloc((n if self.use_nl else 1, 3), fill=0.0)
         if self.use_nl:
             self.XN[:, :D] = x
-        if self.pairs and D > 1:
+        if self.mix is not None:
+            classes.fill(self, P, I)  # size classes: a fine table and a coarse one
+        elif self.pairs and D > 1:
             c = self._cell_coords(x)
             key = c[:, 0]
             for d in range(1, D):
@@ -116,6 +119,8 @@ class Rows:
         cells[:, :old.shape[1]] = old
         self.cells = cells
         self.cap = cells.shape[1] - 1
+        if self.mix is not None:
+            classes.grow(self)
         self._gather_buffers()
 
     def _gather_buffers(self) -> None:
@@ -125,6 +130,8 @@ class Rows:
             raise EngineError(f"cell rows of width {self.cells.shape[1]}: the scans copy "
                               f"{GATHER_SLOTS} slots a cell")
         room = 3 ** self.D * (self.cells.shape[1] - 1) + GATHER_SLOTS + 1
+        if self.mix is not None:
+            room = classes.gather_room(self)
         self.GB = np.empty(2 * room, dtype=np.int32)
         self.GS = np.empty(2 * room if self.periodic else 1, dtype=np.int32)
 

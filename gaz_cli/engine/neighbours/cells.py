@@ -236,9 +236,10 @@ def _block_entered(d, up):
 
 
 @_inline
-def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
-    """Particle k, at a face of its cell along axis d, moves into the next cell (up: the
-    one above), wrapping around a periodic box; its centre is put exactly on the face."""
+def _face_beyond(I, edges, k, d, up, nc, L):
+    """Particle k at the face of its cell along axis d (up: the upper one): (its cell
+    coordinate c along d, the next one cn, wrapped around a periodic box, the face's
+    coordinate xn on the side of cn)."""
     c = I[k, C0 + d]
     if up:
         cn = c + 1
@@ -252,6 +253,14 @@ def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
         if cn < 0:
             cn = nc - 1
             xn = L
+    return c, cn, xn
+
+
+@_inline
+def _cross_face(P, I, cells, edges, k, d, up, nc, L, D):
+    """Particle k, at a face of its cell along axis d, moves into the next cell (up: the
+    one above), wrapping around a periodic box; its centre is put exactly on the face."""
+    c, cn, xn = _face_beyond(I, edges, k, d, up, nc, L)
     P[k, d] = xn
     if cn != c:
         _move(cells, I, k, I[k, CELL] + (cn - c) * _stride(d, nc, D))
