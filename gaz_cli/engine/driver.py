@@ -152,9 +152,12 @@ class _Simulation(Rows):
         h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
         use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
                                             pairs, sigma, h, scene.packing_fraction)
-        nc = sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
+        self.dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                             g > 0.0, pairs, use_nl, sigma,
+                                             scene.packing_fraction)
+        nc = 1 if self.dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4)
+        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4, self.dilute)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -199,9 +202,9 @@ class _Simulation(Rows):
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
-                   self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
-                   self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
-                   self.ci, self.cj, self.cimp)
+                   self.BH, self.cells, self.GB, self.GS, self.XS, self.NB, self.NN, self.SCR,
+                   self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
+                   self.ct, self.ci, self.cj, self.cimp)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
@@ -370,6 +373,7 @@ class _Simulation(Rows):
             "calendar_steps": int(st["steps"]),
             "cells_per_axis": self.nc if self.D > 1 else 0,
             "neighbour_lists": self.use_nl,
+            "dilute_scan": self.dilute,
             "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,

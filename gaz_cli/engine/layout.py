@@ -82,11 +82,12 @@ Tables = namedtuple("Tables", [
     #   calendar links (N, 4)
     "HK", "HI", "BH",  # calendar: heap keys and particles, bucket heads
     "cells", "GB", "GS",  # cell table, a scan's gathered particles and their image shifts
+    "XS",  # dilute scans: the rows as structure of arrays (neighbours.dilute)
     "NB", "NN", "SCR",  # neighbour lists (N, width), their lengths, a rebuild's scratch
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|
     "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
 ])
-"""The event loop's arrays under their names (one argument instead of 28; Numba types it as
+"""The event loop's arrays under their names (one argument instead of 29; Numba types it as
 a named tuple of arrays and reads the fields at compile time). The loop's scalars are in
 one ``STATE`` record."""
