@@ -26,7 +26,11 @@ Not a test: it prints numbers. Run from the repository root:
     against the event engine's, on the same scene;
 (j) the README example end to end (1000 argon atoms, 178 thousand wall bounces into a new
     SQLite file): start-up, engine and recording, as benchmarks/recording.py measures them
-    (its alternating rounds, --repeat of them).
+    (its alternating rounds, --repeat of them);
+(k) the README example's engine alone (1000 argon atoms, 3D box with walls, 10 ns): cells
+    (the search before the dilute scan, forced) against what 'auto' picks (the dilute scan:
+    every particle scans all, no cells), alternating runs, CPU time; with the queue events,
+    cell crossings and pair tests per physical event (also given for (b)).
 
 --markdown prints, after the figures, the README's speed table from this one run.
 
@@ -150,7 +154,48 @@ def fig_b(args):
     sc = Scene(dim=3, length=length, duration=duration, components=((ar, n),), seed=2,
                record="none")
     t, rs = timed(sc, initial_state(sc), args.repeat)
-    row("b", "(b) argon, 300 K, 3D box with walls, N = 10⁴, packing 0.01", show("run", t, rs))
+    rate = show("run", t, rs)
+    per_event(rs)
+    row("b", "(b) argon, 300 K, 3D box with walls, N = 10⁴, packing 0.01", rate)
+
+
+def per_event(rs) -> str:
+    """The work per physical event (collision or wall bounce) of a run, printed and returned."""
+    ex, ev = rs.extras, rs.events
+    said = (f"{ex['queue_events'] / ev:.2f} queue events, "
+            f"{(ex['cell_crossings'] + ex['list_rebuilds']) / ev:.2f} crossings/rebuilds, "
+            f"{ex['pair_tests'] / ev:.0f} pair tests per physical event "
+            f"({'dilute scan' if ex.get('dilute_scan') else str(ex['cells_per_axis']) + ' cells an axis'})")
+    print(f"    {said}")
+    return said
+
+
+def fig_k(args):
+    ar = lookup("Ar")
+    duration = 1e-8 * args.scale
+    print(f"(k) the README example's engine: 1000 argon atoms, 300 K, L = 3.4e-8 m, walls, "
+          f"duration {duration:.3g} s; cells (forced) against 'auto', alternating, CPU seconds")
+    sc = Scene(dim=3, length=3.4e-8, duration=duration, components=((ar, 1000),), seed=1,
+               record="none")
+    st = initial_state(sc)
+    cpus = {"cells": [], "auto": []}
+    last = {}
+    for _ in range(args.repeat):
+        for search in cpus:
+            t, rs = timed(dataclasses.replace(sc, extras={"neighbours": search}), st, 1)
+            cpus[search].append(t["cpu"])
+            last[search] = rs
+    said = []
+    for search, v in cpus.items():
+        rs = last[search]
+        print(f"  {search}: {np.median(v):.3f} s CPU (median of {len(v)}; runs "
+              f"{', '.join(f'{x:.3f}' for x in v)}), {rs.events / np.median(v) / 1e6:.3f} M events/CPU s")
+        said.append(f"{search} {np.median(v):.2f} s CPU: {per_event(rs)}")
+    ratios = [c / a for c, a in zip(cpus["cells"], cpus["auto"])]
+    print(f"    cells / auto CPU time, pair by pair: {', '.join(f'{r:.2f}' for r in ratios)} "
+          f"(median {np.median(ratios):.2f})")
+    row("k", "(k) README example, engine only: 1000 argon atoms, 10 ns, cells against 'auto'",
+        "; ".join(said) + f"; ×{np.median(ratios):.2f} (median of {len(ratios)} alternating pairs)")
 
 
 def fig_c(args):
@@ -426,12 +471,12 @@ def markdown(args, load, seconds) -> str:
 
 
 FIGURES = {"a": fig_a, "b": fig_b, "c": fig_c, "d": fig_d, "e": fig_e, "f": fig_f, "g": fig_g,
-           "h": fig_h, "i": fig_i, "j": fig_j}
+           "h": fig_h, "i": fig_i, "j": fig_j, "k": fig_k}
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", default="abcdefghij", help="figures to print, e.g. 'af'")
+    ap.add_argument("--only", default="abcdefghijk", help="figures to print, e.g. 'af'")
     ap.add_argument("--repeat", type=int, default=3, help="runs per figure (median)")
     ap.add_argument("--quick", action="store_true", help="shorter runs, N up to 10^5 in (f)")
     ap.add_argument("--markdown", action="store_true", help="then print the README's speed table")

@@ -153,15 +153,18 @@ class _Simulation(Rows):
         h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
         use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
                                             pairs, sigma, h, scene.packing_fraction)
-        nc = sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
+        self.dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                             g > 0.0, pairs, use_nl, sigma,
+                                             scene.packing_fraction)
+        nc = 1 if self.dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
         # radii far apart: cells per size class (extras 'classes': 'off' forces one grid)
-        self.mix = None if extras.get("classes", "auto") == "off" else classes.plan(
+        self.mix = None if self.dilute or extras.get("classes", "auto") == "off" else classes.plan(
             radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, self.PP),
             sizing.cells_per_axis)
         nc = self.mix.nc if self.mix is not None else nc
         self.nc, self.use_nl, self.h = nc, use_nl, h
         self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
-                          self.mix is not None)
+                          self.mix is not None, self.dilute)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -211,9 +214,9 @@ class _Simulation(Rows):
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
-                   self.BH, self.cells, self.GB, self.GS, self.NB, self.NN, self.SCR, self.order,
-                   self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv, self.ct,
-                   self.ci, self.cj, self.cimp, self.CL)
+                   self.BH, self.cells, self.GB, self.GS, self.XS, self.NB, self.NN, self.SCR,
+                   self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
+                   self.ct, self.ci, self.cj, self.cimp, self.CL)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
@@ -384,6 +387,7 @@ class _Simulation(Rows):
             "neighbour_lists": self.use_nl,
             "size_classes": self.mix is not None,
             "coarse_cells_per_axis": self.mix.ncl if self.mix is not None else 0,
+            "dilute_scan": self.dilute,
             "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,

@@ -86,6 +86,7 @@ Tables = namedtuple("Tables", [
     #   calendar links (N, 4)
     "HK", "HI", "BH",  # calendar: heap keys and particles, bucket heads
     "cells", "GB", "GS",  # cell table, a scan's gathered particles and their image shifts
+    "XS",  # dilute scans: the rows as structure of arrays (neighbours.dilute)
     "NB", "NN", "SCR",  # neighbour lists (N, width), their lengths, a rebuild's scratch
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|

@@ -19,7 +19,8 @@ J. E 45, 22, 2022; calendar queue after G. Paul, J. Comput. Phys. 221, 615,
   A pair that will collide next is always scheduled by at least one of
   the two, or one of them looks again before.
 * Neighbours (:mod:`.neighbours`): the previous and next rods in 1D; in
-  2D/3D cell lists with crossing events, or neighbour lists for dense fluids.
+  2D/3D cell lists with crossing events, neighbour lists for dense fluids, or, for
+  dilute gases in a box with walls, a scan of every particle (no cells).
   Events are ordered by a calendar queue (:mod:`.calendar`); large systems
   request memory ahead of use (:mod:`.prefetch`), hints only: the events are
   the same with or without them (tested).
@@ -62,6 +63,7 @@ from gaz_cli.engine.neighbours.cells import (_block_entered, _cell_entered, _cel
                                              _cross_face, _gather_cells, _predict_pairs)
 from gaz_cli.engine.neighbours.classes import (_cross_face_classes, _gather_classes,
                                                _room_to_cross)
+from gaz_cli.engine.neighbours.dilute import _mirror, _mirror_all, _predict_all
 from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
 from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engine.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
@@ -97,7 +99,7 @@ def _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D, PE
 
 @functools.lru_cache(maxsize=None)
 def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False,
-          MIX: bool = False):
+          MIX: bool = False, DIL: bool = False):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
@@ -105,13 +107,16 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
     four cells an axis (cell scans carry each cell's image shift instead of
     taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
-    the coarse table ``T.CL`` beside the fine one). The restitution is a run-time
+    the coarse table ``T.CL`` beside the fine one); DIL a dilute gas in a box with walls,
+    no gravity: every particle scans all the others (:mod:`.neighbours.dilute`, one cell,
+    no crossings). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
     NL = bool(NL and PAIRS and D > 1)
     IMG = bool(IMG and PER and PAIRS and D > 1 and not NL)
-    CELLS = bool(PAIRS and D > 1 and not NL)  # cell lists with crossing events
+    DIL = bool(DIL and PAIRS and D > 1 and not NL and not PER and not GRAV)
+    CELLS = bool(PAIRS and D > 1 and not NL and not DIL)  # cell lists with crossing events
     MIX = bool(MIX and CELLS and not IMG)
     SOURCES = _sources_digest()
 
@@ -135,7 +140,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         P, M, TL, XN = _borrow(T.P), _borrow(T.M), _borrow(T.TL), _borrow(T.XN)
         I, EV, Q = _borrow(T.I), _borrow(T.EV), _borrow(T.Q)
         HK, HI, BH = _borrow(T.HK), _borrow(T.HI), _borrow(T.BH)
-        cells, GB, GS = _borrow(T.cells), _borrow(T.GB), _borrow(T.GS)
+        cells, GB, GS, XS = _borrow(T.cells), _borrow(T.GB), _borrow(T.GS), _borrow(T.XS)
         NB, NN, SCR = _borrow(T.NB), _borrow(T.NN), _borrow(T.SCR)
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
@@ -174,6 +179,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 # first predictions: every particle in turn, from time t_stop
                 if pk >= n:
                     break
+                if DIL and pk == 0:
+                    _mirror_all(P, XS, n)
                 k = pk
                 pk += 1
                 t = t_stop
@@ -280,6 +287,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
                         lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
+            if DIL and not predicting:
+                _mirror(P, XS, k)  # what the event changed, for the scans below
+                if j >= 0:
+                    _mirror(P, XS, j)
+
             # --- predict and push, in steps: a gather of a side's cells, then the
             # rest for that side. Large systems (pf) gather both sides first (a
             # collision's second gather requests its rows from memory before the
@@ -321,6 +333,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if PAIRS and (D == 1 or NL) and rescan:
                     n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, nc, PP, D,
                                              PER, GRAV, pf)
+                if DIL and rescan:
+                    _predict_all(P, I, EV, XS, p, t, n, g, PP, D, GRAV)
+                    n_pairs += n
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
                     _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, PP, D, PER,
@@ -354,5 +369,5 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
 
     ns = Kernels()
     ns.loop = loop
-    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG, MIX)
+    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG, MIX, DIL)
     return ns
