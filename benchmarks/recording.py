@@ -6,6 +6,7 @@ Not a test: it prints numbers. Run from the repository root:
     python benchmarks/recording.py                 # 5 rounds
     python benchmarks/recording.py --rounds 7 --record none
     python benchmarks/recording.py --rounds 5 --in-process   # recording / engine only
+    python benchmarks/recording.py --rounds 7 --insert       # the INSERT alone
 
 The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 --length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
@@ -23,7 +24,9 @@ The scene is the README's first command (``gaz simulate --dim 3 --n 1000
   and the end-to-end wall time.
 
 Medians over the rounds are printed, with recording / engine, the figure the
-issue bounds at 25 %. ``--record none``: the runs say whether anything was
+issue bounds at 25 %. ``--insert``: only :func:`gaz_cli.staging.insert_rows` of the
+example's REBOND rows (the engine's chunks of 65536) into a new file, in one transaction, CPU
+per round (run it with PYTHONPATH at an older tree, alternating, to compare commits). ``--record none``: the runs say whether anything was
 staged (a scratch file, a row).
 """
 
@@ -153,13 +156,50 @@ def _rounds(rounds, record, recording, opening, log, processes=True) -> dict:
     return med
 
 
+def insert_only(rounds: int) -> None:
+    """CPU seconds of staging.insert_rows alone for the example's bounces (see --insert)."""
+    import sqlite3
+
+    import numpy as np
+
+    from gaz_cli import staging
+
+    b = runner.run_scene(scene("bounces"), keep_bounces=True).bounces
+    k = len(b["t"])
+    columns = [np.arange(1, k + 1), b["t"], b["wall"], b["speed"], b["vperp"]]
+    names = ["re_num", "re_t", "re_dir", "re_vit", "re_vp"]
+    cpu = []
+    with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:
+        for r in range(rounds):
+            con = sqlite3.connect(os.path.join(tmp, f"i{r}.db"), isolation_level=None)
+            con.execute("PRAGMA journal_mode = WAL")
+            for statement in sqlite_writer.layout().statements:
+                con.execute(statement)
+            con.execute("BEGIN IMMEDIATE")
+            con.execute("INSERT INTO simulation (si_num, si_deb, si_dur, si_dim, si_n, si_l) "
+                        "VALUES (1, '2026-01-01 00:00:00', 1e-8, 3, 1000, 3.4e-8)")
+            c = time.process_time()
+            for start in range(0, k, 1 << 16):
+                part = slice(start, start + (1 << 16))
+                staging.insert_rows(con, "rebond", names, [a[part] for a in columns], {"si_num": 1, "pa_num": 1})
+            cpu.append(time.process_time() - c)
+            con.execute("COMMIT")
+            con.close()
+    print(f"insert_rows of {k:,} REBOND rows: median {statistics.median(cpu) * 1e3:.1f} ms CPU "
+          f"({statistics.median(cpu) / k * 1e6:.2f} us a row); rounds {[round(x * 1e3) for x in cpu]} ms")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--rounds", type=int, default=5, help="alternating rounds (default 5)")
     ap.add_argument("--record", choices=["bounces", "none", "all"], default="bounces")
     ap.add_argument("--in-process", action="store_true",
                     help="skip the process runs (start-up, end to end): recording / engine only")
+    ap.add_argument("--insert", action="store_true", help="time staging.insert_rows alone (see above)")
     args = ap.parse_args()
+    if args.insert:
+        insert_only(args.rounds)
+        return
     print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
     med = measure(args.rounds, args.record, processes=not args.in_process)

@@ -5,7 +5,8 @@ Not a test: it prints medians. Alternating runs of
   (nodb)  gaz simulate --dim 3 --n 100 --length 1e-8 --duration 1e-12 --seed 1 --no-db
   (db)    the same into a new SQLite file
 after one warm-up run of each (Numba's cache filled, Python's bytecode written). Wall and
-CPU (user + sys of the child; what a host shared with other work disturbs least).
+CPU (user + sys of the child; what a host shared with other work disturbs least); ratios
+as the median of each round's ratio (and the ratio of the medians).
 
 The children run with Python's default bytecode cache: PYTHONDONTWRITEBYTECODE is removed
 from their environment (set, every run would compile gaz's ~40 modules from source again,
@@ -73,14 +74,18 @@ def main():
     med = {key: (statistics.median(x[0] for x in v), statistics.median(x[1] for x in v)) for key, v in res.items()}
     for key, (w, c) in med.items():
         print(f"{key:8s} wall {w:.3f} s  cpu {c:.3f} s")
-    bw, bc = med["base"]
+    def ratio(a, b, i):
+        """Median over the rounds of a / b within each round (runs a few seconds apart: a
+        shared host's drift cancels), and the ratio of the medians."""
+        per = statistics.median(x[i] / y[i] for x, y in zip(res[a], res[b]))
+        return f"{per:.2f} (ratio of medians {med[a][i] / med[b][i]:.2f})"
+
     for key in series:
         if key != "base":
-            print(f"{key:8s} / base: wall {med[key][0] / bw:.2f}  cpu {med[key][1] / bc:.2f}")
+            print(f"{key:8s} / base: wall {ratio(key, 'base', 0)}  cpu {ratio(key, 'base', 1)}")
     if args.against:
         for key in ("nodb", "db"):
-            print(f"{key:8s} new / old: wall {med[key][0] / med['old ' + key][0]:.2f}  "
-                  f"cpu {med[key][1] / med['old ' + key][1]:.2f}")
+            print(f"{key:8s} new / old: wall {ratio(key, 'old ' + key, 0)}  cpu {ratio(key, 'old ' + key, 1)}")
 
 
 if __name__ == "__main__":

@@ -40,11 +40,6 @@ from gaz_cli.geometry import packing_fraction
 from gaz_cli.scene import Scene, default_tc, field_error, validate
 from gaz_cli.species import BUILTIN, Species, lookup
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
-
 REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
 
 SCALARS = {
@@ -112,6 +107,11 @@ def read(path) -> dict:
 
 def parse(text: str, name: str = "scene") -> dict:
     """The parsed TOML of ``text``; SceneError naming the line on a syntax error."""
+    # imported here: a run from options alone parses no TOML (start-up, issue 15 item 4)
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

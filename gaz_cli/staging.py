@@ -23,10 +23,11 @@ loaded 2-core host; benchmarks/recording.py): binding rows one statement each
 (``executemany``) costs ~2.7 us a row, twice over when rows went to a scratch
 file first and then moved in; :data:`ROWS_PER_STATEMENT` rows per INSERT, bound
 from one flat list, cost ~1.3 us a row, paid once; RE_NUM written in the SQL rather
-than bound (:data:`COUNTERS`), 128 rows a statement, ~1.0 us a row. Of that, SQLite's
-own insert into REBOND's key (a WITHOUT ROWID table) is ~0.6 us a row (the rows fed
-from C arrays through APSW's carray, measured: 105 ms for the example), the rest is
-turning floats into Python objects (``tolist``, ~0.3 us a row) and binding them.
+than bound (:data:`COUNTERS`), 128 rows a statement, each statement's values bound from a
+memoryview of one float64 row (no list of Python floats), ~0.8 us a row. Of that,
+SQLite's own insert into REBOND's key (a WITHOUT ROWID table) is ~0.6 us a row (the
+rows fed from C arrays through APSW's carray, measured: 105 ms for the example; APSW
+cannot zip several carrays into rows without a join), the rest is binding.
 Measured and left: page size, cache size and ``synchronous`` (no gain beyond the
 noise); staging the rows in a second SQLite table while the engine runs (the move
 by ``INSERT ... SELECT`` costs as much as the direct insert).
@@ -53,7 +54,7 @@ ROWS_PER_STATEMENT = 128
 below SQLite's limit, 32766 since 3.32)."""
 
 EXACT_INTEGER = 2 ** 53
-"""Integers are bound as float64 (one flat list of floats, the cheapest to bind); SQLite's
+"""Integers are bound as float64 (one float64 row per statement, the cheapest to bind); SQLite's
 INTEGER affinity stores a whole REAL as an INTEGER, exactly below this bound."""
 
 
@@ -65,7 +66,7 @@ def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns:
     ``constants``: columns given one value for every row (written in the SQL).
     A column named in :data:`COUNTERS` whose values count up by one (RE_NUM, CH_NUM:
     1, 2, ... in a run) is not bound but written ``?B + j``, row j of a statement, B
-    bound once per statement. Integer columns go through float64 (see
+    bound once per statement. Every value is bound from float64 (integers too, see
     :data:`EXACT_INTEGER`). Runs in the connection's current transaction.
     """
     k = len(columns[0]) if columns else 0
@@ -80,8 +81,7 @@ def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns:
                     if n in COUNTERS and c.dtype.kind in "iu" and _counts_up(c)), None)
     bound = [c for i, c in enumerate(columns) if i != counter]
     first = None if counter is None else int(columns[counter][0])
-    flat = np.column_stack([c.astype(np.float64, copy=False) for c in bound]).ravel()
-    nb = len(bound)
+    nb, extra = len(bound), int(counter is not None)
     order = [*constants, *(n for i, n in enumerate(names) if i != counter)]
     if counter is not None:
         order.append(names[counter])
@@ -92,23 +92,29 @@ def insert_rows(conn: sqlite3.Connection, table: str, names: list[str], columns:
         tuples = []
         for j in range(rows):
             values = given + [f"?{j * nb + m + 1}" for m in range(nb)]
-            if counter is not None:
+            if extra:
                 values.append(f"?{rows * nb + 1} + {j}")
             tuples.append("(" + ", ".join(values) + ")")
         return f"INSERT INTO {table} ({', '.join(order)}) VALUES " + ", ".join(tuples)
 
-    def params(start: int, rows: int) -> list:
-        values = flat[start * nb:(start + rows) * nb].tolist()
-        if counter is not None:
-            values.append(first + start)
-        return values
+    def parameters(start: int, rows: int, count: int) -> np.ndarray:
+        """``count`` statements' parameters, one float64 row each: ``rows`` rows from row
+        ``start``, row-major, then B (a whole float: INTEGER affinity stores it exactly)."""
+        block = np.empty((count, rows * nb + extra))
+        for m, column in enumerate(bound):
+            block[:, m:rows * nb:nb] = column[start:start + count * rows].reshape(count, rows)
+        if extra:
+            block[:, -1] = first + start + rows * np.arange(count)
+        return block
 
     per = ROWS_PER_STATEMENT
-    full = (k // per) * per
-    if full:
-        conn.executemany(statement(per), (params(i, per) for i in range(0, full, per)))
-    if full < k:
-        conn.execute(statement(k - full), params(full, k - full))
+    count = k // per
+    # each statement's parameters bound from a memoryview of its row (a float built per
+    # value as it is bound; no list of Python floats)
+    if count:
+        conn.executemany(statement(per), map(memoryview, parameters(0, per, count)))
+    if count * per < k:
+        conn.execute(statement(k - count * per), memoryview(parameters(count * per, k - count * per, 1)[0]))
 
 
 COUNTERS = frozenset({"re_num", "ch_num"})
