@@ -31,8 +31,14 @@ import math
 
 import numpy as np
 
+from gaz_cli.engine.boundaries import _nearest
 from gaz_cli.engine.calendar import _heap_push, _heap_remove
-from gaz_cli.engine.layout import HP
+from gaz_cli.engine.dynamics import _advance, _relative_at
+from gaz_cli.engine.interactions import _contact_dt
+from gaz_cli.engine.layout import (C0, CELL, CNT, CODE, DONE, GATHER_SLOTS, HP, I_WIDTH, INF,
+                                   P_WIDTH, PART, PCNT, PR, PT, PV)
+from gaz_cli.engine.neighbours.cells import _assign_cells, _cell_entered, _cross_face, _gather_cells
+from gaz_cli.engine.sizing import _cell_width
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.numba_config import njit
 from gaz_cli.geometry import packing_fraction
@@ -425,303 +431,204 @@ LATTICE_LIMIT = {1: 1.0, 2: 0.9069, 3: 0.7405}
 
 
 @njit
-def _ls_predict(i, t, x, v, ts, R, cnt, cc, head, nxt, edges, nc, L, periodic, gamma):
-    """Next event of particle i (row at time t) under growth r_k(t) = R_k gamma t.
+def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D):
+    """Particle k's next event (its row at time t) under growth r_m(t) = R_m gamma t: its time,
+    written to k's row of I as the engine writes a prediction (PART: the partner, PCNT: the
+    partner's counter; -1 and CODE: a wall or cell face, coded as the engine's crossings).
 
-    Returns (time, kind, partner or crossing code, partner counter): kind 0
-    collision, 1 wall or cell crossing. A pair touching and approaching in
-    the growing sense collides now; one separating faster than it grows is
-    left alone.
+    A wall meets the growing surface, a face the centre; the partners are the particles of
+    the 3^D cells around (the engine's gather, each with its image), each pair's time the
+    engine's contact root with the sum of radii growing (interactions._contact_dt): a pair
+    touching and closing in collides now, one parting faster than it grows is left alone.
     """
-    n, dim = x.shape
     f = gamma * t
-    best = np.inf
-    kind = -1
-    what = -1
-    pc = 0
-    # walls and cell faces
-    for d in range(dim):
-        c = cc[i, d]
-        xd = x[i, d]
-        vd = v[i, d]
-        rg = R[i] * gamma
+    rk = P[k, PR]
+    rg = rk * gamma
+    best = INF
+    code = -1
+    for d in range(D):
+        c = I[k, C0 + d]
+        x = P[k, d]
+        v = P[k, PV + d]
         if not periodic and c == 0:
-            if rg - vd > 0.0:
-                dt = (xd - R[i] * f) / (rg - vd)
-                dt = max(dt, 0.0)
+            if rg - v > 0.0:
+                dt = max((x - rk * f) / (rg - v), 0.0)
                 if t + dt < best:
-                    best, kind, what = t + dt, 1, 4 * d + 1
-        elif vd < 0.0:
-            dt = max((edges[c] - xd) / vd, 0.0)
+                    best, code = t + dt, 4 * d + 1
+        elif v < 0.0:
+            dt = max((edges[c] - x) / v, 0.0)
             if t + dt < best:
-                best, kind, what = t + dt, 1, 4 * d
+                best, code = t + dt, 4 * d
         if not periodic and c == nc - 1:
-            if vd + rg > 0.0:
-                dt = (L - R[i] * f - xd) / (vd + rg)
-                dt = max(dt, 0.0)
+            if v + rg > 0.0:
+                dt = max((L - rk * f - x) / (v + rg), 0.0)
                 if t + dt < best:
-                    best, kind, what = t + dt, 1, 4 * d + 3
-        elif vd > 0.0:
-            dt = max((edges[c + 1] - xd) / vd, 0.0)
+                    best, code = t + dt, 4 * d + 3
+        elif v > 0.0:
+            dt = max((edges[c + 1] - x) / v, 0.0)
             if t + dt < best:
-                best, kind, what = t + dt, 1, 4 * d + 2
-    # neighbours in the 3^D block of cells
-    lo1 = -1 if dim > 1 else 0
-    hi1 = 1 if dim > 1 else 0
-    lo2 = -1 if dim > 2 else 0
-    hi2 = 1 if dim > 2 else 0
-    sh = np.zeros(3)
-    nn = np.zeros(3, dtype=np.int64)
-    for o0 in range(-1, 2):
-        for o1 in range(lo1, hi1 + 1):
-            for o2 in range(lo2, hi2 + 1):
-                ok = True
-                cell = 0
-                for d in range(dim):
-                    o = o0 if d == 0 else (o1 if d == 1 else o2)
-                    cn = cc[i, d] + o
-                    sh[d] = 0.0
-                    if cn < 0:
-                        if not periodic:
-                            ok = False
-                        cn += nc
-                        sh[d] = -L
-                    elif cn >= nc:
-                        if not periodic:
-                            ok = False
-                        cn -= nc
-                        sh[d] = L
-                    nn[d] = cn
-                    cell = cell * nc + cn
-                if not ok:
-                    continue
-                m = head[cell]
-                while m >= 0:
-                    if m != i:
-                        dtm = t - ts[m]
-                        b = 0.0
-                        c2 = 0.0
-                        a2 = 0.0
-                        for d in range(dim):
-                            dx = x[m, d] + v[m, d] * dtm + sh[d] - x[i, d]
-                            dv = v[m, d] - v[i, d]
-                            b += dx * dv
-                            c2 += dx * dx
-                            a2 += dv * dv
-                        sig = (R[i] + R[m]) * f
-                        ag = (R[i] + R[m]) * gamma
-                        A = a2 - ag * ag
-                        B = b - sig * ag
-                        C = c2 - sig * sig
-                        dt = np.inf
-                        if C < 0.0:
-                            # touching (round-off) or overlapping: collide now if
-                            # closing in; if separating but outgrown (A < 0), at
-                            # the second root, when the pair touches again
-                            if B < 0.0:
-                                dt = 0.0
-                            elif A < 0.0:
-                                disc = B * B - A * C
-                                dt = (-B - math.sqrt(disc)) / A if disc > 0.0 else 0.0
-                        else:
-                            disc = B * B - A * C
-                            if disc >= 0.0:
-                                den = -B + math.sqrt(disc)
-                                if den > 0.0:
-                                    dt = C / den
-                        if t + dt < best:
-                            best, kind, what, pc = t + dt, 0, m, cnt[m]
-                    m = nxt[m]
-    return best, kind, what, pc
+                best, code = t + dt, 4 * d + 2
+    c1 = I[k, C0 + 1] if D > 1 else 0
+    c2 = I[k, C0 + 2] if D > 2 else 0
+    ng = _gather_cells(P, I, cells, GB, GS, 0, I[k, C0], c1, c2, -1, 1, -1, 1, -1, 1, nc, D,
+                       periodic, True, False)
+    xk0 = P[k, 0]
+    xk1 = P[k, 1] if D > 1 else 0.0
+    xk2 = P[k, 2] if D > 2 else 0.0
+    vk0 = P[k, PV]
+    vk1 = P[k, PV + 1] if D > 1 else 0.0
+    vk2 = P[k, PV + 2] if D > 2 else 0.0
+    part = -1
+    for u in range(ng):
+        m = GB[u]
+        if m == k:
+            continue
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2, 0.0,
+                                                    D, False)
+        w = GS[u]  # the image: 9 w0 + 3 w1 + w2, w = 0, 1, 2 for a shift of -L, 0, +L
+        dx0 += L * (w // 9 - 1)
+        dx1 += L * ((w // 3) % 3 - 1)
+        dx2 += L * (w % 3 - 1)
+        sr = rk + P[m, PR]
+        tm = t + _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sr * f, sr * gamma, D)
+        if tm < best:
+            best = tm
+            part = m
+    I[k, PART] = part
+    I[k, PCNT] = I[part, CNT] if part >= 0 else 0
+    I[k, CODE] = code
+    return best
 
 
 @njit
-def _ls_to(x, v, ts, k, t):
-    """Particle k moved along its straight path from its stamp ts[k] to time t."""
-    dt = t - ts[k]
-    for d in range(x.shape[1]):
-        x[k, d] += v[k, d] * dt
-    ts[k] = t
+def _ls_collide(P, i, j, L, periodic, gamma, D):
+    """Particles i and j, rows at their contact, leave with their normal relative velocity
+    mirrored about the speed at which the sum of their radii grows (elastic in the growing
+    frame; equal masses)."""
+    n0, n1, n2, dv0, dv1, dv2 = _relative_at(P, j, P[i, PT], P[i, 0], P[i, 1] if D > 1 else 0.0,
+                                             P[i, 2] if D > 2 else 0.0, P[i, PV],
+                                             P[i, PV + 1] if D > 1 else 0.0,
+                                             P[i, PV + 2] if D > 2 else 0.0, 0.0, D, False)
+    if periodic:
+        n0, n1, n2 = _nearest(n0, L), _nearest(n1, L), _nearest(n2, L)
+    rr = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if rr > 0.0:
+        n0, n1, n2 = n0 / rr, n1 / rr, n2 / rr
+        du = (P[i, PR] + P[j, PR]) * gamma - (dv0 * n0 + dv1 * n1 + dv2 * n2)
+        if du > 0.0:
+            for d in range(D):
+                nd = n0 if d == 0 else (n1 if d == 1 else n2)
+                P[j, PV + d] += du * nd
+                P[i, PV + d] -= du * nd
 
 
 @njit
-def _ls_all_to(x, v, ts, t):
-    """Every particle moved along its straight path to time t."""
-    for k in range(x.shape[0]):
-        _ls_to(x, v, ts, k, t)
+def _wider(cells, D):
+    """The cell table with room for twice as many particles a cell, and gather buffers for it."""
+    w = cells.shape[1]
+    wide = np.zeros((cells.shape[0], 2 * w), dtype=cells.dtype)
+    wide[:, :w] = cells
+    room = 3 ** D * (2 * w - 1) + GATHER_SLOTS + 1
+    return wide, np.empty(room, dtype=np.int32), np.empty(room, dtype=np.int32)
 
 
 @njit
-def _ls_grow(x, v, R, L, periodic, gamma, f_end, nc, max_events, rescale_every):
-    """Lubachevsky-Stillinger growth, event by event (cells of side >= the final largest diameter).
+def _ls_grow(P, I, cells, GB, GS, edges, D, L, periodic, gamma, f_end, nc, max_events,
+             rescale_every):
+    """Lubachevsky-Stillinger growth, event by event, on the engine's rows, cells and heap.
 
-    x (N, D) start positions (points: f = 0 at t = 0), v (N, D) velocities,
-    R (N,) final radii, all in units where the box is L wide. Radii grow as
-    R gamma t; a colliding pair leaves with its normal relative velocity
-    mirrored about the growth speed (elastic in the growing frame), a wall
-    likewise; every ``rescale_every`` events the speeds are scaled back to
-    unit mean square per component and every event predicted afresh.
-    x is updated in place to time f_end / gamma. Returns (status, f reached,
-    events): status 0 done, 1 event budget spent (jammed below f_end).
+    P (N, P_WIDTH) rows at time 0: start positions (points: f = 0 at t = 0), velocities,
+    final radii R, in units where the box is L wide; I (N, I_WIDTH) with the cells
+    assigned (cells of side >= the final largest diameter; ``cells`` and the gather
+    buffers GB, GS as the engine's, widened here when a crossing would overflow a cell).
+    Radii grow as R gamma t; a colliding pair leaves with its normal relative velocity
+    mirrored about the growth speed (elastic in the growing frame), a wall likewise;
+    every ``rescale_every`` events the speeds are scaled back to unit mean square per
+    component and every event predicted afresh. The rows are moved to time f_end / gamma.
+    Returns (status, f reached, events): status 0 done, 1 event budget spent (jammed
+    below f_end).
     """
-    n, dim = x.shape
-    edges = np.arange(nc + 1) * (L / nc)
-    edges[nc] = L
-    ncell = nc ** dim
-    head = -np.ones(ncell, dtype=np.int64)
-    nxt = -np.ones(n, dtype=np.int64)
-    prv = -np.ones(n, dtype=np.int64)
-    cell_of = np.zeros(n, dtype=np.int64)
-    cc = np.zeros((n, 3), dtype=np.int64)
-    ts = np.zeros(n)
-    cnt = np.zeros(n, dtype=np.int64)
-    ekind = np.zeros(n, dtype=np.int64)
-    ewhat = np.zeros(n, dtype=np.int64)
-    epc = np.zeros(n, dtype=np.int64)
+    n = P.shape[0]
     # the engine's heap (gaz_cli.engine.calendar) holds every particle under its next event
-    hk = np.empty(n)
-    hi = np.empty(n, dtype=np.int64)
-    hq = np.zeros((n, 4), dtype=np.int32)  # its links: the position of k in the heap at HP
-    a = L / nc
-    for k in range(n):
-        cell = 0
-        for d in range(dim):
-            c = min(max(int(x[k, d] / a), 0), nc - 1)
-            cc[k, d] = c
-            cell = cell * nc + c
-        cell_of[k] = cell
-        nxt[k] = head[cell]
-        if head[cell] >= 0:
-            prv[head[cell]] = k
-        head[cell] = k
+    HK = np.empty(n)
+    HI = np.empty(n, dtype=np.int64)
+    Q = np.zeros((n, 4), dtype=np.int32)  # its links: the position of k in the heap at HP
     t_end = f_end / gamma
     t = 0.0
     events = 0
+    hsize = 0
     fresh = True
     while True:
         if fresh:
             # (re)start: every row at time t, every event predicted
-            _ls_all_to(x, v, ts, t)
             hsize = 0
             for k in range(n):
-                tk, kind, what, pc = _ls_predict(k, t, x, v, ts, R, cnt, cc, head, nxt, edges,
-                                                 nc, L, periodic, gamma)
-                hsize = _heap_push(hk, hi, hq, hsize, tk, k)
-                ekind[k] = kind
-                ewhat[k] = what
-                epc[k] = pc
+                _advance(P, k, t, 0.0, D, False)
+            for k in range(n):
+                tk = _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D)
+                hsize = _heap_push(HK, HI, Q, hsize, tk, k)
             fresh = False
-        te = hk[0]
+        te = HK[0]
         if te >= t_end:
             t = t_end
             break
         if events >= max_events:
             return 1, gamma * t, events
-        i = hi[0]
+        i = HI[0]
         t = te
         events += 1
-        f = gamma * t
-        movers = 1
         j = -1
-        # advance i
-        _ls_to(x, v, ts, i, t)
-        if ekind[i] == 0:
-            j = ewhat[i]
-            if cnt[j] != epc[i]:
-                j = -1
-            else:
-                movers = 2
-                _ls_to(x, v, ts, j, t)
-                r2 = 0.0
-                un = 0.0
-                dxs = np.empty(3)
-                for d in range(dim):
-                    dx = x[j, d] - x[i, d]
-                    if periodic:
-                        dx -= L * np.rint(dx / L)
-                    dxs[d] = dx
-                    r2 += dx * dx
-                rr = math.sqrt(r2)
-                if rr > 0.0:
-                    for d in range(dim):
-                        un += (v[j, d] - v[i, d]) * dxs[d] / rr
-                    ag = (R[i] + R[j]) * gamma
-                    if un < ag:
-                        du = 2.0 * (ag - un)
-                        for d in range(dim):
-                            v[j, d] += 0.5 * du * dxs[d] / rr
-                            v[i, d] -= 0.5 * du * dxs[d] / rr
-                cnt[i] += 1
-                cnt[j] += 1
+        _advance(P, i, t, 0.0, D, False)
+        m = I[i, PART]
+        if m >= 0:
+            if I[m, CNT] == I[i, PCNT]:
+                j = m
+                _advance(P, j, t, 0.0, D, False)
+                _ls_collide(P, i, j, L, periodic, gamma, D)
+                I[i, CNT] += 1
+                I[j, CNT] += 1
         else:
-            code = ewhat[i]
+            code = I[i, CODE]
             d = code >> 2
             up = (code & 2) != 0
             if code & 1:
-                rg = R[i] * gamma
+                # a wall: the centre a growing radius from it, the velocity mirrored about
+                # the growth speed
+                rg = P[i, PR] * gamma
                 if up:
-                    x[i, d] = L - R[i] * f
-                    v[i, d] = -2.0 * rg - v[i, d]
+                    P[i, d] = L - P[i, PR] * (gamma * t)
+                    P[i, PV + d] = -2.0 * rg - P[i, PV + d]
                 else:
-                    x[i, d] = R[i] * f
-                    v[i, d] = 2.0 * rg - v[i, d]
-                cnt[i] += 1
+                    P[i, d] = P[i, PR] * (gamma * t)
+                    P[i, PV + d] = 2.0 * rg - P[i, PV + d]
+                I[i, CNT] += 1
             else:
-                c = cc[i, d]
-                if up:
-                    cn = c + 1
-                    x[i, d] = edges[cn]
-                    if cn == nc:
-                        cn = 0
-                        x[i, d] = 0.0
-                else:
-                    cn = c - 1
-                    x[i, d] = edges[c]
-                    if cn < 0:
-                        cn = nc - 1
-                        x[i, d] = L
-                if cn != c:
-                    old = cell_of[i]
-                    if prv[i] >= 0:
-                        nxt[prv[i]] = nxt[i]
-                    else:
-                        head[old] = nxt[i]
-                    if nxt[i] >= 0:
-                        prv[nxt[i]] = prv[i]
-                    cc[i, d] = cn
-                    cell = 0
-                    for e in range(dim):
-                        cell = cell * nc + cc[i, e]
-                    cell_of[i] = cell
-                    prv[i] = -1
-                    nxt[i] = head[cell]
-                    if head[cell] >= 0:
-                        prv[head[cell]] = i
-                    head[cell] = i
+                into = _cell_entered(I, i, code, nc, D)
+                if into != I[i, CELL] and cells[into, 0] + 1 >= cells.shape[1]:
+                    cells, GB, GS = _wider(cells, D)
+                _cross_face(P, I, cells, edges, i, d, up, nc, L, D)
         if rescale_every > 0 and events % rescale_every == 0:
             # everybody to now at the old speeds, then the new speeds
-            _ls_all_to(x, v, ts, t)
+            for k in range(n):
+                _advance(P, k, t, 0.0, D, False)
             s2 = 0.0
             for k in range(n):
-                for d in range(dim):
-                    s2 += v[k, d] * v[k, d]
-            scale = math.sqrt(n * dim / s2) if s2 > 0.0 else 1.0
+                for d in range(D):
+                    s2 += P[k, PV + d] * P[k, PV + d]
+            scale = math.sqrt(n * D / s2) if s2 > 0.0 else 1.0
             for k in range(n):
-                for d in range(dim):
-                    v[k, d] *= scale
-                cnt[k] += 1
+                for d in range(D):
+                    P[k, PV + d] *= scale
+                I[k, CNT] += 1
             fresh = True
             continue
-        for s in range(movers):
-            p = i if s == 0 else j
-            tk, kind, what, pc = _ls_predict(p, t, x, v, ts, R, cnt, cc, head, nxt, edges,
-                                             nc, L, periodic, gamma)
-            ekind[p] = kind
-            ewhat[p] = what
-            epc[p] = pc
-            hsize = _heap_remove(hk, hi, hq, hsize, hq[p, HP])
-            hsize = _heap_push(hk, hi, hq, hsize, tk, p)
-    _ls_all_to(x, v, ts, t)
+        for p in (i, j):
+            if p >= 0:
+                tk = _ls_next(P, I, cells, GB, GS, edges, p, t, nc, L, periodic, gamma, D)
+                hsize = _heap_remove(HK, HI, Q, hsize, Q[p, HP])
+                hsize = _heap_push(HK, HI, Q, hsize, tk, p)
+    for k in range(n):
+        _advance(P, k, t, 0.0, D, False)
     return 0, gamma * t, events
 
 
@@ -731,7 +638,8 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     """Lubachevsky-Stillinger growth (Lubachevsky & Stillinger, J. Stat. Phys. 60, 561, 1990).
 
     Points scattered at random grow into spheres of ``radii`` while moving
-    (event-driven, cells one final diameter wide): a random, dense,
+    (event-driven on the engine's rows, cells one final diameter wide, heap and
+    contact root; see docs/architecture.md): a random, dense,
     non-overlapping state, up to the liquid's limit (2D 0.70, 3D 0.50; a
     lattice goes further). The event budget (default 4000 N + 10^6) bounds
     the effort; a box that jams first raises :class:`PlacementError`.
@@ -742,6 +650,8 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     sigma = 2.0 * float(radii.max())
     if sigma <= 0.0 or n < 2:
         return rejection(dim, radii, length, rng, periodic)
+    if dim == 1:
+        return rapid_1d(radii, length, rng, periodic)
     # units of the largest diameter; velocities of unit mean square
     Ls = length / sigma
     R = radii / sigma
@@ -749,15 +659,30 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     v = rng.standard_normal((n, dim))
     v -= v.mean(axis=0)
     nc = max(1, int(math.floor(Ls / (1.0 + 1e-9))))
+    P = np.zeros((n, P_WIDTH))
+    P[:, :dim] = x
+    P[:, PV:PV + dim] = v
+    P[:, PR] = R
+    I = np.zeros((n, I_WIDTH), dtype=np.int32)
+    edges = np.arange(nc + 1) * (Ls / nc)
+    edges[nc] = Ls
+    cap = GATHER_SLOTS
+    while True:
+        cells = np.zeros((nc ** dim, _cell_width(cap)), dtype=np.int32)
+        if _assign_cells(P, I, cells, nc, Ls / nc, dim) == DONE:
+            break
+        cap *= 2
+    room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
     budget = max_events if max_events is not None else 4000 * n + 1_000_000
-    status, f, events = _ls_grow(x, v, R, float(Ls), bool(periodic), float(rate), 1.0, nc,
-                                 int(budget), int(2 * n))
+    status, f, events = _ls_grow(P, I, cells, np.empty(room, dtype=np.int32),
+                                 np.empty(room, dtype=np.int32), edges, dim, float(Ls),
+                                 bool(periodic), float(rate), 1.0, nc, int(budget), int(2 * n))
     if status != 0:
         eta = packing_fraction(dim, radii, length)
         raise PlacementError(
             f"growth jammed at {f ** dim * eta:.3g} of packing fraction {eta:.3g} after {events} "
             f"events; use --method lattice, lower --n or raise --length")
-    x *= sigma
+    x = P[:, :dim] * sigma
     if periodic:
         x -= length * np.floor(x / length)
         x[x >= length] = 0.0

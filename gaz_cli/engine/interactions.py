@@ -28,14 +28,31 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
 
     The stable root of physics.md section 9: an overlapping pair that
     approaches collides at once (0), one that separates never (inf).
-    The discriminant is computed as a sig^2 - |dx x dv|^2 (Lagrange's
-    identity), not b^2 - a c: for a grazing pair seen from afar b^2 and a c
-    are both ~ a |dx|^2 and their difference loses 1e-16 (|dx|/sig)^2 of
-    itself, enough to turn a hit into a miss at 1000 sigma; the components
-    of the cross product, each a difference of two products, are computed
-    by :func:`_cross` without cancellation, so the discriminant is right to
-    a few 1e-16 of a sig^2 at any distance. Written without branches: in a
-    scan the sign of b is a coin toss that a branch predictor loses half
+    (:func:`_contact_dt` with a fixed sum of radii: its growth terms are compiled out.)
+    """
+    return _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, 0.0, D)
+
+
+@_inline
+def _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, s, D):
+    """Time until |dx + dv t| = sig + s t, the contact of a pair whose sum of radii sig grows
+    at the rate s >= 0 (0: hard spheres, every engine scan; > 0: placement's
+    Lubachevsky-Stillinger growth); inf if never.
+
+    The root of a t^2 + 2 b t + c = 0 with a = |dv|^2 - s^2, b = dx.dv - sig s,
+    c = |dx|^2 - sig^2, in the stable form max(0, c / (-b + sqrt(b^2 - a c))): a pair
+    that touches or overlaps while closing in (b < 0) collides at once (0), one that
+    parts (b >= 0) never, unless it is outgrown (a < 0: the sum of radii grows faster
+    than the pair can part), which meets it again, at the larger root when it overlaps
+    now, at once when it cannot part at all. The discriminant is computed as
+    a sig^2 - |dx x dv|^2 (Lagrange's identity), not b^2 - a c: for a grazing pair seen
+    from afar b^2 and a c are both ~ a |dx|^2 and their difference loses 1e-16
+    (|dx|/sig)^2 of itself, enough to turn a hit into a miss at 1000 sigma; the
+    components of the cross product, each a difference of two products, are computed by
+    :func:`_cross` without cancellation, so the discriminant is right to a few 1e-16 of
+    a sig^2 at any distance (growth adds s (s |dx|^2 - 2 sig dx.dv)). Written without
+    branches for s = 0, a constant there (the engine's case: the growth's branches fold
+    away): in a scan the sign of b is a coin toss that a branch predictor loses half
     the time.
     """
     b = dx0 * dv0
@@ -55,10 +72,20 @@ def _pair_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, D):
         cx = _cross(dx1, dx2, dv1, dv2)
         cy = _cross(dx2, dx0, dv2, dv0)
         cross += cx * cx + cy * cy
-    c -= sig * sig
     disc = a * (sig * sig) - cross
+    if s != 0.0:
+        disc += s * (s * c - 2.0 * b * sig)
+        b -= s * sig
+        a -= s * s
+    c -= sig * sig
     t = c / (math.sqrt(max(disc, 0.0)) - b)
     t = max(t, 0.0)
+    if s != 0.0 and a < 0.0:
+        if disc <= 0.0:
+            return 0.0
+        if b >= 0.0:
+            return (b + math.sqrt(disc)) / -a
+        return t
     return t if (b < 0.0 and disc > 0.0) else INF
 
 

@@ -326,12 +326,9 @@ def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, wan
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
-    """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
-
-    Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
-    it bounced, 0 if it was only put back on the plane (invalid state).
-    """
+def _plane_distance(pos, vel, planes, i, p):
+    """(distance of particle i's centre from extra plane p along its inward normal, its
+    velocity along that normal); planes (P, 2D+1): point, unit inward normal, restitution."""
     dim = pos.shape[1]
     dist = 0.0
     w_h = 0.0
@@ -339,6 +336,18 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
         nd = planes[p, dim + d]
         dist += (pos[i, d] - planes[p, d]) * nd
         w_h += vel[i, d] * nd
+    return dist, w_h
+
+
+@njit
+def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
+    """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
+
+    Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
+    it bounced, 0 if it was only put back on the plane (invalid state).
+    """
+    dim = pos.shape[1]
+    dist, w_h = _plane_distance(pos, vel, planes, i, p)
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
     alpha = -g * planes[p, 2 * dim - 1]
@@ -388,12 +397,7 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_
                 cand_tau[k] = tau if tau > 0.0 else 0.0
             k += 1
         for p in range(nplanes):
-            dist = 0.0
-            w_h = 0.0
-            for d in range(dim):
-                nd = planes[p, dim + d]
-                dist += (pos[i, d] - planes[p, d]) * nd
-                w_h += vel[i, d] * nd
+            dist, w_h = _plane_distance(pos, vel, planes, i, p)
             if dist >= r:
                 continue
             alpha = -g * planes[p, 2 * dim - 1]

@@ -33,6 +33,21 @@ def _beside(c, nc, PER):
 
 
 @_inline
+def _block_cell(c0, c1, c2, o, nc, D, PER):
+    """The o-th cell (o in 0..3^D-1, the last axis fastest) of the 3^D block around cell
+    (c0, c1, c2) (2D: c2 unused): (its index, whether there is such a cell: with walls
+    none beyond them), wrapped around a periodic box as :func:`_beside` wraps."""
+    if D > 2:
+        n0, _, in0 = _beside(c0 + o // 9 - 1, nc, PER)
+        n1, _, in1 = _beside(c1 + (o // 3) % 3 - 1, nc, PER)
+        n2, _, in2 = _beside(c2 + o % 3 - 1, nc, PER)
+        return (n0 * nc + n1) * nc + n2, in0 and in1 and in2
+    n0, _, in0 = _beside(c0 + o // 3 - 1, nc, PER)
+    n1, _, in1 = _beside(c1 + o % 3 - 1, nc, PER)
+    return n0 * nc + n1, in0 and in1
+
+
+@_inline
 def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2, hi2, nc,
                   D, PER, IMG, PF):
     """Gather the particles of a block of cells into GB[base:] (pass 1 of a scan); their number.

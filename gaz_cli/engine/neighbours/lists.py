@@ -10,7 +10,7 @@ from gaz_cli.engine.boundaries import _nearest_near
 from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _pair_time_within
 from gaz_cli.engine.layout import C0, CELL, CNT, DONE, INF, NL_FULL, PR, PT, PV
-from gaz_cli.engine.neighbours.cells import _move
+from gaz_cli.engine.neighbours.cells import _block_cell, _move
 from gaz_cli.engine.prefetch import _prefetch_block, _prefetch_block_rows, _prefetch_listed
 from gaz_cli.numba_config import njit
 
@@ -130,51 +130,30 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
         # from memory before the test below reads them (a hint: wrapped even with walls)
         _prefetch_block(cells, c0, c1, c2, -1, 1, -1, 1, lo2, hi2, nc, D)
         _prefetch_block_rows(P, XN, NN, cells, c0, c1, c2, lo2, hi2, nc, D)
-    for o0 in range(-1, 2):
-        n0 = c0 + o0
-        if n0 < 0 or n0 >= nc:
-            if PER:
-                n0 = n0 + nc if n0 < 0 else n0 - nc
-            else:
+    for o in range(3 ** D):
+        cell, there = _block_cell(c0, c1, c2, o, nc, D, PER)
+        if not there:
+            continue
+        for s in range(1, cells[cell, 0] + 1):
+            m = cells[cell, s]
+            if m == k:
                 continue
-        for o1 in range(-1, 2):
-            n1 = c1 + o1
-            if n1 < 0 or n1 >= nc:
-                if PER:
-                    n1 = n1 + nc if n1 < 0 else n1 - nc
-                else:
-                    continue
-            for o2 in range(lo2, hi2 + 1):
-                if D > 2:
-                    n2 = c2 + o2
-                    if n2 < 0 or n2 >= nc:
-                        if PER:
-                            n2 = n2 + nc if n2 < 0 else n2 - nc
-                        else:
-                            continue
-                    cell = (n0 * nc + n1) * nc + n2
-                else:
-                    cell = n0 * nc + n1
-                for s in range(1, cells[cell, 0] + 1):
-                    m = cells[cell, s]
-                    if m == k:
-                        continue
-                    d0 = x0 - XN[m, 0]
-                    d1 = x1 - XN[m, 1]
-                    d2 = x2 - XN[m, 2] if D > 2 else 0.0
-                    if PER:
-                        d0 = _nearest_near(d0, L, hl)
-                        d1 = _nearest_near(d1, L, hl)
-                        d2 = _nearest_near(d2, L, hl)
-                    d2s = d0 * d0 + d1 * d1 + d2 * d2
-                    if d2s >= far2:
-                        continue
-                    lim = rk + P[m, PR] + 2.0 * h
-                    if d2s < lim * lim:
-                        if cnt >= capnb or NN[m] >= capnb:
-                            return -1
-                        SCR[cnt] = m
-                        cnt += 1
+            d0 = x0 - XN[m, 0]
+            d1 = x1 - XN[m, 1]
+            d2 = x2 - XN[m, 2] if D > 2 else 0.0
+            if PER:
+                d0 = _nearest_near(d0, L, hl)
+                d1 = _nearest_near(d1, L, hl)
+                d2 = _nearest_near(d2, L, hl)
+            d2s = d0 * d0 + d1 * d1 + d2 * d2
+            if d2s >= far2:
+                continue
+            lim = rk + P[m, PR] + 2.0 * h
+            if d2s < lim * lim:
+                if cnt >= capnb or NN[m] >= capnb:
+                    return -1
+                SCR[cnt] = m
+                cnt += 1
     return cnt
 
 
