@@ -15,7 +15,7 @@ import pytest
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import sizing
+from gaz_cli.engine import driver, sizing
 from gaz_cli.engine.interactions import pair_reach
 from gaz_cli.engine.neighbours import classes
 from gaz_cli.recording import MemoryRecorder, Recorder
@@ -179,3 +179,20 @@ def test_size_classes_miss_no_collision_and_conserve(dim, boundary):
                                   & (np.maximum(c["i"], c["j"]) >= n_large)))
         total += stats.collisions
     assert total > 5000 and large_small > 1000, (total, large_small)
+
+
+@pytest.mark.parametrize("dim, boundary", list(MIXTURES))
+def test_the_counts_of_large_particles_near_follow_their_crossings(dim, boundary):
+    """The fine cells' counts of large particles near (CV), kept up at every crossing of a large
+    particle, equal the counts made afresh from the final positions (a count too low hides a
+    large particle from the small ones; one too high costs lookups)."""
+    scene = mixture(dim, boundary, seed=4, duration=20.0)
+    sim = driver._Simulation(scene, initial_state(scene), Recorder())
+    stats = sim.run()
+    assert stats.extras["size_classes"] and stats.extras["cell_crossings"] > 1000
+    kept = sim.CV.copy()
+    mx = sim.mix
+    classes._cover_fill(sim.P, sim.I, sim.CV, mx.nc, mx.bcl, mx.rint, mx.rcut, dim,
+                        boundary == "periodic")
+    assert kept.sum() > 0
+    np.testing.assert_array_equal(kept, sim.CV)

@@ -15,13 +15,14 @@ from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import C0, INF, PR, PT, PV, RANK
 
 @_inline
-def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL):
+def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL, WIDE=False):
     """(absolute time, code) of particle k's next wall bounce or cell crossing.
 
     code = 4 d + 2 [towards +] + [a wall]; (inf, -1) if there is none.
     Along the gravity axis the times come from the stable quadratic forms
     of physics.md section 10. With neighbour lists (NL) there are no cell
-    crossings: only the walls.
+    crossings: only the walls. WIDE (size classes): a particle may be wider than a cell, its
+    wall plane inside a cell other than the box's first or last.
     """
     best = INF
     code = -1
@@ -55,10 +56,12 @@ def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL):
                 lo_wall = False
                 hi_wall = False
             else:
-                # (a particle wider than a cell, size classes: its wall plane lies in
-                # the cell its centre reaches last, not only in the box's first or last)
-                lo_wall = c == 0 or edges[c] <= r
-                hi_wall = c == nc - 1 or edges[c + 1] >= L - r
+                lo_wall = c == 0
+                hi_wall = c == nc - 1
+                if WIDE:
+                    # its wall plane lies in the cell its centre reaches last
+                    lo_wall = lo_wall or edges[c] <= r
+                    hi_wall = hi_wall or edges[c + 1] >= L - r
                 lo = r if lo_wall else edges[c]
                 hi = L - r if hi_wall else edges[c + 1]
         dt = INF

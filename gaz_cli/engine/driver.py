@@ -189,7 +189,8 @@ class _Simulation(Rows):
             mx = self.mix
             st["ncl"], st["fcl"], st["rint"], st["bcl"], st["rcut"] = (mx.ncl, mx.f, mx.rint,
                                                                        mx.bcl, mx.rcut)
-        self.CL = np.zeros((1, 5), dtype=np.int32)  # the coarse table (size classes)
+        self.CL = np.zeros((1, 5), dtype=np.int32)  # size classes: the coarse table, the
+        self.CV = np.zeros(1, dtype=np.int32)  # fine cells' counts of large particles near
         st["L"], st["g"], st["h"] = L, g, h
         st["w"], st["iw"], st["nbk"] = 1.0, 1.0, 16
         self.BH = -np.ones(16, dtype=np.int64)
@@ -216,7 +217,7 @@ class _Simulation(Rows):
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
                    self.BH, self.cells, self.GB, self.GS, self.XS, self.NB, self.NN, self.SCR,
                    self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
-                   self.ct, self.ci, self.cj, self.cimp, self.CL)
+                   self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:

@@ -91,8 +91,9 @@ Tables = namedtuple("Tables", [
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|
     "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
-    "CL",  # size classes: the coarse cell table of the large particles
+    "CL", "CV",  # size classes: the coarse cell table of the large particles; how many large
+    #   particles have each fine cell in their ball
 ])
-"""The event loop's arrays under their names (one argument instead of 29; Numba types it as
+"""The event loop's arrays under their names (one argument instead of 30; Numba types it as
 a named tuple of arrays and reads the fields at compile time). The loop's scalars are in
 one ``STATE`` record."""

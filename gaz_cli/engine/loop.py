@@ -107,9 +107,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
     four cells an axis (cell scans carry each cell's image shift instead of
     taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
-    the coarse table ``T.CL`` beside the fine one); DIL a dilute gas in a box with walls,
-    no gravity: every particle scans all the others (:mod:`.neighbours.dilute`, one cell,
-    no crossings). The restitution is a run-time
+    the coarse table ``T.CL`` beside the fine one, the counts ``T.CV``); DIL a dilute gas
+    in a box with walls, no gravity: every particle scans all the others
+    (:mod:`.neighbours.dilute`, one cell, no crossings). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
@@ -145,7 +145,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
         ct, ci, cj, cimp = _borrow(T.ct), _borrow(T.ci), _borrow(T.cj), _borrow(T.cimp)
-        CL = _borrow(T.CL)
+        CL, CV = _borrow(T.CL), _borrow(T.CV)
         st = S[0]
         n = P.shape[0]
         pf = st.pf != 0  # large systems: prefetch, and gather a collision's scans first
@@ -280,8 +280,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         n_cross += 1
                         full = False
                         if MIX:
-                            moved = _cross_face_classes(P, I, cells, CL, edges, k, d, up, nc,
-                                                        fcl, ncl, L, rcut, D)
+                            moved = _cross_face_classes(P, I, cells, CL, CV, edges, k, d, up,
+                                                        nc, fcl, ncl, bcl, rint, L, rcut, D,
+                                                        PER)
                             xd, xup = d, up
                         else:
                             _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
@@ -315,9 +316,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 base = side * GROOM if pf else 0
                 if gathering:
                     if MIX:
-                        ng = _gather_classes(P, I, cells, CL, GB, GS, base, p, full, xd, xup,
-                                             moved, lo0, hi0, lo1, hi1, lo2, hi2, nc, ncl, fcl,
-                                             bcl, rint, rcut, D, PER)
+                        ng = _gather_classes(P, I, cells, CL, CV, GB, GS, base, p, full, xd,
+                                             xup, moved, lo0, hi0, lo1, hi1, lo2, hi2, nc, ncl,
+                                             fcl, bcl, rint, rcut, D, PER)
                     else:
                         ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
                                            I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D,
@@ -329,7 +330,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     continue
                 if newcross:
                     _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS,
-                                   NL)
+                                   NL, MIX)
                 if PAIRS and (D == 1 or NL) and rescan:
                     n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, nc, PP, D,
                                              PER, GRAV, pf)

@@ -35,10 +35,11 @@ def _take_second(I, EV, k):
 
 
 @_inline
-def _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS, NL):
+def _next_boundary(P, I, EV, XN, edges, p, nc, n, L, h, g, D, PER, GRAV, PAIRS, NL, MIX):
     """Particle p's next wall bounce or cell crossing (or, NL, the rebuild of its list when it
-    leaves its sphere of radius h), into EV[p, TX] and its code into I[p, CODE]."""
-    tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL)
+    leaves its sphere of radius h), into EV[p, TX] and its code into I[p, CODE]; MIX: size
+    classes (a particle may be wider than a cell)."""
+    tx, cd = _crossing(P, I, edges, p, nc, n, L, g, D, PER, GRAV, PAIRS, NL, MIX)
     if NL:
         te = _nl_exit(P, XN, p, h, g, D, GRAV)
         if te < tx:

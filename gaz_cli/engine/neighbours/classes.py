@@ -25,7 +25,9 @@ Here (a two-level hierarchical grid, after Ogarko & Luding, Comput. Phys. Commun
   scans the fine cells of a rounded ball of radius ~reach around it (full), or only the
   ball's front (crossing: one cell per column along the axis crossed). Every pair that can
   meet is thus predicted by one of the two, or one of them looks again before (the
-  invariant of :mod:`.loop`).
+  invariant of :mod:`.loop`);
+* each fine cell counts the large particles whose ball holds it (``CV``, moved with their
+  crossings): a small particle looks up the coarse cells only where that count is not 0.
 
 A large particle's full scan costs the fine cells of its ball, ~(2 reach / a)^D, instead of
 the small particles of 3^D coarse cells; its crossings, ~(2 reach / a)^(D-1) cells; a small
@@ -164,18 +166,62 @@ def _add_cell(cells, GB, w, cell):
 
 
 @_inline
-def _add_fine(cells, GB, w, c0, c1, c2, o0, o1, o2, nc, D, PER):
-    """The particles of the fine cell c + o appended to GB at w (none beyond a wall)."""
+def _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER):
+    """(the index of the fine cell c + o, whether there is one: none beyond a wall)."""
     n0, in0 = _at(c0 + o0, nc, PER)
     n1, in1 = _at(c1 + o1, nc, PER)
     n2 = 0
     in2 = True
     if D > 2:
         n2, in2 = _at(c2 + o2, nc, PER)
-    if in0 and in1 and in2:
-        cell = (n0 * nc + n1) * nc + n2 if D > 2 else n0 * nc + n1
+    cell = (n0 * nc + n1) * nc + n2 if D > 2 else n0 * nc + n1
+    return cell, in0 and in1 and in2
+
+
+@_inline
+def _add_fine(cells, GB, w, c0, c1, c2, o0, o1, o2, nc, D, PER):
+    """The particles of the fine cell c + o appended to GB at w (none beyond a wall)."""
+    cell, there = _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER)
+    if there:
         w = _add_cell(cells, GB, w, cell)
     return w
+
+
+@_inline
+def _column(d, p, q, od):
+    """The offsets (o0, o1, o2) of a cell od along axis d, p and q along the other two."""
+    if d == 0:
+        return od, p, q
+    if d == 1:
+        return p, od, q
+    return p, q, od
+
+
+@_inline
+def _cover_move(CV, c0, c1, c2, d, up, nc, bcl, rint, D, PER):
+    """A large particle moved into fine cell c along axis d (up: from below): the cells of its
+    ball's front count one more large particle near (CV), those its ball left one fewer.
+    Per column along d, the ball spans |o| <= m: the front is at o = +m (up), the cell left at
+    o = -(m + 1), relative to the new cell."""
+    b2 = bcl if D > 2 else 0
+    sgn = 1 if up else -1
+    for p in range(-bcl, bcl + 1):
+        sp = _far(p)
+        if sp > rint:
+            continue
+        for q in range(-b2, b2 + 1):
+            sq = sp + _far(q)
+            if sq > rint:
+                continue
+            m = 1 + _isqrt(rint - sq)
+            o0, o1, o2 = _column(d, p, q, sgn * m)
+            cell, there = _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER)
+            if there:
+                CV[cell] += 1
+            o0, o1, o2 = _column(d, p, q, -sgn * (m + 1))
+            cell, there = _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER)
+            if there:
+                CV[cell] -= 1
 
 
 @_inline
@@ -213,13 +259,8 @@ def _gather_ball(cells, GB, w, c0, c1, c2, full, d, up, nc, bcl, rint, D, PER):
             if sq > rint:
                 continue
             m = 1 + _isqrt(rint - sq)
-            od = m if up else -m
-            if d == 0:
-                w = _add_fine(cells, GB, w, c0, c1, c2, od, p, q, nc, D, PER)
-            elif d == 1:
-                w = _add_fine(cells, GB, w, c0, c1, c2, p, od, q, nc, D, PER)
-            else:
-                w = _add_fine(cells, GB, w, c0, c1, c2, p, q, od, nc, D, PER)
+            o0, o1, o2 = _column(d, p, q, m if up else -m)
+            w = _add_fine(cells, GB, w, c0, c1, c2, o0, o1, o2, nc, D, PER)
     return w
 
 
@@ -288,15 +329,16 @@ def _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, r
 
 
 @_inline
-def _gather_classes(P, I, cells, CL, GB, GS, base, p, full, d, up, moved, lo0, hi0, lo1, hi1,
-                    lo2, hi2, nc, ncl, f, bcl, rint, rcut, D, PER):
+def _gather_classes(P, I, cells, CL, CV, GB, GS, base, p, full, d, up, moved, lo0, hi0, lo1,
+                    hi1, lo2, hi2, nc, ncl, f, bcl, rint, rcut, D, PER):
     """Particle p's partners to scan, gathered into GB[base:]; their number.
 
     A full scan (after a collision, a bounce, a stale prediction) or, after p crossed into
     its fine cell along axis d (up: from below), the partners that came into view; lo..hi the
     block of p's own grid to gather (3^D, or the layer entered: :func:`.cells._block_entered`).
     Small p: the small particles of that fine block, the large ones adjacent (full) or just
-    become adjacent. Large p: the large particles of that coarse block (at a crossing, only
+    become adjacent, looked up only where some large particle is near (CV). Large p: the
+    large particles of that coarse block (at a crossing, only
     when p changed coarse cell: ``moved``), the small ones of its ball or of the ball's front.
     """
     c0 = I[p, C0]
@@ -305,8 +347,9 @@ def _gather_classes(P, I, cells, CL, GB, GS, base, p, full, d, up, moved, lo0, h
     if P[p, PR] <= rcut:
         w = base + _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1,
                                  lo2, hi2, nc, D, PER, False, False)
-        w = _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, rint, D,
-                               PER)
+        if CV[I[p, CELL]] > 0:
+            w = _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, rint,
+                                   D, PER)
     else:
         w = base
         if full or moved:
@@ -337,10 +380,12 @@ def _room_to_cross(P, I, cells, CL, k, code, nc, f, ncl, rcut, D):
 
 
 @_inline
-def _cross_face_classes(P, I, cells, CL, edges, k, d, up, nc, f, ncl, L, rcut, D):
+def _cross_face_classes(P, I, cells, CL, CV, edges, k, d, up, nc, f, ncl, bcl, rint, L, rcut, D,
+                        PER):
     """Particle k crosses the face of its fine cell along axis d (up: the one above), as
-    :func:`.cells._cross_face`; a large particle moves in the coarse table when its coarse
-    cell changes. Whether it did (a large particle's coarse layer to scan)."""
+    :func:`.cells._cross_face`; a large particle moves its ball's counts (CV), and moves in
+    the coarse table when its coarse cell changes. Whether it did (a large particle's coarse
+    layer to scan)."""
     c, cn, xn = _face_beyond(I, edges, k, d, up, nc, L)
     P[k, d] = xn
     moved = False
@@ -351,6 +396,9 @@ def _cross_face_classes(P, I, cells, CL, edges, k, d, up, nc, f, ncl, L, rcut, D
             _move(CL, I, k, I[k, CELL] + (cn // f - c // f) * _stride(d, ncl, D))
             moved = True
         I[k, C0 + d] = cn
+        if P[k, PR] > rcut:
+            _cover_move(CV, I[k, C0], I[k, C0 + 1], I[k, C0 + 2] if D > 2 else 0, d, up, nc,
+                        bcl, rint, D, PER)
     return moved
 
 
@@ -395,6 +443,28 @@ def _assign_classes(P, I, cells, CL, nc, a, f, ncl, rcut, D):
     return DONE
 
 
+@njit
+def _cover_fill(P, I, CV, nc, bcl, rint, rcut, D, PER):
+    """CV[cell]: how many large particles have the fine cell in their ball (the cells where a
+    small particle has large ones to look up)."""
+    CV[:] = 0
+    b2 = bcl if D > 2 else 0
+    for k in range(P.shape[0]):
+        if P[k, PR] <= rcut:
+            continue
+        c0 = I[k, C0]
+        c1 = I[k, C0 + 1]
+        c2 = I[k, C0 + 2] if D > 2 else 0
+        for o0 in range(-bcl, bcl + 1):
+            for o1 in range(-bcl, bcl + 1):
+                for o2 in range(-b2, b2 + 1):
+                    if _far(o0) + _far(o1) + _far(o2) > rint:
+                        continue
+                    cell, there = _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER)
+                    if there:
+                        CV[cell] += 1
+
+
 # --- the Python side: tables and buffers -------------------------------------
 def fill(rows, P, I) -> None:
     """The fine and coarse tables of ``rows`` (:class:`.rows.Rows` with ``mix`` a
@@ -425,6 +495,8 @@ def fill(rows, P, I) -> None:
         capl *= 2
     rows.cap = rows.cells.shape[1] - 1
     rows.capl = rows.CL.shape[1] - 1
+    rows.CV = _alloc(nc ** D, np.int32)
+    _cover_fill(P, I, rows.CV, nc, mx.bcl, mx.rint, mx.rcut, D, rows.periodic)
 
 
 def grow(rows) -> None:
