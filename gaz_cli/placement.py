@@ -395,13 +395,15 @@ def lattice(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator
     rmax = float(radii.max())
     sigma = 2.0 * rmax
     lo, hi = (0.0, length) if periodic else (rmax, length - rmax)
-    sites = _lattice_sites(dim, sigma, lo, hi, periodic, length)
+    # the closest spacing allowed: touching spheres; points: n + 1 a side leave n sites or more
+    closest = sigma if sigma > 0.0 else length / (n + 1)
+    sites = _lattice_sites(dim, closest, lo, hi, periodic, length)
     if sites is None or len(sites) < n:
         have = 0 if sites is None else len(sites)
         raise PlacementError(f"only {have} lattice sites fit for {n} particles of diameter {sigma:g} m "
                              f"in a box of side {length:g} m; lower --n or raise --length")
     # grow the spacing while N sites still fit: bisection on the spacing
-    good, bad = sigma, length
+    good, bad = closest, length
     for _ in range(40):
         mid = 0.5 * (good + bad)
         s = _lattice_sites(dim, mid, lo, hi, periodic, length)

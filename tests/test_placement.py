@@ -82,6 +82,18 @@ def test_the_seed_fixes_the_positions(method):
     assert not np.array_equal(a, c)
 
 
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("periodic", [False, True])
+@pytest.mark.parametrize("method", ["lattice", "rejection", "auto"])
+def test_points_are_placed_inside_and_distinct(dim, periodic, method):
+    """Zero radius (an ideal gas of points): every method places them, inside the box,
+    no two on one site (a lattice of points used to divide by its zero spacing)."""
+    n, length = 27, 1e-7
+    x = placement.place(dim, np.zeros(n), length, np.random.default_rng(3), method, periodic)
+    assert x.shape == (n, dim) and np.all((x >= 0.0) & (x <= length))
+    assert len(np.unique(x, axis=0)) == n
+
+
 def test_rejection_places_many_particles():
     """N = 20 000 at 3D packing 0.3 through the cell grid (the O(N) path)."""
     n = 20_000
