@@ -131,7 +131,10 @@ def main() -> None:
     res: dict[tuple[str, str], list[dict]] = {}
     for r in range(a.repeat):
         for name in names:
-            for label, tree, sc in trees:
+            # the trees take turns first: the second of two back-to-back runs measured slower
+            # on the shared host (2d small, CPU ns per queue event: old first 558-697, new
+            # second 805-987; new first 687/745/730, old second 981/836/790)
+            for label, tree, sc in (trees if r % 2 == 0 else trees[::-1]):
                 out = _run_child(tree, name, sc)
                 res.setdefault((label, name), []).append(out)
                 print(f"  round {r + 1} {label:3s} {name:9s} cpu {out['cpu_s']:7.2f} s, "
