@@ -101,11 +101,16 @@ def test_same_events_as_the_exam(dim, n, radius, seed):
     (same particles, same walls, same order) at the same times, within the error model of
     :func:`time_tolerances`, up to the horizon where that model allows 1e-6 (beyond, both
     are valid trajectories of the same gas: chaos has taken the two codes apart)."""
-    scene = unit_scene(dim, n, radius, duration=6.0, seed=seed)
+    assert_same_events_as_the_exam(unit_scene(dim, n, radius, duration=6.0, seed=seed))
+
+
+def assert_same_events_as_the_exam(scene: Scene):
+    """Run ``scene`` with the exam's algorithm and the fast engine from one initial state;
+    assert the same events at the same times up to the model's horizon; the engine's stats."""
     state = initial_state(scene)
     ref, fast = MemoryRecorder(collisions=True), MemoryRecorder(collisions=True)
     reference.run(scene, state, ref)
-    engine.run(scene, state, fast)
+    stats = engine.run(scene, state, fast)
     a, b = event_sequence(ref), event_sequence(fast)
     tol = time_tolerances(scene, b)
     horizon = int(np.searchsorted(np.maximum.accumulate(tol), HORIZON))
@@ -116,6 +121,7 @@ def test_same_events_as_the_exam(dim, n, radius, seed):
     ta, tb = np.array([r[0] for r in a]), np.array([r[0] for r in b])
     rel = np.abs(ta - tb) / ta
     assert np.all(rel <= tol), f"event {int(np.argmax(rel / tol))}: {rel.max():.2e} > model"
+    return stats
 
 
 @pytest.mark.parametrize("dim, boundary, packing", [
