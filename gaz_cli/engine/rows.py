@@ -16,7 +16,7 @@ from gaz_cli.engine.layout import (DONE, EV_WIDTH, GATHER_SLOTS, I_WIDTH, NONE, 
                                    PART2, PR, PT, PV, QB, RANK)
 from gaz_cli.engine.memory import _alloc, _morton
 from gaz_cli.engine.neighbours import classes
-from gaz_cli.engine.neighbours.cells import _assign_cells
+from gaz_cli.engine.neighbours.cells import _assign_cells, wider
 from gaz_cli.engine.neighbours.dilute import XS_ROWS
 from gaz_cli.engine.neighbours.lists import _build_nl
 from gaz_cli.errors import EngineError
@@ -116,11 +116,8 @@ class Rows:
 
     def _grow_cells(self) -> None:
         """Cells with twice the room (one was full)."""
-        old = self.cells
-        cells = _alloc((old.shape[0], sizing._cell_width(2 * (old.shape[1] - 1))), np.int32)
-        cells[:, :old.shape[1]] = old
-        self.cells = cells
-        self.cap = cells.shape[1] - 1
+        self.cells = wider(self.cells)
+        self.cap = self.cells.shape[1] - 1
         if self.mix is not None:
             classes.grow(self)
         self._gather_buffers()

@@ -17,6 +17,7 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
                                    KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PV, SLOT, SURE,
                                    TCOL, TCOL2)
+from gaz_cli.engine.memory import _alloc
 from gaz_cli.engine.prefetch import _prefetch_block
 from gaz_cli.numba_config import njit
 
@@ -179,14 +180,32 @@ def _assign_cells(P, I, cells, nc, a, D):
                 c = nc - 1
             I[k, C0 + d] = c
             cell = cell * nc + c
-        cnt = cells[cell, 0] + 1
-        if cnt > cap:
+        if not _put(I, cells, k, cell, cap):
             return CELL_FULL
-        I[k, CELL] = cell
-        I[k, SLOT] = cnt
-        cells[cell, cnt] = k
-        cells[cell, 0] = cnt
     return DONE
+
+
+@_inline
+def _put(I, table, k, cell, cap):
+    """Particle k into the next slot of ``table``'s cell (slot 0 holds the count); False if
+    the cell is full (capacity cap)."""
+    cnt = table[cell, 0] + 1
+    if cnt > cap:
+        return False
+    I[k, CELL] = cell
+    I[k, SLOT] = cnt
+    table[cell, cnt] = k
+    table[cell, 0] = cnt
+    return True
+
+
+def wider(table):
+    """A cell table with twice the room of ``table`` (one of its cells was full), its slots kept."""
+    from gaz_cli.engine import sizing
+
+    new = _alloc((table.shape[0], sizing._cell_width(2 * (table.shape[1] - 1))), np.int32)
+    new[:, :table.shape[1]] = table
+    return new
 
 
 @_inline

@@ -46,8 +46,8 @@ import numpy as np
 
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.memory import _alloc
-from gaz_cli.engine.layout import C0, CELL, CELL_FULL, DONE, GATHER_SLOTS, PR, SLOT
-from gaz_cli.engine.neighbours.cells import _face_beyond, _gather_cells, _move, _stride
+from gaz_cli.engine.layout import C0, CELL, CELL_FULL, DONE, GATHER_SLOTS, PR
+from gaz_cli.engine.neighbours.cells import _face_beyond, _gather_cells, _move, _put, _stride, wider
 from gaz_cli.numba_config import njit
 
 MIN_RATIO = 8.0
@@ -424,22 +424,8 @@ def _assign_classes(P, I, cells, CL, nc, a, f, ncl, rcut, D):
             I[k, C0 + d] = c
             cell = cell * nc + c
             coarse = coarse * ncl + c // f
-        if P[k, PR] <= rcut:
-            cnt = cells[cell, 0] + 1
-            if cnt > cap:
-                return CELL_FULL
-            I[k, CELL] = cell
-            I[k, SLOT] = cnt
-            cells[cell, cnt] = k
-            cells[cell, 0] = cnt
-        else:
-            cnt = CL[coarse, 0] + 1
-            if cnt > capl:
-                return CELL_FULL
-            I[k, CELL] = coarse
-            I[k, SLOT] = cnt
-            CL[coarse, cnt] = k
-            CL[coarse, 0] = cnt
+        if not (_put(I, cells, k, cell, cap) if P[k, PR] <= rcut else _put(I, CL, k, coarse, capl)):
+            return CELL_FULL
     return DONE
 
 
@@ -501,13 +487,8 @@ def fill(rows, P, I) -> None:
 
 def grow(rows) -> None:
     """A full cell: the coarse table with twice the room (rows._grow_cells grows the fine one)."""
-    from gaz_cli.engine import sizing
-
-    old = rows.CL
-    cl = _alloc((old.shape[0], sizing._cell_width(2 * (old.shape[1] - 1))), np.int32)
-    cl[:, :old.shape[1]] = old
-    rows.CL = cl
-    rows.capl = cl.shape[1] - 1
+    rows.CL = wider(rows.CL)
+    rows.capl = rows.CL.shape[1] - 1
 
 
 def gather_room(rows) -> int:
