@@ -26,7 +26,10 @@ The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 Medians over the rounds are printed, with recording / engine, the figure the
 issue bounds at 25 %. ``--insert``: only :func:`gaz_cli.staging.insert_rows` of the
 example's REBOND rows (the engine's chunks of 65536) into a new file, in one transaction, CPU
-per round (run it with PYTHONPATH at an older tree, alternating, to compare commits). ``--record none``: the runs say whether anything was
+per round (run it with PYTHONPATH at an older tree, alternating, to compare commits), and
+beside it SQLite's own cost for the same rows: one ``INSERT ... SELECT`` from a TEMP copy
+of them into the same file's REBOND (no Python, no binding: the floor of any writer
+going through SQLite's B-tree, which holds REBOND's key (SI_NUM, RE_NUM)). ``--record none``: the runs say whether anything was
 staged (a scratch file, a row).
 """
 
@@ -168,7 +171,7 @@ def insert_only(rounds: int) -> None:
     k = len(b["t"])
     columns = [np.arange(1, k + 1), b["t"], b["wall"], b["speed"], b["vperp"]]
     names = ["re_num", "re_t", "re_dir", "re_vit", "re_vp"]
-    cpu = []
+    cpu, floor = [], []
     with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:
         for r in range(rounds):
             con = sqlite3.connect(os.path.join(tmp, f"i{r}.db"), isolation_level=None)
@@ -184,9 +187,23 @@ def insert_only(rounds: int) -> None:
                 staging.insert_rows(con, "rebond", names, [a[part] for a in columns], {"si_num": 1, "pa_num": 1})
             cpu.append(time.process_time() - c)
             con.execute("COMMIT")
+            # SQLite's own share: the same rows moved in by one INSERT ... SELECT from a TEMP
+            # copy (no Python, no binding), as a second run of the same file
+            con.execute("CREATE TEMP TABLE copy AS SELECT * FROM rebond")
+            con.execute("BEGIN IMMEDIATE")
+            con.execute("INSERT INTO simulation (si_num, si_deb, si_dur, si_dim, si_n, si_l) "
+                        "VALUES (2, '2026-01-01 00:00:00', 1e-8, 3, 1000, 3.4e-8)")
+            c = time.process_time()
+            con.execute("INSERT INTO rebond SELECT 2, re_num, pa_num, re_t, re_dir, re_vit, re_vp "
+                        "FROM copy")  # (in key order: copied from REBOND, read in rowid order)
+            floor.append(time.process_time() - c)
+            con.execute("COMMIT")
             con.close()
     print(f"insert_rows of {k:,} REBOND rows: median {statistics.median(cpu) * 1e3:.1f} ms CPU "
           f"({statistics.median(cpu) / k * 1e6:.2f} us a row); rounds {[round(x * 1e3) for x in cpu]} ms")
+    print(f"SQLite alone (INSERT ... SELECT of the same rows from a TEMP copy, no binding): median "
+          f"{statistics.median(floor) * 1e3:.1f} ms CPU ({statistics.median(floor) / k * 1e6:.2f} us a "
+          f"row); rounds {[round(x * 1e3) for x in floor]} ms")
 
 
 def main():

@@ -1,0 +1,203 @@
+"""Issue 15's targets (items 2-6) in one run, side by side with an older tree.
+
+Not a test: it prints numbers. Run from the repository root, after ``pip install -e .``:
+
+    git archive 8b6e7d9 | (mkdir -p /tmp/old && tar -x -C /tmp/old)
+    ln -s ../sql /tmp/old/gaz_cli/sql
+    python benchmarks/issue15.py --old /tmp/old --edmd PATH_TO_EDMD --pairs 7
+
+``--old`` is the code the targets are stated against (a copy of a commit: the issue's
+"today's code"); ``--edmd`` a copy of F. Smallenburg's EDMD (see benchmarks/smallenburg.py;
+without it item 5 is skipped). One command, one host state, in this order:
+
+* item 2, the engine side by side: for each scene, ``--pairs`` pairs of child processes,
+  one on each tree (PYTHONPATH on it, a Numba cache of its own), the tree that runs first
+  alternating from pair to pair; each child compiles with a short run, then times
+  ``engine.run`` (record none) in CPU seconds of its own process (``time.process_time``:
+  what a shared host disturbs least; compilation excluded). Printed per pair: CPU
+  seconds, physical events (collisions + wall bounces; the same count on both trees when
+  the trajectory is), new/old speed; then the median ratio and the work per physical event
+  (queue events, cell crossings, pair tests). Scenes: the README example's engine (1000
+  argon atoms, 300 K, 34 nm box with walls, 10 ns; target >= 3x), scene (b) of
+  benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls, 10 mean free times;
+  target >= 3x events per second) and scene (a) (3D periodic, N = 4000, packing 0.30,
+  lattice start, t = 20; target: not slower);
+* item 3: ``benchmarks/recording.py --in-process`` (recording / engine on the README
+  example, this tree; target < 25 %), then ``--insert``: gaz's insert of the example's
+  REBOND rows beside SQLite's own cost for the same rows (the floor of any writer);
+* item 4: ``benchmarks/startup.py --against OLD`` (tiny scene, process start to exit
+  against ``python -c "import numpy, numba"``; targets 1.15 with --no-db, 1.35 with a
+  new SQLite file);
+* item 5: ``benchmarks/smallenburg.py`` (neighbour lists, 3D periodic, packing 0.45,
+  N = 10^4, against the C code's "Single" variant; target gaz/C >= 1.0);
+* item 6: ``benchmarks/mixtures.py`` (1:100 mixtures with 1 % large particles against
+  the small ones alone, this tree; target <= 2).
+
+Each child script's own output is passed through whole (its pairs, its medians); the host
+load is printed before each section.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+SCENES = ("readme", "b", "a")
+TARGET = {"readme": "new/old >= 3", "b": "new/old >= 3", "a": "new/old >= 1 (not slower)"}
+
+
+def _scene(name: str):
+    """The scene of one item-2 case (built in the child, on its tree's API)."""
+    from gaz_cli.constants import K_B
+    from gaz_cli.scene import Scene
+    from gaz_cli.species import Species, lookup
+
+    ar = lookup("Ar")
+    if name == "readme":
+        return Scene(dim=3, length=3.4e-8, duration=1e-8, components=((ar, 1000),), seed=1,
+                     record="none")
+    if name == "b":  # as benchmarks/engine.py's fig_b, 10 mean free times
+        n, eta = 10_000, 0.01
+        length = (n * 4.0 / 3.0 * math.pi * ar.radius ** 3 / eta) ** (1 / 3)
+        speed = math.sqrt(8 * K_B * 300 / (math.pi * ar.mass))
+        free_time = 1.0 / (math.sqrt(2) * math.pi * n / length ** 3 * (2 * ar.radius) ** 2 * speed)
+        return Scene(dim=3, length=length, duration=10 * free_time, components=((ar, n),),
+                     seed=2, record="none")
+    if name == "a":  # as benchmarks/engine.py's fig_a, lattice start, t = 20
+        n, eta = 4000, 0.30
+        length = (n * math.pi / 6.0 / eta) ** (1 / 3)
+        return Scene(dim=3, length=length, duration=20.0, components=((Species("X", 1.0, 0.5), n),),
+                     temperature=1.0 / K_B, seed=1, boundary="periodic", placement="lattice",
+                     record="none")
+    raise ValueError(name)
+
+
+def child(name: str) -> None:
+    """Time one scene's engine on the tree gaz_cli is imported from; print one JSON line."""
+    import dataclasses
+
+    from gaz_cli import engine
+    from gaz_cli.recording import Recorder
+    from gaz_cli.scene import initial_state
+
+    sc = _scene(name)
+    st = initial_state(sc)
+    engine.run(dataclasses.replace(sc, duration=sc.duration * 1e-3), st, Recorder())  # compile or load
+    c0 = time.process_time()
+    rs = engine.run(sc, st, Recorder())
+    cpu = time.process_time() - c0 - rs.extras.get("compile_s", 0.0)
+    ex = rs.extras
+    print(json.dumps({"cpu": cpu, "events": rs.events, "queue_events": ex.get("queue_events", 0),
+                      "crossings": ex.get("cell_crossings", 0) + ex.get("list_rebuilds", 0),
+                      "pair_tests": ex.get("pair_tests", 0),
+                      "search": ("dilute scan" if ex.get("dilute_scan") else
+                                 "lists" if ex.get("neighbour_lists") else
+                                 f"{ex.get('cells_per_axis')} cells an axis")}))
+
+
+def _run_child(tree: Path, name: str, cache: Path) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
+    out = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", name],
+                         env=env, cwd=tempfile.gettempdir(), capture_output=True, text=True)
+    if out.returncode:
+        raise SystemExit(f"issue15.py: the child on {tree} ({name}) failed:\n{out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _load() -> str:
+    return os.getloadavg()[0].__format__(".2f")
+
+
+def item2(old: Path, pairs: int, caches: Path) -> list[str]:
+    trees = {"old": old, "new": ROOT}
+    summary = []
+    for name in SCENES:
+        print(f"\n[item 2] scene {name}: {pairs} alternating pairs, CPU s of engine.run "
+              f"(load {_load()})", flush=True)
+        for tag, tree in trees.items():  # warm the caches (compile) outside the pairs
+            _run_child(tree, name, caches / tag)
+        ratios, last = [], {}
+        for i in range(pairs):
+            order = list(trees) if i % 2 == 0 else list(reversed(trees))
+            got = {tag: _run_child(trees[tag], name, caches / tag) for tag in order}
+            r = (got["new"]["events"] / got["new"]["cpu"]) / (got["old"]["events"] / got["old"]["cpu"])
+            ratios.append(r)
+            last = got
+            print(f"  pair {i + 1} ({order[0]} first): old {got['old']['cpu']:.3f} s "
+                  f"{got['old']['events']:,} events | new {got['new']['cpu']:.3f} s "
+                  f"{got['new']['events']:,} events | new/old speed {r:.2f} (load {_load()})",
+                  flush=True)
+        for tag in trees:
+            g = last[tag]
+            ev = g["events"]
+            print(f"  {tag}: {g['search']}; per physical event {g['queue_events'] / ev:.2f} queue "
+                  f"events, {g['crossings'] / ev:.2f} crossings, {g['pair_tests'] / ev:.1f} pair tests")
+        med = statistics.median(ratios)
+        line = (f"item 2, {name}: new/old events per CPU s median {med:.2f} "
+                f"(pairs {', '.join(f'{r:.2f}' for r in ratios)}); target {TARGET[name]}; "
+                f"crossings per physical event {last['new']['crossings'] / last['new']['events']:.2f}")
+        print("  " + line)
+        summary.append(line)
+    return summary
+
+
+def script(title: str, argv: list[str]) -> None:
+    print(f"\n[{title}] python {' '.join(argv)} (load {_load()})", flush=True)
+    done = subprocess.run([sys.executable, *argv], cwd=ROOT)
+    if done.returncode:
+        print(f"  ({argv[0]} exited with {done.returncode})")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--old", type=Path, help="a copy of the commit the targets are stated against")
+    ap.add_argument("--edmd", type=Path, help="a copy of F. Smallenburg's EDMD (item 5)")
+    ap.add_argument("--pairs", type=int, default=5, help="alternating pairs per comparison")
+    ap.add_argument("--only", help="comma-separated items among 2,3,4,5,6 (default all)")
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.child:
+        child(args.child)
+        return
+    only = set((args.only or "2,3,4,5,6").split(","))
+    if {"2", "4"} & only and not args.old:
+        ap.error("--old is needed for items 2 and 4 (a copy of the commit the targets are stated against)")
+    print(f"issue 15 in one run: {time.strftime('%Y-%m-%d %H:%M:%S')}, {os.cpu_count()} cores, "
+          f"old = {args.old}, new = {ROOT}", flush=True)
+    summary = []
+    with tempfile.TemporaryDirectory(prefix="issue15-") as tmp:
+        if "2" in only:
+            summary += item2(args.old.resolve(), args.pairs, Path(tmp))
+    if "3" in only:
+        script("item 3", ["benchmarks/recording.py", "--in-process", "--rounds", str(args.pairs)])
+        script("item 3, the insert against SQLite's own cost",
+               ["benchmarks/recording.py", "--insert", "--rounds", str(args.pairs)])
+    if "4" in only:
+        script("item 4", ["benchmarks/startup.py", "--rounds", "7", "--against", str(args.old)])
+    if "5" in only:
+        if args.edmd:
+            script("item 5", ["benchmarks/smallenburg.py", "--edmd", str(args.edmd),
+                              "--pairs", str(args.pairs)])
+        else:
+            print("\n[item 5] skipped: no --edmd")
+    if "6" in only:
+        script("item 6", ["benchmarks/mixtures.py", "--repeat", str(max(2, args.pairs // 2))])
+    if summary:
+        print("\nitem 2 in short:")
+        for line in summary:
+            print("  " + line)
+
+
+if __name__ == "__main__":
+    main()
