@@ -289,10 +289,24 @@ def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generat
               budget: int | None = None) -> np.ndarray:
     """Random sequential addition on a cell grid. O(N) expected below jamming.
 
+    The largest particles go first (a stable sort of the radii, so that one size keeps
+    the index order): a large sphere added after thousands of small ones finds almost no
+    free room (a 1:10 mixture at packing 0.15, small ones first, was refused 10^5 times in
+    a row), while small ones fill the gaps between large ones easily.
     Gives up with :class:`PlacementError` when one particle is refused
     ``max_tries`` times in a row or ``budget`` candidates (default 1000 N +
     10^6) are spent: the exam's Q7 situation ends with an error, never a hang.
     """
+    order = np.argsort(-np.asarray(radii, dtype=np.float64), kind="stable")
+    placed_sorted = _rejection_in_order(dim, radii[order], length, rng, periodic, max_tries, budget)
+    pos = np.empty_like(placed_sorted)
+    pos[order] = placed_sorted
+    return pos
+
+
+def _rejection_in_order(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
+                        periodic: bool, max_tries: int, budget: int | None) -> np.ndarray:
+    """:func:`rejection`'s addition, the particles taken in the order given."""
     n = radii.size
     rmax = float(radii.max())
     # cells at least one diameter wide, and about one particle per cell
