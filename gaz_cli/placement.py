@@ -117,70 +117,68 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
 
 
 @njit
-def _first_overlap(pos, radii, length, periodic, ncell, head, nxt):
-    """Index of a particle overlapping another (beyond 1e-9 relative), or -1. Cell grid, O(N)."""
+def _first_overlap(pos, radii, length, periodic, I, cells, GB, GS, nc):
+    """Index of a particle overlapping another (beyond 1e-9 relative), or -1 (2D/3D): each
+    particle against the later ones in the 3^D cells around its own (the engine's cells,
+    assigned in ``I`` and ``cells``: :func:`_cell_table`; one cell: that cell). O(N)."""
     n, dim = pos.shape
-    cell_size = length / ncell
-    keys = np.empty(n, dtype=np.int64)
+    b = 1 if nc > 1 else 0
     for i in range(n):
-        key = 0
-        for d in range(dim):
-            k = min(max(int(pos[i, d] / cell_size), 0), ncell - 1)
-            key = key * ncell + k
-        keys[i] = key
-        nxt[i] = head[key]
-        head[key] = i
-    idx = np.zeros(3, dtype=np.int64)
-    for i in range(n):
-        key = keys[i]
-        for d in range(dim - 1, -1, -1):
-            idx[d] = key % ncell
-            key //= ncell
-        for a in range(-1, 2):
-            for b in range(-1, 2) if dim > 1 else range(0, 1):
-                for e in range(-1, 2) if dim > 2 else range(0, 1):
-                    c0, c1, c2 = idx[0] + a, idx[1] + b, idx[2] + e
+        ng = _gather_cells(pos, I, cells, GB, GS, 0, I[i, C0], I[i, C0 + 1],
+                           I[i, C0 + 2] if dim > 2 else 0, -b, b, -b, b, -b, b, nc, dim, periodic,
+                           False, False)
+        for u in range(ng):
+            j = GB[u]
+            if j > i:
+                d2 = 0.0
+                for d in range(dim):
+                    dx = pos[i, d] - pos[j, d]
                     if periodic:
-                        c0, c1, c2 = c0 % ncell, c1 % ncell, c2 % ncell
-                    elif c0 < 0 or c0 >= ncell or c1 < 0 or c1 >= ncell or c2 < 0 or c2 >= ncell:
-                        continue
-                    k = c0
-                    if dim > 1:
-                        k = k * ncell + c1
-                    if dim > 2:
-                        k = k * ncell + c2
-                    j = head[k]
-                    while j >= 0:
-                        if j > i:
-                            d2 = 0.0
-                            for d in range(dim):
-                                dx = pos[i, d] - pos[j, d]
-                                if periodic:
-                                    dx -= length * np.rint(dx / length)
-                                d2 += dx * dx
-                            s = (radii[i] + radii[j]) * (1.0 - 1e-9)
-                            if d2 < s * s:
-                                return i
-                        j = nxt[j]
+                        dx -= length * np.rint(dx / length)
+                    d2 += dx * dx
+                s = (radii[i] + radii[j]) * (1.0 - 1e-9)
+                if d2 < s * s:
+                    return i
     return -1
+
+
+def _cell_table(P, I, nc: int, a: float, dim: int) -> np.ndarray:
+    """The engine's cell table (:mod:`.engine.neighbours.cells`) of the centres P[:, :dim]:
+    cells of side a, nc an axis, each particle's cell in I; wide enough for the fullest."""
+    cap = GATHER_SLOTS
+    while True:
+        cells = np.zeros((nc ** dim, _cell_width(cap)), dtype=np.int32)
+        if _assign_cells(P, I, cells, nc, a, dim) == DONE:
+            return cells
+        cap *= 2
 
 
 def first_overlap(positions: np.ndarray, radii: np.ndarray, length: float,
                   periodic: bool = False) -> int:
-    """Index of a particle that overlaps another (beyond 1e-9 relative), or -1; O(N)."""
+    """Index of a particle that overlaps another (beyond 1e-9 relative), or -1; O(N) (1D: the
+    rods in line order, O(N log N))."""
     positions = np.ascontiguousarray(positions, dtype=np.float64)
+    radii = np.ascontiguousarray(radii, dtype=np.float64)
     n, dim = positions.shape
     if n < 2:
         return -1
+    if dim == 1:
+        # rods that overlap nobody next to them in line order overlap nobody
+        order = np.argsort(positions[:, 0], kind="stable")
+        x, r = positions[order, 0], radii[order]
+        gap = np.diff(x, append=x[0] + length if periodic else np.inf)
+        bad = np.flatnonzero(gap < (r + np.roll(r, -1)) * (1.0 - 1e-9))
+        return int(order[bad[0]]) if bad.size else -1
     rmax = float(np.max(radii))
     by_size = int(length / (2.0 * rmax)) if rmax > 0 else n
-    ncell = max(1, min(by_size, int(math.ceil(n ** (1.0 / dim)))))
-    if periodic and ncell < 3:
-        ncell = 1
-    head = -np.ones(ncell ** dim, dtype=np.int64)
-    nxt = -np.ones(n, dtype=np.int64)
-    return int(_first_overlap(positions, np.ascontiguousarray(radii, dtype=np.float64), float(length),
-                              bool(periodic), ncell, head, nxt))
+    nc = max(1, min(by_size, int(math.ceil(n ** (1.0 / dim)))))
+    if periodic and nc < 3:
+        nc = 1
+    I = np.zeros((n, I_WIDTH), dtype=np.int32)
+    cells = _cell_table(positions, I, nc, length / nc, dim)
+    room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
+    return int(_first_overlap(positions, radii, float(length), bool(periodic), I, cells,
+                              np.empty(room, dtype=np.int32), np.empty(room, dtype=np.int32), nc))
 
 
 def rapid_1d(radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -214,6 +212,9 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
 
     ``cell`` (3,) int64 and ``x`` (D,) are scratch (a kernel that allocates
     makes Numba import its array-allocation modules at every start, ~10 ms).
+    Its cells are linked lists of its own (``head``, ``nxt``), not the engine's table: this
+    kernel also runs interpreted (INTERPRETED_MAX), where the engine's compiled helpers
+    would load compiled code, and in 1D; a list takes any number of particles a cell.
     Returns (placed, consumed, status): status 0 done, 1 candidates exhausted,
     2 a particle failed ``max_tries`` times in a row.
     """
@@ -682,12 +683,7 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     I = np.zeros((n, I_WIDTH), dtype=np.int32)
     edges = np.arange(nc + 1) * (Ls / nc)
     edges[nc] = Ls
-    cap = GATHER_SLOTS
-    while True:
-        cells = np.zeros((nc ** dim, _cell_width(cap)), dtype=np.int32)
-        if _assign_cells(P, I, cells, nc, Ls / nc, dim) == DONE:
-            break
-        cap *= 2
+    cells = _cell_table(P, I, nc, Ls / nc, dim)
     room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
     budget = max_events if max_events is not None else 4000 * n + 1_000_000
     status, f, events = _ls_grow(P, I, cells, np.empty(room, dtype=np.int32),

@@ -17,7 +17,7 @@ from gaz_cli import engine
 from gaz_cli.constants import K_B
 from gaz_cli.engine import driver, sizing
 from gaz_cli.engine.interactions import pair_reach
-from gaz_cli.engine.neighbours import classes
+from gaz_cli.engine.neighbours import ball, classes
 from gaz_cli.recording import MemoryRecorder, Recorder
 from gaz_cli.scene import Scene, initial_state
 from gaz_cli.species import Species
@@ -109,10 +109,10 @@ def test_a_small_and_a_large_particle_in_contact_are_adjacent(dim, rng):
     cs = np.floor(xs / a).astype(np.int64)
     cl = np.floor((xs + u) / a).astype(np.int64)
     for c1, c2 in zip(cs, cl):
-        s = sum(classes._far(int(o)) for o in c2 - c1)
+        s = sum(ball._far(int(o)) for o in c2 - c1)
         assert s <= mx.rint, (c1, c2, mx)
     # and the ball is no wider than needed: a pair two ball widths apart is not adjacent
-    assert classes._far(2 * mx.bcl) > mx.rint
+    assert ball._far(2 * mx.bcl) > mx.rint
 
 
 @pytest.mark.parametrize("dim, boundary", list(MIXTURES))
@@ -192,7 +192,7 @@ def test_the_counts_of_large_particles_near_follow_their_crossings(dim, boundary
     assert stats.extras["size_classes"] and stats.extras["cell_crossings"] > 1000
     kept = sim.CV.copy()
     mx = sim.mix
-    classes._cover_fill(sim.P, sim.I, sim.CV, mx.nc, mx.bcl, mx.rint, mx.rcut, dim,
+    ball._cover_fill(sim.P, sim.I, sim.CV, mx.nc, mx.bcl, mx.rint, mx.rcut, dim,
                         boundary == "periodic")
     assert kept.sum() > 0
     np.testing.assert_array_equal(kept, sim.CV)

@@ -124,3 +124,42 @@ def test_growth_that_jams_reports_instead_of_hanging():
     r = np.full(300, 0.5)
     with pytest.raises(PlacementError, match="jammed"):
         placement.grow(3, r, box_for(3, 300, 0.5, 0.5), np.random.default_rng(1), max_events=1000)
+
+
+def _overlapping(x, radii, length, periodic):
+    """The particles that overlap another beyond 1e-9 relative: every pair's distance (N^2)."""
+    d = x[:, None, :] - x[None, :, :]
+    if periodic:
+        d -= length * np.rint(d / length)
+    s = (radii[:, None] + radii[None, :]) * (1.0 - 1e-9)
+    hit = np.sum(d * d, axis=2) < s * s
+    np.fill_diagonal(hit, False)
+    return np.flatnonzero(hit.any(axis=1))
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("periodic", [False, True])
+def test_first_overlap_finds_an_overlap_exactly_when_every_pair_does(dim, periodic):
+    """first_overlap (the engine's cells; in 1D the line order) against every pair: -1 when no
+    pair overlaps, else a particle that overlaps. Configurations valid or not: lattices and
+    random placements jiggled by a random fraction of a diameter, of mixed radii, with boxes
+    of one cell to many, an overlap across a periodic face included."""
+    rng = np.random.default_rng(11)
+    found = clean = 0
+    for n, length in [(3, 1.0), (40, 1.0), (300, 1.0), (300, 3.0)]:
+        for method in ("lattice", "rejection"):
+            radii = rng.uniform(0.5, 1.0, n) * 0.3 * length / n ** (1.0 / dim)
+            x = placement.place(dim, radii, length, rng, method, periodic)
+            for jiggle in (0.0, 0.05, 0.5, 1.0):
+                y = x + jiggle * radii.max() * rng.standard_normal(x.shape)
+                y = np.mod(y, length) if periodic else np.clip(y, 0.0, length)
+                k = placement.first_overlap(y, radii, length, periodic)
+                bad = _overlapping(y, radii, length, periodic)
+                assert (k in bad) if bad.size else k == -1, (n, length, method, jiggle, k, bad)
+                found += bad.size > 0
+                clean += bad.size == 0
+    # across a periodic face, or against the far wall's neighbour
+    x = np.full((2, dim), 0.5)
+    x[0, 0], x[1, 0] = 0.001, 0.999
+    assert (placement.first_overlap(x, np.full(2, 0.002), 1.0, periodic) >= 0) == periodic
+    assert found >= 10 and clean >= 10, (found, clean)

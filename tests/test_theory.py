@@ -250,22 +250,25 @@ def _moment(pdf, power, scale):
     return quad(lambda v: v ** power * pdf(v), 0.0, 40.0 * scale, epsabs=0.0, epsrel=1e-11, limit=200)[0]
 
 
-def _assert_moments(pdf, scale, mean, mean_square):
-    """pdf integrates to 1, with the stated mean and mean square (quadrature to 1e-11)."""
+def _assert_argon_moments(pdf_of, dim, mean, mean_square):
+    """The speed pdf ``pdf_of(dim, v, T, m)`` of argon at room temperature integrates to 1,
+    with the stated mean and mean square (quadrature to 1e-11); returns it as a function of v."""
+    def pdf(v):
+        return pdf_of(dim, v, T_ROOM, ARGON_MASS)
+
+    scale = math.sqrt(K_B * T_ROOM / ARGON_MASS)
     assert _moment(pdf, 0, scale) == approx(1.0, rel=1e-9)
     assert _moment(pdf, 1, scale) == approx(mean, rel=1e-9)
     assert _moment(pdf, 2, scale) == approx(mean_square, rel=1e-9)
+    return pdf
 
 
 @pytest.mark.parametrize("dim", [1, 2, 3])
 def test_speed_pdf_normalised_with_stated_moments(dim):
     m, t = ARGON_MASS, T_ROOM
     scale = math.sqrt(K_B * t / m)
-
-    def pdf(v):
-        return th.speed_pdf(dim, v, t, m)
-
-    _assert_moments(pdf, scale, th.mean_speed(dim, t, m), th.rms_speed(dim, t, m) ** 2)
+    pdf = _assert_argon_moments(th.speed_pdf, dim, th.mean_speed(dim, t, m),
+                                th.rms_speed(dim, t, m) ** 2)
     assert th.rms_speed(dim, t, m) == approx(math.sqrt(dim) * scale, rel=1e-14)
     vp = th.most_probable_speed(dim, t, m)
     if dim > 1:
@@ -278,13 +281,9 @@ def test_speed_pdf_normalised_with_stated_moments(dim):
 @pytest.mark.parametrize("dim", [1, 2, 3])
 def test_wall_hit_speed_pdf_normalised_with_stated_moments(dim):
     m, t = ARGON_MASS, T_ROOM
-    scale = math.sqrt(K_B * t / m)
-
-    def pdf(v):
-        return th.wall_hit_speed_pdf(dim, v, t, m)
-
     # mean kinetic energy of hitting particles: (D + 1) kT / 2
-    _assert_moments(pdf, scale, th.wall_hit_mean_speed(dim, t, m), (dim + 1) * K_B * t / m)
+    _assert_argon_moments(th.wall_hit_speed_pdf, dim, th.wall_hit_mean_speed(dim, t, m),
+                          (dim + 1) * K_B * t / m)
 
 
 # physics.md section 6, mean speeds in units of sqrt(kT/m)

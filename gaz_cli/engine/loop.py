@@ -61,8 +61,8 @@ from gaz_cli.engine.layout import (BUFFER_FULL, C0, CELL, CELL_FULL, CNT, CODE, 
                                    NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, TCOL, TX)
 from gaz_cli.engine.neighbours.cells import (_block_entered, _cell_entered, _cell_of,
                                              _cross_face, _gather_cells, _predict_pairs)
-from gaz_cli.engine.neighbours.classes import (_cross_face_classes, _gather_classes,
-                                               _room_to_cross)
+from gaz_cli.engine.neighbours.classes_events import (_cross_face_classes, _gather_classes,
+                                                      _room_to_cross)
 from gaz_cli.engine.neighbours.dilute import _mirror, _mirror_all, _predict_all
 from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
 from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second

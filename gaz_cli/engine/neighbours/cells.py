@@ -164,6 +164,12 @@ def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, PP, D,
 
 
 # --- kernels that need no specialisation --------------------------------------
+@_inline
+def _coord(x, a, nc):
+    """The cell coordinate, clamped to 0..nc-1, of the coordinate x (m) in cells of side a."""
+    return min(max(int(math.floor(x / a)), 0), nc - 1)
+
+
 @njit
 def _assign_cells(P, I, cells, nc, a, D):
     """Put every particle in its cell (cells of side a, nc per axis). Status CELL_FULL if a cell overflows."""
@@ -173,11 +179,7 @@ def _assign_cells(P, I, cells, nc, a, D):
     for k in range(n):
         cell = 0
         for d in range(D):
-            c = int(math.floor(P[k, d] / a))
-            if c < 0:
-                c = 0
-            elif c >= nc:
-                c = nc - 1
+            c = _coord(P[k, d], a, nc)
             I[k, C0 + d] = c
             cell = cell * nc + c
         if not _put(I, cells, k, cell, cap):
