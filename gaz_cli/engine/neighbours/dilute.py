@@ -50,14 +50,19 @@ infinite at rest) keeps every particle. The tests' adversarial cases are in
 tests/test_engine_dilute.py (grazing pairs, contacts just inside the horizon, coordinates
 at the walls, boxes 10^4 diameters wide, tiny SI radii).
 
-**Measured** (README example, 1000 argon atoms, 10 ns, 240 million particles scanned for
-210 thousand queue events; CPU time, shared 2-core host): the rejection pass was ~75 % of
-the engine's time in float64 (1.3-1.5 ns a particle, 4 lanes); in float32 8 lanes wide. Kept:
-the float32 pass; its verdict as an or (an int64 count of survivors held LLVM to 4 lanes);
-the particle itself moved out of reach during its own pass (within reach of itself, it
-made every scan run the second pass). The exact roots went from 1.16 to 0.18 per scan
-(pair_tests 101 to 43 thousand... see the commit). Not done: one fused pass for both
-particles of a collision (collisions are 14 % of the scans: at most ~7 % of the time).
+**Measured** (README example, 1000 argon atoms, 10 ns: 210 thousand queue events, 240
+thousand scans of all 1000 particles; CPU time on the shared 2-core host, load 6-15): in
+float64 the rejection pass took 1.3-1.5 ns a particle, about 75 % of the engine's 0.41 s
+(the rest, ~480 ns a queue event: the queue, the mirror, the exact roots). Float32, 8
+lanes: the engine takes 0.33 s against 0.45 s (medians of 7 alternating runs), 3.43x
+faster than 8b6e7d9 (pairs 2.39-3.69). Kept: the float32 pass; its verdict as an or (an
+int64 count of the survivors held LLVM to 4 lanes: 1.8 ns a particle, slower than
+float64); the particle itself out of reach during its own pass (within reach of itself,
+it made every scan run the second pass: 0.44-0.60 s in 6 runs, no faster than float64);
+a pair within reach kept only when not surely receding (a collision's partner is
+receding). The exact roots (pair_tests): 43 thousand, 0.18 a scan. Not tried: one fused
+pass for both particles of a collision (a quarter of the scans; it would save the second
+read of XS, not the arithmetic).
 
 Chosen by :func:`.sizing.use_dilute_scan` (a cost model of both searches); scenes with
 gravity or a periodic box keep cells.
