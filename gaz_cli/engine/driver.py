@@ -88,7 +88,10 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     them), snapshots every ``recorder.snapshot_every`` s to
     ``recorder.add_snapshot``. Returns :class:`RunStats`: ``events`` counts
     the physical events (collisions + wall bounces); ``extras`` holds the cell
-    crossings, stale predictions, compile and set-up times.
+    crossings, stale predictions, compile and set-up times, ``pair_tests`` (pair times
+    computed exactly, on every search path: cells, lists, the dilute scan's survivors)
+    and ``dilute_scanned`` (particles the dilute scan's rejection pass went through; 0 on
+    the other paths); ``--json`` prints them.
 
     ``scene.extras`` may hold 'neighbours' ('auto', 'cells' or 'lists') and
     'skin' (neighbour-list skin in largest diameters) for benchmarks.
@@ -215,7 +218,7 @@ class _Simulation(Rows):
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
-                   self.BH, self.cells, self.GB, self.GS, self.XS, self.NB, self.NN, self.SCR,
+                   self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.NB, self.NN, self.SCR,
                    self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
                    self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
@@ -383,6 +386,7 @@ class _Simulation(Rows):
             "second_predictions_used": int(st["second"]),
             "queue_events": int(st["events"]),
             "pair_tests": int(st["pairs"]),
+            "dilute_scanned": int(st["scanned"]),
             "calendar_steps": int(st["steps"]),
             "cells_per_axis": self.nc if self.D > 1 else 0,
             "neighbour_lists": self.use_nl,

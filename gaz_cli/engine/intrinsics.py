@@ -109,18 +109,21 @@ def _prefetch_at(typingctx, arr, i, j):
 
 @intrinsic
 def _fma(typingctx, x, y, z):
-    """x * y + z rounded once (LLVM's llvm.fma.f64: the FMA instruction where the CPU has one,
-    a correctly rounded library call where it does not)."""
+    """x * y + z rounded once (LLVM's llvm.fma: the FMA instruction where the CPU has one,
+    a correctly rounded library call where it does not); in float32 when all three are
+    float32 (llvm.fma.f32), in float64 otherwise."""
     if not all(isinstance(a, types.Float) for a in (x, y, z)):
         return None
+    single = all(a == types.float32 for a in (x, y, z))
+    ty = types.float32 if single else types.float64
 
     def codegen(context, builder, sig, args):
-        f64 = ir.DoubleType()
-        vals = [context.cast(builder, v, t, types.float64) for v, t in zip(args, sig.args)]
-        fn = builder.module.declare_intrinsic("llvm.fma", [f64], ir.FunctionType(f64, [f64] * 3))
+        f = ir.FloatType() if single else ir.DoubleType()
+        vals = [context.cast(builder, v, t, ty) for v, t in zip(args, sig.args)]
+        fn = builder.module.declare_intrinsic("llvm.fma", [f], ir.FunctionType(f, [f] * 3))
         return builder.call(fn, vals)
 
-    return types.float64(types.float64, types.float64, types.float64), codegen
+    return ty(ty, ty, ty), codegen
 
 
 @functools.lru_cache(maxsize=None)

@@ -42,10 +42,11 @@ STATE = np.dtype([
     # calendar: current bucket, heap size, overflow list's head, buckets
     ("cur", np.int64), ("hsize", np.int64), ("ohead", np.int64), ("nbk", np.int64),
     # counts: queue events, collisions, wall bounces, cell crossings, stale predictions,
-    # list rebuilds, calendar steps, second predictions used, overlapping collisions, pair times
+    # list rebuilds, calendar steps, second predictions used, overlapping collisions, pair times,
+    # particles the dilute scans' rejection pass went through
     ("events", np.int64), ("coll", np.int64), ("bounce", np.int64), ("cross", np.int64),
     ("stale", np.int64), ("rebuild", np.int64), ("steps", np.int64), ("second", np.int64),
-    ("overlap", np.int64), ("pairs", np.int64),
+    ("overlap", np.int64), ("pairs", np.int64), ("scanned", np.int64),
     # record buffers: rows held (bounces, collisions), room, whether each is recorded
     ("nbb", np.int64), ("ncb", np.int64), ("bufcap", np.int64), ("recb", np.int64),
     ("recc", np.int64),
@@ -86,7 +87,8 @@ Tables = namedtuple("Tables", [
     #   calendar links (N, 4)
     "HK", "HI", "BH",  # calendar: heap keys and particles, bucket heads
     "cells", "GB", "GS",  # cell table, a scan's gathered particles and their image shifts
-    "XS",  # dilute scans: the rows as structure of arrays (neighbours.dilute)
+    "XS", "XC",  # dilute scans: the rows as float32 structure of arrays, its units
+    #   (neighbours.dilute)
     "NB", "NN", "SCR",  # neighbour lists (N, width), their lengths, a rebuild's scratch
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|

@@ -141,6 +141,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         I, EV, Q = _borrow(T.I), _borrow(T.EV), _borrow(T.Q)
         HK, HI, BH = _borrow(T.HK), _borrow(T.HI), _borrow(T.BH)
         cells, GB, GS, XS = _borrow(T.cells), _borrow(T.GB), _borrow(T.GS), _borrow(T.XS)
+        XC = _borrow(T.XC)
         NB, NN, SCR = _borrow(T.NB), _borrow(T.NN), _borrow(T.SCR)
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
@@ -161,6 +162,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         n_coll = n_bounce = n_cross = n_stale = n_steps = n_rebuild = n_second = 0
         n_overlap = 0
         n_pairs = 0  # pair times computed (the work of the scans)
+        n_scanned = 0  # particles the dilute scans' rejection pass went through
         done = 0
         predicting = max_events < 0
         pk = 0
@@ -180,7 +182,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if pk >= n:
                     break
                 if DIL and pk == 0:
-                    _mirror_all(P, XS, n)
+                    _mirror_all(P, XS, XC, n, t_stop, L)
                 k = pk
                 pk += 1
                 t = t_stop
@@ -289,9 +291,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             if DIL and not predicting:
-                _mirror(P, XS, k)  # what the event changed, for the scans below
+                _mirror(P, XS, XC, k)  # what the event changed, for the scans below
                 if j >= 0:
-                    _mirror(P, XS, j)
+                    _mirror(P, XS, XC, j)
 
             # --- predict and push, in steps: a gather of a side's cells, then the
             # rest for that side. Large systems (pf) gather both sides first (a
@@ -335,8 +337,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     n_pairs += _next_partner(P, I, EV, NB, NN, order, p, t, n, L, hl, g, nc, PP, D,
                                              PER, GRAV, pf)
                 if DIL and rescan:
-                    _predict_all(P, I, EV, XS, p, t, n, g, PP, D, GRAV)
-                    n_pairs += n
+                    n_pairs += _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV)
+                    n_scanned += n
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
                     _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, PP, D, PER,
@@ -361,6 +363,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         st.second += n_second
         st.overlap += n_overlap
         st.pairs += n_pairs
+        st.scanned += n_scanned
         st.virial = virial
         st.tnow = tnow
         return status

@@ -17,7 +17,7 @@ from gaz_cli.engine.layout import (DONE, EV_WIDTH, GATHER_SLOTS, I_WIDTH, NONE, 
 from gaz_cli.engine.memory import _alloc, _morton
 from gaz_cli.engine.neighbours import classes
 from gaz_cli.engine.neighbours.cells import _assign_cells, wider
-from gaz_cli.engine.neighbours.dilute import XS_ROWS
+from gaz_cli.engine.neighbours.dilute import XC_SIZE, XS_ROWS
 from gaz_cli.engine.neighbours.lists import _build_nl
 from gaz_cli.errors import EngineError
 
@@ -90,7 +90,8 @@ class Rows:
         else:
             self.cells = np.zeros((1, GATHER_SLOTS + 1), dtype=np.int32)
         self._gather_buffers()
-        self.XS = _alloc((XS_ROWS, n if self.dilute else 1), fill=0.0)  # filled by the loop
+        self.XS = _alloc((XS_ROWS, n if self.dilute else 1), np.float32, fill=0.0)  # filled by
+        self.XC = np.zeros(XC_SIZE)  # the loop
         if self.use_nl:
             while True:
                 self.NB = _alloc((n, self.nb_width), np.int32)

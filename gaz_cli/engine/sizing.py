@@ -76,11 +76,18 @@ def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravi
     return dilute_scan_pays(D, n, L, sigma)
 
 
-DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0044}
+DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0025}
 """Relative CPU cost of a queue event (pop, apply, next wall or face, push), of a pair test
-in a cell scan, and of a particle in the dilute scan's rejection pass (vectorised); fitted
-on the README example (3D, N = 1000) run with 1 to 13 cells an axis and with the dilute
-scan (CPU time, shared host): 466 ns, 12.4 ns, 2.0 ns."""
+in a cell scan, and of a particle in the dilute scan's rejection pass (vectorised); event
+and pair fitted on the README example (3D, N = 1000) run with 1 to 13 cells an axis (CPU
+time, shared host): 466 ns, 12.4 ns. 'scanned' refitted for the float32 pass (about
+0.75 ns a particle on the README example, 0.0016): the one value that best fits (least
+squares in log) the measured cost ratios cells / dilute, both forced, argon 3D at the
+README's density (N = 1000, 4000, 10^4: 4.0, 1.79, 1.22) and at scene (b)'s, packing 0.01
+(N = 2000, 4000, 10^4: 0.75, 0.36, 0.30); the model then puts the crossover at N = 7000 at
+the README's density (measured: above 10^4) and N = 2150 at scene (b)'s
+(measured: below 2000), rms error of the ratios 0.33 in log. The model's cells term is the
+one to refine (it overrates cells at the lower density, underrates them at the higher)."""
 
 
 def dilute_scan_pays(D: int, n: int, L: float, sigma: float) -> bool:
