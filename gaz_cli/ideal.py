@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.recording import Recorder, RunStats, hand_snapshot
 from gaz_cli.scene import Scene, State
 
 CHUNK = 1 << 16
@@ -74,7 +74,7 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
         for k in range(kmax + 1):
             t = min(k * every, duration)
             x, v = flights.state_at(t)
-            recorder.add_snapshot(start_time + t, x, v)
+            hand_snapshot(recorder, start_time + t, x, v, flights.images_at(t, x))
     x, v = flights.state_at(duration)
     final = State(x, v, np.asarray(state.kinds).copy())
     return RunStats(events=bounces, wall_bounces=bounces, collisions=0,
@@ -133,6 +133,13 @@ class _Flights:
         wall = sign * (axis + 1)
         return (t, particle.astype(np.int64), wall.astype(np.int64), self.speed[particle],
                 np.abs(self.v.ravel()[flat]))
+
+    def images_at(self, t: float, x: np.ndarray) -> np.ndarray | None:
+        """Periodic box: the box crossings (N, D) int64 that take the unwrapped position at
+        t, x0 + v t, to the wrapped one x (:meth:`state_at`); None with walls."""
+        if not self.periodic:
+            return None
+        return np.rint((self.u + self.v * t + self.radius - x) / self.length).astype(np.int64)
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Positions and velocities at time t (a fresh pair of (N, D) arrays)."""

@@ -31,6 +31,9 @@ class Recorder:
     want_collisions = False
     snapshot_every: float | None = None
     """Simulated seconds between snapshots (trajectory output); None for none."""
+    want_images = False
+    """Whether ``add_snapshot`` takes ``images=`` (periodic box crossings; see
+    :func:`hand_snapshot`)."""
 
     def add_bounces(self, t: np.ndarray, particle: np.ndarray, wall: np.ndarray,
                     speed: np.ndarray, vperp: np.ndarray) -> None:
@@ -49,10 +52,14 @@ class Recorder:
         float64, |momentum| transferred, kg m/s.
         """
 
-    def add_snapshot(self, t: float, positions: np.ndarray, velocities: np.ndarray) -> None:
+    def add_snapshot(self, t: float, positions: np.ndarray, velocities: np.ndarray,
+                     images: np.ndarray | None = None) -> None:
         """The whole state at simulated time t = k * snapshot_every (k = 0, 1, ...).
 
-        positions, velocities (N, D) float64; the recorder copies what it keeps.
+        positions, velocities (N, D) float64; the recorder copies what it keeps. images
+        (N, D) int64, given to a recorder that wants them (``want_images``) in a periodic
+        box: each particle's box crossings since the start along each axis, counted by the
+        engine (positions + images L is the unwrapped position); None otherwise.
         """
 
     def diagnostic(self, values: dict) -> None:
@@ -66,6 +73,16 @@ class Recorder:
         """The run reached simulated time t (s) after ``events`` events (wall bounces and
         collisions so far). Called once the kernels are compiled (t = the start), then
         after each kernel call (gaz_cli.progress draws a bar from it)."""
+
+
+def hand_snapshot(recorder: Recorder, t: float, positions: np.ndarray, velocities: np.ndarray,
+                  images: np.ndarray | None) -> None:
+    """An engine's snapshot to ``recorder``, with the images if it has them and the recorder
+    wants them (a recorder written before images keeps its three arguments)."""
+    if images is not None and getattr(recorder, "want_images", False):
+        recorder.add_snapshot(t, positions, velocities, images=images)
+    else:
+        recorder.add_snapshot(t, positions, velocities)
 
 
 class RunStore:

@@ -24,7 +24,7 @@ import numpy as np
 
 from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
-from gaz_cli.recording import MemoryRecorder, Recorder, RunStats
+from gaz_cli.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
 
 from gaz_cli.engines import engine_run
@@ -38,6 +38,7 @@ class Tee(Recorder):
         self.want_bounces = any(r.want_bounces for r in self.recorders)
         self.want_collisions = any(r.want_collisions for r in self.recorders)
         self.wants_progress = any(r.wants_progress for r in self.recorders)
+        self.want_images = any(getattr(r, "want_images", False) for r in self.recorders)
         everies = [r.snapshot_every for r in self.recorders if r.snapshot_every]
         self.snapshot_every = min(everies) if everies else None
 
@@ -53,11 +54,11 @@ class Tee(Recorder):
             if r.want_collisions:
                 r.add_collisions(*arrays)
 
-    def add_snapshot(self, t, positions, velocities):
+    def add_snapshot(self, t, positions, velocities, images=None):
         interrupts.check()
         for r in self.recorders:
             if r.snapshot_every:
-                r.add_snapshot(t, positions, velocities)
+                hand_snapshot(r, t, positions, velocities, images)
 
     def diagnostic(self, values):
         interrupts.check()

@@ -109,6 +109,13 @@ class Scene:
     (random sequential addition in the upper half of the box along the last axis, velocity
     components normal with standard deviation s m/s, the marbles of seed 002)."""
     extras: dict = field(default_factory=dict, compare=False)
+    """Settings beside the physics. What a caller may set: how the event engine searches for
+    partners (:data:`SEARCH`: 'neighbours', 'skin', 'classes'). Every search is exact, but
+    each rounds differently and a gas is chaotic: with the same seed, cells and neighbour
+    lists give the same numbers of events and different rows (times, speeds in the last
+    digits, then the events themselves), so the scene file keeps the ones set (its
+    ``[search]`` table) and reproduces the run. What :func:`validate` adds
+    ('engine_reason', 'engine_auto') is derived and not stored."""
 
     # --- derived quantities -------------------------------------------------
     @property
@@ -220,6 +227,28 @@ def _one_of(name: str, value, allowed) -> None:
         raise field_error(f"`{name}` {value!r} is not one of {', '.join(allowed)}")
 
 
+SEARCH = {
+    "neighbours": ("auto", "cells", "lists", "dilute"),
+    "classes": ("auto", "off"),
+    "skin": "neighbour-list skin, in largest diameters, > 0",
+}
+"""The event engine's search settings a scene may hold in ``extras`` (absent: 'auto' and
+:data:`gaz_cli.engine.sizing.NEIGHBOUR_SKIN`): cell lists, neighbour lists or, with walls,
+the dilute scan of every particle; size classes or one cell grid; the lists' skin."""
+
+
+def _check_search(extras: dict) -> None:
+    for key, allowed in SEARCH.items():
+        if key not in extras:
+            continue
+        value = extras[key]
+        if key == "skin":
+            if not _real("skin", value) or not math.isfinite(value) or value <= 0:
+                raise field_error(f"`skin` {value!r} must be a positive number ({allowed})")
+        else:
+            _one_of(key, value, allowed)
+
+
 def validate(scene: Scene) -> Scene:
     """Check everything a scene holds; raise :class:`SceneError` naming the field, the value,
     the allowed range and the fix. The one door: the CLI, scene files, presets and Python
@@ -228,7 +257,8 @@ def validate(scene: Scene) -> Scene:
     In order: dimension, engine, placement; counts, species, box, duration, temperature;
     boundary, recording, restitutions, gravity, seed, tc; the step engine's options (dt,
     drag, pair_gravity, softening, wall_restitution, planes, print_every: checked with
-    ``engine = "step"``, refused with any other engine, where they would be ignored); what the
+    ``engine = "step"``, refused with any other engine, where they would be ignored); the
+    event engine's search settings in ``extras`` (:data:`SEARCH`); what the
     reference engine handles; the initial state; the magnitudes double precision carries
     (:func:`check_magnitudes`); packing fraction below close packing; the memory the run
     needs (:func:`memory_needed`); unless ``scene.force``, the run's work
@@ -278,6 +308,7 @@ def validate(scene: Scene) -> Scene:
         raise field_error(f"`force` {scene.force!r} is not true or false")
     scene = _resolve_engine(scene)
     _check_engine_options(scene)
+    _check_search(scene.extras)
     _check_initial(scene)
     check_magnitudes(scene)
     eta = scene.packing_fraction

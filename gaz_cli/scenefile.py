@@ -13,8 +13,14 @@ A scene file holds everything ``gaz simulate`` takes (docs/scenes.md)::
 
 Top-level keys are the fields of :class:`gaz_cli.scene.Scene`; ``[[species]]`` (name,
 count, and mass and radius for a custom species), ``[[planes]]`` (point, normal,
-restitution), ``[initial]`` (an explicit or preset initial state) and ``[output]`` (db,
-trajectory, every, save_state) are tables. Reading checks the keys and their types
+restitution), ``[initial]`` (an explicit or preset initial state), ``[search]`` (the event
+engine's partner search: neighbours, skin, classes; :data:`gaz_cli.scene.SEARCH`, kept in
+``Scene.extras``) and ``[output]`` (db, trajectory, every, save_state) are tables.
+
+A stored run's scene file (SCENE.SC_FILE, :func:`dumps`) runs it again with the same rows:
+every field, the seed, and the search settings the run was given (each search is exact but
+rounds its own way, and a gas is chaotic: the rows differ between them); not what the run
+derived (``engine_reason``). Reading checks the keys and their types
 (unknown key, wrong type: one line naming the key, the value and what is allowed), then
 builds the scene and passes it through :func:`gaz_cli.scene.validate`, the one door.
 
@@ -37,7 +43,7 @@ from pathlib import Path
 from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import packing_fraction
-from gaz_cli.scene import Scene, default_tc, field_error, validate
+from gaz_cli.scene import SEARCH, Scene, default_tc, field_error, validate
 from gaz_cli.species import BUILTIN, Species, lookup
 
 REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
@@ -68,7 +74,8 @@ SCALARS = {
 SPECIES_KEYS = {"name": STR, "count": INT, "mass": REAL, "radius": REAL}
 PLANE_KEYS = {"point": "an array of numbers", "normal": "an array of numbers", "restitution": REAL}
 OUTPUT_KEYS = {"db": STR, "trajectory": STR, "every": REAL, "save_state": STR}
-TABLES = ("species", "planes", "initial", "output")
+SEARCH_KEYS = {key: (REAL if key == "skin" else STR) for key in SEARCH}
+TABLES = ("species", "planes", "initial", "search", "output")
 STEP_KEYS = ("dt", "drag", "pair_gravity", "softening", "wall_restitution", "print_every")
 
 
@@ -135,6 +142,8 @@ def check(doc: dict, where: str = "") -> None:
             raise SceneError(f"{where}{key} must be a table ([{key}])")
         elif key == "output":
             _check_keys(value, OUTPUT_KEYS, f"{where}output: ")
+        elif key == "search":
+            _check_keys(value, SEARCH_KEYS, f"{where}search: ")
 
 
 def _components(entries: list, where: str) -> tuple:
@@ -183,7 +192,11 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
         if key in values:
             values[key] = float(values[key])
     initial = doc.get("initial")
-    scene = Scene(components=components, planes=planes, initial=dict(initial) if initial else None, **values)
+    search = dict(doc.get("search", {}))
+    if _type_ok(REAL, search.get("skin")):
+        search["skin"] = float(search["skin"])
+    scene = Scene(components=components, planes=planes, initial=dict(initial) if initial else None,
+                  extras=search, **values)
     try:
         scene = validate(scene)
         if "tc" not in doc and scene.restitution < 1.0:
@@ -225,7 +238,8 @@ def to_doc(scene: Scene, outputs: dict | None = None) -> dict:
     """The scene document of ``scene`` (what :func:`build` turns back into the same scene).
 
     The step engine's keys are written only with ``engine = "step"``; a built-in species
-    by its name, a custom one with its mass and radius.
+    by its name, a custom one with its mass and radius; the search settings of ``extras``
+    that were set (:data:`gaz_cli.scene.SEARCH`), not the derived ones.
     """
     doc = {}
     for f in fields(Scene):
@@ -244,6 +258,9 @@ def to_doc(scene: Scene, outputs: dict | None = None) -> dict:
         doc["planes"] = [{"point": list(p), "normal": list(n), "restitution": e} for p, n, e in scene.planes]
     if scene.initial:
         doc["initial"] = {k: (_listed(v) if not isinstance(v, str) else v) for k, v in scene.initial.items()}
+    search = {k: scene.extras[k] for k in SEARCH if k in (scene.extras or {})}
+    if search:
+        doc["search"] = search
     if outputs:
         doc["output"] = {k: v for k, v in outputs.items() if v is not None}
     return doc
@@ -286,7 +303,7 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
     for key in ("species", "planes"):
         for table in doc.get(key, []):
             lines += ["", f"[[{key}]]"] + [f"{k} = {_value(v)}" for k, v in table.items()]
-    for key in ("initial", "output"):
+    for key in ("initial", "search", "output"):
         if key in doc:
             lines += ["", f"[{key}]"] + [f"{k} = {_value(v)}" for k, v in doc[key].items()]
     return "\n".join(lines) + "\n"

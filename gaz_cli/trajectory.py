@@ -34,9 +34,14 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
     asks, except the ``unit`` attributes, variable-length: MDAnalysis 2.11 looks a
     unit up as a Python str and refuses a fixed-length one ("unit 'b'nm'' is not
     recognized"). In a periodic box, positions are wrapped into [0, L) and
-    ``image`` counts the box crossings, inferred between consecutive snapshots by
-    the minimum image (exact while no particle moves more than half a box between
-    two snapshots): position + image * edges is the unwrapped position.
+    ``image`` counts each particle's box crossings since the start along each axis,
+    exactly whatever the snapshot interval: the engines count them where they wrap a
+    particle (the event engine at a cell crossing through a face of the box, at a
+    neighbour-list rebuild and when it reloads its rows; the ideal path from x0 + v t),
+    and hand them to ``add_snapshot(..., images=)``. position + image * edges is the
+    unwrapped position (its mean squared displacement is the particles' own). A caller
+    that hands no images gets them inferred between consecutive snapshots by the minimum
+    image, exact only while no particle moves more than half a box between two.
 
 ``.gsd``
     GSD (HOOMD-blue's format; OVITO, freud and HOOMD read it) through the ``gsd``
@@ -106,6 +111,7 @@ class TrajectoryWriter(Recorder):
 
     want_bounces = False
     want_collisions = False
+    want_images = False
 
     def __init__(self, path: Path, every: float, scene: Scene):
         self.path = Path(path)
@@ -114,19 +120,25 @@ class TrajectoryWriter(Recorder):
         self.count = 0
         self._last_t = -np.inf
 
-    def add_snapshot(self, t, positions, velocities) -> None:
+    def add_snapshot(self, t, positions, velocities, images=None) -> None:
         positions = np.asarray(positions, dtype=np.float64)
         velocities = np.asarray(velocities, dtype=np.float64)
         if positions.shape != (self.scene.n, self.scene.dim) or velocities.shape != positions.shape:
             raise SceneError(f"snapshot of shape {positions.shape}, expected ({self.scene.n}, {self.scene.dim})")
+        if images is not None:
+            images = np.asarray(images)
+            if images.shape != positions.shape:
+                raise SceneError(f"images of shape {images.shape}, expected {positions.shape}")
         if t < self._last_t:
             raise SceneError(f"snapshot at t = {t} s after one at {self._last_t} s: snapshots must come in time order")
         self._last_t = float(t)
         with interrupts.held():  # a snapshot is in the file whole, and counted, or not at all
-            self._write(float(t), positions, velocities)
+            self._write(float(t), positions, velocities, images)
             self.count += 1
 
-    def _write(self, t: float, positions: np.ndarray, velocities: np.ndarray) -> None:
+    def _write(self, t: float, positions: np.ndarray, velocities: np.ndarray,
+               images: np.ndarray | None) -> None:
+        """One snapshot into the file(s); images (N, D) or None (see :meth:`add_snapshot`)."""
         raise NotImplementedError
 
     def close(self) -> None:
@@ -196,6 +208,7 @@ class H5MDWriter(TrajectoryWriter):
         units.attrs["system"] = np.bytes_("SI")
         n, d = scene.n, scene.dim
         self.periodic = scene.boundary == "periodic"
+        self.want_images = self.periodic
         part = f.create_group("particles/all")
         box = part.create_group("box")
         box.attrs["dimension"] = np.int32(d)
@@ -230,13 +243,15 @@ class H5MDWriter(TrajectoryWriter):
             params.attrs[key] = val
         params.attrs["snapshot_every"] = every
 
-    def _write(self, t, positions, velocities):
+    def _write(self, t, positions, velocities, images=None):
         if self.file is None:
             raise SceneError(f"--trajectory {str(self.path)!r} is closed")
         k = self.count
         data = {"position": positions / NM, "velocity": velocities * (PS / NM), "box/edges": self._edges}
         if self.periodic:
-            if self._previous is not None:  # minimum image between consecutive snapshots
+            if images is not None:  # the engine's count
+                self._image = images.astype(np.int32)
+            elif self._previous is not None:  # no count given: the minimum image (module docstring)
                 self._image -= np.rint((positions - self._previous) / self.scene.length).astype(np.int32)
             self._previous = positions.copy()
             data["image"] = self._image
@@ -304,7 +319,7 @@ class GSDWriter(TrajectoryWriter):
         self._diameter = (2.0 * scene.radii() / NM).astype(np.float32)
         self._mass = (scene.masses() / DALTON).astype(np.float32)
 
-    def _write(self, t, positions, velocities):
+    def _write(self, t, positions, velocities, images=None):
         if self.file is None:
             raise SceneError(f"--trajectory {str(self.path)!r} is closed")
         n, d = positions.shape
@@ -384,7 +399,7 @@ class VTKWriter(TrajectoryWriter):
         self._species = scene.kinds().astype(np.int32)
         self._radius = scene.radii()
 
-    def _write(self, t, positions, velocities):
+    def _write(self, t, positions, velocities, images=None):
         import meshio
 
         n, d = positions.shape

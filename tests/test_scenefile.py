@@ -195,6 +195,49 @@ def test_a_stored_event_run_reruns_to_the_same_rows_and_write_scene_agrees(tmp_p
     assert len(_rows(db)) > 10 and _rows(db) == _rows(again)
 
 
+def test_a_run_given_its_search_is_stored_with_it_and_reruns_to_the_same_rows(tmp_path):
+    """Every search is exact but rounds its own way, and a gas is chaotic: the same seed with
+    cells and with the dilute scan (what 'auto' picks for this gas) gives other REBOND rows.
+    The scene file stored with a run (SCENE.SC_FILE) names the search it was given
+    ([search]), not what was derived (engine_reason), and runs again to its rows."""
+    from gaz_cli import api
+
+    keys = dict(dim=2, length=1.0, duration=1.0, temperature=1.0 / 1.380649e-23, seed=5,
+                engine="event")
+    species = [{"name": "X", "count": 200, "mass": 1.0, "radius": 0.005}]
+    cells = api.make_scene(species=species, search={"neighbours": "cells", "skin": 0.5}, **keys)
+    assert cells.extras["neighbours"] == "cells" and cells.extras["skin"] == 0.5
+    db, again, auto = tmp_path / "a.db", tmp_path / "b.db", tmp_path / "c.db"
+    assert not api.simulate(cells, db=str(db)).stats.extras["dilute_scan"]
+    assert api.simulate(api.make_scene(species=species, **keys), db=str(auto)).stats.extras["dilute_scan"]
+    code, stored, err = invoke(["scene", "1", "--db", str(db)])
+    assert code == 0, err
+    assert '[search]\nneighbours = "cells"\nskin = 0.5\n' in stored and "engine_reason" not in stored
+    (tmp_path / "run.toml").write_text(stored)
+    code, out, err = invoke(["simulate", str(tmp_path / "run.toml"), "--db", str(again)])
+    assert code == 0, err
+    assert len(_rows(db)) > 100 and _rows(db) == _rows(again)
+    assert _rows(db) != _rows(auto)  # the search the file names matters
+
+
+@pytest.mark.parametrize("line, words", [
+    ('neighbours = "octree"', ["neighbours 'octree' is not one of auto, cells, lists, dilute"]),
+    ("skin = -0.5", ["skin -0.5 must be a positive number"]),
+    ('classes = "on"', ["classes 'on' is not one of auto, off"]),
+    ('kd = "tree"', ["search: unknown key 'kd'", "allowed: neighbours, classes, skin"]),
+    ("skin = \"wide\"", ["search: skin = 'wide' must be a number"]),
+])
+def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, words):
+    path = tmp_path / "bad.toml"
+    path.write_text("dim = 2\nduration = 1e-10\nlength = 1e-7\n\n[[species]]\nname = \"Ar\"\n"
+                    f"count = 10\n\n[search]\n{line}\n")
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and out == "", err
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
 def test_flags_override_a_scene_file(tmp_path):
     code, out, err = invoke(["simulate", str(EXAMPLES / "mixture.toml"), "--duration", "1e-11",
                              "--temperature", "600", "--seed", "9", "--no-db", "--write-scene",

@@ -320,3 +320,125 @@ def test_a_full_disk_is_one_line_and_exit_1(tiny_disk, tmp_path, name):
         import sqlite3
 
         assert sqlite3.connect(db).execute("SELECT COUNT(*) FROM SIMULATION").fetchone()[0] == 0
+
+
+# --- periodic images: exact whatever the snapshot interval ------------------------------------
+SMALL, BIG = Species("S", 1.0, 0.005), Species("G", 1.0, 0.06)
+
+PERIODIC_SEARCHES = {
+    # name: (dim, components, extras, rebase and restart every few events)
+    "2d cells": (2, ((Species("X", 1.0, 0.01), 60),), {}, False),
+    "3d lists": (3, ((Species("X", 1.0, 0.01), 60),), {"neighbours": "lists"}, False),
+    "2d size classes": (2, ((SMALL, 60), (BIG, 3)), {}, False),
+    # rods keep their order: the ones of a Maxwell start, of no net momentum, stay caged; these
+    # drift together, colliding on the way
+    "1d rods": (1, ((Species("X", 1.0, 0.002), 3),), {}, False),
+    "2d cells, rebased and restarted": (2, ((Species("X", 1.0, 0.01), 60),), {}, True),
+}
+
+
+def periodic_scene(dim, components, extras, **kw) -> Scene:
+    from gaz_cli.constants import K_B
+    from gaz_cli.scene import validate
+
+    if dim == 1:
+        kw["initial"] = {"kind": "explicit", "positions": [[0.1], [0.4], [0.7]],
+                         "velocities": [[3.0], [1.5], [2.5]]}
+
+    # m = 1 kg, k_B T = 1 J, L = 1 m: thermal speeds near 1 m/s, a box crossing in about 1 s
+    return replace(validate(Scene(dim=dim, length=1.0, duration=2.0, components=components,
+                                  temperature=1.0 / K_B, seed=3, boundary="periodic", engine="event",
+                                  record="none", **kw)), extras=extras)
+
+
+def write_run(scene, every, path, run=None):
+    """Run ``scene`` (the event engine unless ``run``) into the H5MD file ``path``; (stats,
+    times, wrapped positions, images, velocities) read back, SI."""
+    import h5py
+
+    from gaz_cli import engine
+    from gaz_cli.scene import initial_state
+
+    with open_trajectory(path, every, scene) as w:
+        stats = (run or engine.run)(scene, initial_state(scene), w)
+    data = read_h5md(path)
+    with h5py.File(path) as f:
+        images = f["particles/all/image/value"][()].astype(np.int64)
+    return stats, data["time"], data["positions"], images, data["velocities"]
+
+
+def fastest_speed_bound(scene) -> float:
+    """sqrt(2 E / m_min): no particle is ever faster (energy conserved, shared by collisions)."""
+    from gaz_cli.scene import initial_state
+
+    v = initial_state(scene).velocities
+    energy = 0.5 * float(np.sum(scene.masses()[:, None] * v ** 2))
+    return float(np.sqrt(2.0 * energy / scene.masses().min()))
+
+
+@pytest.mark.parametrize("search", list(PERIODIC_SEARCHES))
+def test_images_of_sparse_snapshots_are_those_of_a_dense_run(tmp_path, monkeypatch, search):
+    """Snapshots further apart than half a box crossing: the engine's images are exactly those
+    the minimum image infers between the snapshots of a dense run of the same seed (same
+    events), whose interval is short enough for it to be exact: the fastest possible speed,
+    sqrt(2 E / m_min), times the interval is under half the box."""
+    from gaz_cli.engine import driver
+
+    dim, components, extras, churn = PERIODIC_SEARCHES[search]
+    if churn:  # rows reloaded (rebase) and renumbered (restart) every few events per particle
+        monkeypatch.setattr(driver, "REBASE_EVENTS_PER_PARTICLE", 3)
+        monkeypatch.setattr(driver, "RESTART_FROM_N", 1)
+        monkeypatch.setattr(driver, "RESTART_EVERY", 2)
+    scene = periodic_scene(dim, components, extras)
+    dense_every = 0.45 * scene.length / fastest_speed_bound(scene)
+    ratio = int(np.ceil(0.5 / dense_every))
+    dense_every = 0.5 / ratio  # the sparse snapshots (every 0.5 s) fall on dense ones
+    stats, t, x, _, _ = write_run(scene, dense_every, tmp_path / "dense.h5")
+    sparse_stats, ts, xs, images, _ = write_run(scene, 0.5, tmp_path / "sparse.h5")
+    assert sparse_stats.collisions == stats.collisions > 0
+    if churn:
+        assert sparse_stats.extras["rebases"] > 3 and sparse_stats.extras["restarts"] > 3
+    if search == "3d lists":
+        assert sparse_stats.extras["neighbour_lists"]
+    if search == "2d size classes":
+        assert sparse_stats.extras["size_classes"]
+    # the dense run's minimum image, exact there
+    steps = np.diff(x, axis=0)
+    dense_images = np.concatenate([np.zeros((1, *x.shape[1:]), dtype=np.int64),
+                                   -np.cumsum(np.rint(steps / scene.length).astype(np.int64), axis=0)])
+    np.testing.assert_array_equal(t[::ratio], ts)
+    np.testing.assert_array_equal(x[::ratio], xs)  # same events, same positions
+    np.testing.assert_array_equal(images, dense_images[::ratio])
+    # and the sparse interval is one where the minimum image fails: a particle moved more than
+    # half a box between two sparse snapshots
+    unwrapped = xs + images * scene.length
+    assert np.abs(np.diff(unwrapped, axis=0)).max() > 0.5 * scene.length
+    guessed = -np.cumsum(np.rint(np.diff(xs, axis=0) / scene.length).astype(np.int64), axis=0)
+    assert np.any(guessed != images[1:])
+
+
+@pytest.mark.parametrize("path", ["event", "ideal"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_free_particles_mean_squared_displacement_grows_as_v_t_squared(tmp_path, path, dim):
+    """Point particles in a periodic box fly free: each unwrapped displacement (position +
+    image L, from the file) is v t exactly, so the mean squared displacement is <v^2> t^2,
+    with snapshots far enough apart for some particles to cross the whole box between two.
+
+    Tolerance: the unwrapped position is a wrapped one (rounded in the engine's flight, the
+    wrap, the nanometre conversion and back: a few ulp of L) plus an exact image count, and
+    v t is rounded once: 16 eps (L + |v| t) a coordinate."""
+    from gaz_cli import engine, ideal
+
+    scene = periodic_scene(dim, ((Species("P", 1.0, 0.0), 20),), {})
+    stats, t, x, images, v = write_run(scene, 1.0, tmp_path / "free.h5",
+                                       engine.run if path == "event" else ideal.run)
+    assert stats.collisions == 0 and len(t) == 3
+    unwrapped = x + images * scene.length
+    displacement = unwrapped - unwrapped[0]
+    expected = v[0][None] * t[:, None, None]
+    assert np.abs(np.diff(unwrapped, axis=0)).max() > scene.length  # more than a box
+    tol = 16 * np.finfo(float).eps * (scene.length + np.abs(expected))
+    assert np.all(np.abs(displacement - expected) <= tol)
+    msd = np.mean(np.sum(displacement ** 2, axis=2), axis=1)
+    speed2 = np.mean(np.sum(v[0] ** 2, axis=1))
+    np.testing.assert_allclose(msd, speed2 * t ** 2, rtol=1e-12)

@@ -100,13 +100,29 @@ def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL, WIDE=False):
 
 
 @_inline
-def _wrap(P, k, L, D):
-    """Particle k's position wrapped into the periodic box [0, L)^D."""
+def _wrap(P, IM, k, L, D):
+    """Particle k's position wrapped into the periodic box [0, L)^D; the box lengths taken
+    off are added to its images IM[k] (x + IM L stays the unwrapped position)."""
     for a in range(D):
         if P[k, a] < 0.0 or P[k, a] >= L:
-            P[k, a] -= L * math.floor(P[k, a] / L)
+            m = math.floor(P[k, a] / L)
+            P[k, a] -= L * m
             if P[k, a] >= L:
                 P[k, a] = 0.0
+                m += 1.0
+            IM[k, a] += int(m)
+
+
+@_inline
+def _count_wrap(I, IM, k, d, up, nc):
+    """Particle k crossing the face of its cell along axis d (up: the upper one): if that
+    face is the box's, the crossing wraps it (L -> 0 up, 0 -> L down), one image more (up)
+    or less in IM[k, d]. Call before the crossing changes its cell coordinate I[k, C0 + d]."""
+    c = I[k, C0 + d]
+    if up and c == nc - 1:
+        IM[k, d] += 1
+    elif not up and c == 0:
+        IM[k, d] -= 1
 
 
 @_inline

@@ -40,7 +40,7 @@ from gaz_cli.engine.neighbours import classes
 from gaz_cli.engine.rows import Rows
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.progress import EVENTS_PER_REPORT
-from gaz_cli.recording import Recorder, RunStats
+from gaz_cli.recording import Recorder, RunStats, hand_snapshot
 from gaz_cli.scene import Scene, State
 
 BUFFER_ROWS = 1 << 16
@@ -207,7 +207,9 @@ class _Simulation(Rows):
 
         # internal numbering in space order; ident[k] = caller's number of row k
         x = pos.copy()
+        self.images = np.zeros((n, D), dtype=np.int64)  # periodic: wraps before the rows' IM
         if periodic and D > 1 and pairs:
+            self.images = self._box_images(x)
             x = self._wrap(x)
         self.ident = self._space_order(x)
         self.M = _alloc(n, fill=masses[self.ident])
@@ -220,7 +222,7 @@ class _Simulation(Rows):
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
                    self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.NB, self.NN, self.SCR,
                    self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
-                   self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV)
+                   self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV, self.IM)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
 
     def _predict(self, t: float) -> None:
@@ -273,10 +275,11 @@ class _Simulation(Rows):
         self.restarts += 1
 
     def _now(self) -> tuple[float, np.ndarray, np.ndarray]:
-        """(now on the kernels' clock, positions, velocities) in row order, wrapped if periodic."""
+        """(now on the kernels' clock, positions, velocities) in row order, wrapped if periodic
+        (the wraps counted in ``images``: the caller loads these rows afresh)."""
         t = float(self.st["tnow"])
         x, v = self._state_internal(t)
-        return t, (self._wrap(x) if self.periodic else x), v
+        return t, (self._fold_images(x) if self.periodic else x), v
 
     def _rebase(self) -> None:
         """Move the kernels' time origin to now: everybody advanced to now, every prediction
@@ -372,8 +375,8 @@ class _Simulation(Rows):
             self._run_to(start_time + t_stop)
             self._flush()
             if snap:
-                x, v = self.state_at(start_time + t_stop)
-                self.rec.add_snapshot(start_time + t_stop, x, v)
+                x, v, images = self.snapshot_at(start_time + t_stop)
+                hand_snapshot(self.rec, start_time + t_stop, x, v, images)
         x, v = self.state_at(self.t_end)
         t_end = time.perf_counter()
 

@@ -95,6 +95,8 @@ Tables = namedtuple("Tables", [
     "ct", "ci", "cj", "cimp",  # collision buffers: time, particles, impulse
     "CL", "CV",  # size classes: the coarse cell table of the large particles; how many large
     #   particles have each fine cell in their ball
+    "IM",  # periodic box: each row's box crossings per axis (N, 3) int64, counted where the
+    #   loop wraps it (boundaries._wrap, _count_wrap); rows.Rows folds them into images
 ])
 """The event loop's arrays under their names (one argument instead of 30; Numba types it as
 a named tuple of arrays and reads the fields at compile time). The loop's scalars are in

@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import functools
 
-from gaz_cli.engine.boundaries import _bounce, _wrap
+from gaz_cli.engine.boundaries import _bounce, _count_wrap, _wrap
 from gaz_cli.engine.calendar import _heap_remove, _next_bucket, _q_insert, _q_remove
 from gaz_cli.engine.dynamics import _advance
 from gaz_cli.engine.interactions import _collide
@@ -73,13 +73,14 @@ from gaz_cli.numba_config import njit
 
 
 @_inline
-def _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D, PER, GRAV, pf):
-    """Before a list rebuild changes anything: k moved to t (and wrapped), its cell, and its
-    new neighbours gathered into SCR. Returns (their number, or -1 if a list is full; the
-    cell, or -1 if it is full; the cell's coordinates)."""
+def _gather_rebuild(P, XN, I, IM, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D, PER, GRAV,
+                    pf):
+    """Before a list rebuild changes anything: k moved to t (and wrapped, counted in IM), its
+    cell, and its new neighbours gathered into SCR. Returns (their number, or -1 if a list is
+    full; the cell, or -1 if it is full; the cell's coordinates)."""
     _advance(P, k, t, g, D, GRAV)
     if PER:
-        _wrap(P, k, L, D)
+        _wrap(P, IM, k, L, D)
     nn0, nn1, nn2, newcell = _cell_of(P, k, ainv, nc, D)
     if newcell != I[k, CELL] and cells[newcell, 0] >= cells.shape[1] - 1:
         return 0, -1, nn0, nn1, nn2
@@ -146,7 +147,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
         ct, ci, cj, cimp = _borrow(T.ct), _borrow(T.ci), _borrow(T.cj), _borrow(T.cimp)
-        CL, CV = _borrow(T.CL), _borrow(T.CV)
+        CL, CV, IM = _borrow(T.CL), _borrow(T.CV), _borrow(T.IM)
         st = S[0]
         n = P.shape[0]
         pf = st.pf != 0  # large systems: prefetch, and gather a collision's scans first
@@ -209,8 +210,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 rebuild = NL and (not is_col) and code == NLCODE
                 ng, newcell, nn0, nn1, nn2 = 0, -1, 0, 0, 0
                 if NL and rebuild:
-                    ng, newcell, nn0, nn1, nn2 = _gather_rebuild(P, XN, I, cells, NN, NB, SCR, k,
-                                                                 t, ainv, nc, L, h, g, D, PER,
+                    ng, newcell, nn0, nn1, nn2 = _gather_rebuild(P, XN, I, IM, cells, NN, NB, SCR,
+                                                                 k, t, ainv, nc, L, h, g, D, PER,
                                                                  GRAV, pf)
                     if newcell < 0 or ng < 0:
                         status = CELL_FULL if newcell < 0 else NL_FULL
@@ -281,6 +282,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                         # a cell crossing: then only the cells that just came into view
                         n_cross += 1
                         full = False
+                        if PER:
+                            _count_wrap(I, IM, k, d, up, nc)  # before the crossing moves it
                         if MIX:
                             moved = _cross_face_classes(P, I, cells, CL, CV, edges, k, d, up,
                                                         nc, fcl, ncl, bcl, rint, L, rcut, D,

@@ -32,6 +32,18 @@ class Rows:
         x[x >= self.L] = 0.0
         return x
 
+    def _box_images(self, x: np.ndarray) -> np.ndarray:
+        """The box lengths :meth:`_wrap` takes off positions x, (N, D) int64:
+        x = _wrap(x) + images L."""
+        k = np.floor(x / self.L)
+        return (k + (x - self.L * k >= self.L)).astype(np.int64)
+
+    def _fold_images(self, x: np.ndarray) -> np.ndarray:
+        """Positions x (row order, now) wrapped, before a :meth:`_load` starts the rows afresh:
+        the kernels' counts (IM) and this wrap's are added to ``images`` (caller's order)."""
+        self.images[self.ident] += self.IM[:, :self.D] + self._box_images(x)
+        return self._wrap(x)
+
     def _space_order(self, x: np.ndarray) -> np.ndarray:
         """Row order: along the line in 1D, cells along a Z-order curve in 2D/3D (stable).
 
@@ -62,6 +74,7 @@ class Rows:
         I[:, PART] = -1
         I[:, PART2] = -1
         self.P, self.I = P, I
+        self.IM = _alloc((n if self.periodic else 1, 3), np.int64, fill=0)  # wraps since now
         self.EV = _alloc((n, EV_WIDTH), fill=np.inf)
         self.Q = _alloc((n, 4), np.int32, fill=0)
         self.Q[:, QB] = NONE
@@ -144,11 +157,22 @@ class Rows:
 
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(positions, velocities) (N, D) at time t in the caller's order, wrapped if periodic."""
+        x, v, _ = self.snapshot_at(t)
+        return x, v
+
+    def snapshot_at(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """(positions, velocities, images) at time t in the caller's order: as
+        :meth:`state_at`, and in a periodic box each particle's box crossings since the run's
+        start along each axis, (N, D) int64, exact (counted where the engine wraps it):
+        positions + images L is the unwrapped position, positions of the start + the
+        integral of the velocity. None with walls."""
         xi, vi = self._state_internal(t - self.origin)
         x = np.empty_like(xi)
         v = np.empty_like(vi)
         x[self.ident] = xi
         v[self.ident] = vi
-        if self.periodic:
-            x = self._wrap(x)
-        return x, v
+        if not self.periodic:
+            return x, v, None
+        images = self.images.copy()
+        images[self.ident] += self.IM[:, :self.D] + self._box_images(xi)
+        return self._wrap(x), v, images
