@@ -56,7 +56,7 @@ import numpy as np
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver
+from gaz_cli.engine import sizing
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, initial_state
 from gaz_cli.species import Species
@@ -95,6 +95,8 @@ def single_source(edmd: Path) -> tuple[str, str, str]:
     names = ("mdSingle.c", "mdSingle.h", "mt19937ar.c")
     if (edmd / "Single" / names[0]).is_file():
         return tuple((edmd / "Single" / f).read_text() for f in names)
+    if (edmd / "repo" / "HEAD").is_file():  # a mirror's directory holding the bare repo
+        edmd = edmd / "repo"
     try:
         return tuple(subprocess.run(["git", "--git-dir", str(edmd), "show", f"HEAD:Single/{f}"],
                                     check=True, capture_output=True, text=True).stdout
@@ -247,8 +249,8 @@ def main() -> None:
     print(f"scene: 3D periodic, N = {n:,}, packing {eta}, L = {length:.4f} sigma, sigma = m = "
           f"k_B T = 1, simulated time {duration:.4g} tau (~{args.per_particle:g} collisions per "
           f"particle), lattice start melted by gaz over ~{args.equilibrate:g} collisions per particle; neighbour lists: C shellsize {C_SHELL} (R_i + R_j), gaz "
-          f"skin h = {driver.NEIGHBOUR_SKIN} sigma (reach sigma + 2h = "
-          f"{sigma + 2 * driver.NEIGHBOUR_SKIN * sigma:g} sigma)")
+          f"skin h = {sizing.NEIGHBOUR_SKIN} sigma (reach sigma + 2h = "
+          f"{sigma + 2 * sizing.NEIGHBOUR_SKIN * sigma:g} sigma)")
     print(f"machine: {os.cpu_count()} cores (os.cpu_count), load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; C: {args.cc} {args.cflags}", flush=True)
 
