@@ -34,6 +34,25 @@ give beta P sigma^3 from their collision virials, beside KLM's (a check that bot
 simulate the same fluid). With ``--count`` the C code is also built with counters
 (pair tests, list rebuilds, stale events per collision; not timed) to compare the
 work per collision with gaz's.
+
+Figures (2026-11-23, 2 cores shared, load average 13-15, ``--pairs 7 --count --baseline``
+a git archive of be96fb4; CPU time, since wall time ran 5-7x the CPU time): the work per
+collision is the C code's (pair tests 30.52 against 30.54, list rebuilds 0.206 against
+0.217, stale 0.348 against 0.349, queue events 1.554 against 1.556); gaz/C CPU per pair
+1.096 1.240 1.218 0.976 1.032 1.059 0.996, median 1.059 (be96fb4: 1.085), gaz/be96fb4
+median 1.026, fastest against fastest 0.906 (noise: one run varies by 10-20 %). A perf
+profile (cpu-clock, the loop's machine code mapped from Numba's object) puts about 19 %
+of gaz's samples in the calendar queue's helpers, where the C code spends 8 % in its
+event tree and lists; its list rebuilds take 41 % and its scans 41 %, gaz's rebuilds
+roughly 17-23 % (the gather over 3^D cells 12 %, requesting their rows 6 %) and its scans
+roughly 25-30 % (the loop over a list 21 %): the next saving is in the calendar. gaz's
+skin (scene.extras 'skin', in diameters; in-process runs taken in turn, CPU): 0.15 and 0.2
+run 0.78x and 0.85x of 0.25 (medians of 4), 0.3 1.07x and 1.00x (4 and 6), 0.35 0.95x, 0.4 0.89x,
+so NEIGHBOUR_SKIN stays 0.25, the C code's shell. Tried and not kept (alternating child
+processes, CPU, against the same tree without it): the calendar's helpers inlined into the
+loop (inline='always'; LLVM leaves them as calls) 1.004x over 10 rounds, compile 99 s
+against 90 s; a rebuild's gather requesting only the centres XN of the 3^D cells' particles
+(not their P and NN rows) 0.937x over 6.
 """
 
 from __future__ import annotations
@@ -56,7 +75,7 @@ import numpy as np
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver
+from gaz_cli.engine import sizing
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, initial_state
 from gaz_cli.species import Species
@@ -95,6 +114,8 @@ def single_source(edmd: Path) -> tuple[str, str, str]:
     names = ("mdSingle.c", "mdSingle.h", "mt19937ar.c")
     if (edmd / "Single" / names[0]).is_file():
         return tuple((edmd / "Single" / f).read_text() for f in names)
+    if (edmd / "repo" / "HEAD").is_file():  # a mirror's directory holding the bare repo
+        edmd = edmd / "repo"
     try:
         return tuple(subprocess.run(["git", "--git-dir", str(edmd), "show", f"HEAD:Single/{f}"],
                                     check=True, capture_output=True, text=True).stdout
@@ -247,8 +268,8 @@ def main() -> None:
     print(f"scene: 3D periodic, N = {n:,}, packing {eta}, L = {length:.4f} sigma, sigma = m = "
           f"k_B T = 1, simulated time {duration:.4g} tau (~{args.per_particle:g} collisions per "
           f"particle), lattice start melted by gaz over ~{args.equilibrate:g} collisions per particle; neighbour lists: C shellsize {C_SHELL} (R_i + R_j), gaz "
-          f"skin h = {driver.NEIGHBOUR_SKIN} sigma (reach sigma + 2h = "
-          f"{sigma + 2 * driver.NEIGHBOUR_SKIN * sigma:g} sigma)")
+          f"skin h = {sizing.NEIGHBOUR_SKIN} sigma (reach sigma + 2h = "
+          f"{sigma + 2 * sizing.NEIGHBOUR_SKIN * sigma:g} sigma)")
     print(f"machine: {os.cpu_count()} cores (os.cpu_count), load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; C: {args.cc} {args.cflags}", flush=True)
 

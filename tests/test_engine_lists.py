@@ -70,6 +70,34 @@ def test_lists_hold_the_neighbours_within_reach_and_their_scan_is_tc(dim, period
         assert np.linalg.norm(P[k, PV:PV + dim] * te) == pytest.approx(h, rel=KERNEL_RTOL)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("nc", [3, 4, 5])
+def test_lists_of_few_wide_cells_take_nearest_images_only_where_they_must(dim, nc):
+    """Periodic boxes of 3 to 5 list-sized cells an axis (lists take nearest images only
+    for a centre in a cell on a face of the box; in 3 cells an axis every cell but the
+    middle one is on a face and the middle one's block spans the box): every list holds
+    exactly the particles within R_k + R_m + 2h of its centre by the nearest image,
+    across the faces too."""
+    rng = np.random.default_rng(70 + 10 * dim + nc)
+    h = 0.3
+    r = 0.5 * (L / (nc + 0.5)) - h  # 2 r + 2 h: L / nc > reach > L / (nc + 1)
+    assert int(L // (2 * r + 2 * h)) == nc
+    n = {2: 120, 3: 400}[dim]
+    P = np.zeros((n, P_WIDTH))
+    P[:, :dim] = rng.uniform(0.0, L, size=(n, dim))
+    P[:, PR] = r
+    I = np.zeros((n, I_WIDTH), dtype=np.int32)
+    cells, XN, NB, NN = _built_lists(P, I, n, dim, nc, h, True)
+    across = 0
+    for k in range(n):
+        sep = P[:, :dim] - P[k, :dim]
+        img = sep - L * np.round(sep / L)
+        near = set(np.flatnonzero(np.linalg.norm(img, axis=1) < 2 * r + 2 * h)) - {k}
+        assert sorted(NB[k, :NN[k]]) == sorted(near)
+        across += sum(bool(np.any(img[m] != sep[m])) for m in near)
+    assert across > 0  # some lists reach across a face
+
+
 @pytest.mark.parametrize("periodic", [False, True])
 def test_a_rod_scans_its_two_neighbours_on_the_line(periodic):
     """Rods in line order: the scan's earliest collision is the earliest tc with the previous

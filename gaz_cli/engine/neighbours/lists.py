@@ -115,6 +115,13 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
     driver sizes them so), hence R_m <= rcap = (L / nc - 2 h) / 2: a candidate
     farther than R_k + rcap + 2 h is out without reading its row of P (most of
     the 3^D cells' particles are out; their rows would be read for the radius alone).
+
+    Periodic: only a centre whose cell touches a face of the box takes nearest images
+    (as the scan, Smallenburg's ``nearboxedge``). Inside, the 3^D cells do not wrap: a
+    candidate's centre XN[m] (in its cell, nc >= 3 of width w an axis) is less than 2 w
+    from the centre along each axis, and one within reach (R_k + R_m + 2 h <= w) has no
+    nearer image, since L / 2 >= 3 w / 2; one whose nearest image differs is more than
+    L / 2 >= w away either way, out either way (the same lists as with nearest images).
     """
     capnb = SCR.shape[0]
     hl = 0.5 * L
@@ -125,6 +132,11 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
     cnt = 0
     lo2 = -1 if D > 2 else 0
     hi2 = 1 if D > 2 else 0
+    wrap = False
+    if PER:
+        wrap = c0 == 0 or c0 == nc - 1 or c1 == 0 or c1 == nc - 1
+        if D > 2:
+            wrap = wrap or c2 == 0 or c2 == nc - 1
     if PF:
         # large systems: the cells, then the rows of their particles, are requested
         # from memory before the test below reads them (a hint: wrapped even with walls)
@@ -141,7 +153,7 @@ def _gather_nl(P, XN, cells, NN, SCR, k, x0, x1, x2, c0, c1, c2, nc, L, h, D, PE
             d0 = x0 - XN[m, 0]
             d1 = x1 - XN[m, 1]
             d2 = x2 - XN[m, 2] if D > 2 else 0.0
-            if PER:
+            if PER and wrap:
                 d0 = _nearest_near(d0, L, hl)
                 d1 = _nearest_near(d1, L, hl)
                 d2 = _nearest_near(d2, L, hl)
