@@ -73,7 +73,7 @@ def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravi
         return True
     if choice != "auto" or packing >= DILUTE_BELOW:
         return False
-    return dilute_scan_pays(D, n, L, sigma)
+    return dilute_scan_pays(D, n, L, sigma, packing)
 
 
 DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0025}
@@ -90,7 +90,7 @@ the README's density (measured: above 10^4) and N = 2150 at scene (b)'s
 one to refine (it overrates cells at the lower density, underrates them at the higher)."""
 
 
-def dilute_scan_pays(D: int, n: int, L: float, sigma: float) -> bool:
+def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> bool:
     """Whether scanning all n particles costs less a particle's event than cells.
 
     A model of both, per event of a particle: with cells of width w (those of
@@ -101,11 +101,16 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float) -> bool:
     sum |v_d| / |v| (4/pi in 2D, 3/2 in 3D); without cells, the event and a scan of all n
     (:mod:`.neighbours.dilute`). The README example: 9 crossings per event with cells,
     the dilute scan 2x cheaper; scene (b) of benchmarks/engine.py (N = 10^4) keeps its
-    cells.
+    cells. ``sigma`` is the largest pair reach (the cells' width); lambda is that of n
+    equal particles filling the scene's ``packing`` fraction (a mixture's mean volume: a
+    few large spheres among many small ones must not count as n large ones, which gave
+    packings above 1 and the contact value's refusal).
     """
     from gaz_cli import theory  # (numpy only; imported when a scene asks)
 
-    lam = float(theory.mean_free_path(D, n / L ** D, sigma))
+    ball = math.pi if D == 2 else 4.0 * math.pi / 3.0
+    diameter = 2.0 * (packing * L ** D / (n * ball)) ** (1.0 / D)
+    lam = float(theory.mean_free_path(D, n / L ** D, diameter))
     path = 1.0 / (1.0 / lam + D / (2.0 * L))
     nc = cells_per_axis(D, n, L, True, False, sigma, 0.0, False)
     w = L / nc
