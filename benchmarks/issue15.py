@@ -35,6 +35,19 @@ without it item 5 is skipped). One command, one host state, in this order:
 
 Each child script's own output is passed through whole (its pairs, its medians); the host
 load is printed before each section.
+
+Figures of 2026-11-23 (``--old`` a copy of 8b6e7d9, ``--pairs 5``, new = 402ccc5; 2 cores,
+load 2-3: a test suite ran beside it), medians of the pairs' ratios:
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 3.07 (3.38, 3.01, 3.62, 2.86, 3.07); 0 crossings, 1.02 queue events per physical event |
+| 2, scene (b) | >= 3x | 0.78 (0.78, 1.15, 0.99, 0.76, 0.77); 7.96 crossings per physical event (cells) |
+| 2, scene (a) | not slower | 1.02 (0.92, 1.08, 0.98, 1.02, 1.16) |
+| 3, recording / engine | < 25 % | 62.7 %; SQLite's own insert of the rows 105.7 ms, 28 % of the 0.376 s engine |
+| 4, start-up | <= 1.15 / 1.35 | 1.01 no database, 0.99 new SQLite file (CPU) |
+| 5, gaz / C, lists | >= 1.0 | 0.905 CPU (0.953, 0.833, 0.996, 0.768, 0.905) |
+| 6, mixture / small alone | <= 2 | 2D 1.29 per queue event, 1.41 per simulated second; 3D 2.53 per simulated second (its small-alone scene now takes the dilute scan) |
 """
 
 from __future__ import annotations
