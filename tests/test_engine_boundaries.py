@@ -92,16 +92,21 @@ def test_bounce_is_the_exams_rebond_with_the_centre_on_the_wall(d, up):
 
 
 def test_wrap_and_nearest_image():
-    """_wrap puts every coordinate in [0, L) (x - L floor(x / L)); _nearest gives the image of
-    a separation within [-L/2, L/2]."""
+    """_wrap puts every coordinate in [0, L) (x - L floor(x / L)) and counts the box lengths
+    it took off in the images (x = wrapped + images L: the H5MD trajectory's unwrapped
+    position); _nearest gives the image of a separation within [-L/2, L/2]."""
     rng = np.random.default_rng(3)
     x = rng.uniform(-3 * L, 4 * L, size=(50, 3))
     P = np.zeros((50, P_WIDTH))
     P[:, :3] = x
+    images = np.zeros((50, 3), dtype=np.int64)
+    images[::2] = 5  # (counts add to what a particle had)
     for k in range(50):
-        _wrap(P, k, L, 3)
+        _wrap(P, images, k, L, 3)
     assert np.all((P[:, :3] >= 0.0) & (P[:, :3] < L))
     np.testing.assert_allclose(P[:, :3], np.mod(x, L), rtol=0, atol=KERNEL_RTOL * 4 * L)
+    images[::2] -= 5
+    np.testing.assert_array_equal(images, np.floor(x / L).astype(np.int64))
     for dx in rng.uniform(-3 * L, 3 * L, size=100):
         n = _nearest(dx, L)
         assert abs(n) <= 0.5 * L * (1 + KERNEL_RTOL)
