@@ -12,6 +12,7 @@ import numpy as np
 
 from gaz_cli.engine.layout import GATHER_SLOTS
 from gaz_cli.errors import SceneError
+from gaz_cli.geometry import UNIT_BALL
 
 CELLS_PER_PARTICLE = 2.0
 """At most this many cells per particle (dilute gases); cells stay at least one diameter wide."""
@@ -108,8 +109,7 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> 
     """
     from gaz_cli import theory  # (numpy only; imported when a scene asks)
 
-    ball = math.pi if D == 2 else 4.0 * math.pi / 3.0
-    diameter = 2.0 * (packing * L ** D / (n * ball)) ** (1.0 / D)
+    diameter = 2.0 * (packing * L ** D / (n * UNIT_BALL[D])) ** (1.0 / D)
     lam = float(theory.mean_free_path(D, n / L ** D, diameter))
     path = 1.0 / (1.0 / lam + D / (2.0 * L))
     nc = cells_per_axis(D, n, L, True, False, sigma, 0.0, False)
