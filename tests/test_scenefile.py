@@ -282,6 +282,15 @@ def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, w
         assert w in lines[0], lines[0]
 
 
+def test_a_bad_search_is_refused_at_the_one_door_with_the_cli_message():
+    """scene.validate alone checks the search (the driver's sizing no longer repeats it): a
+    Python caller gets the line the CLI prints."""
+    scene = Scene(dim=2, components=((BUILTIN["Ar"], 10),), length=1e-7, duration=1e-10,
+                  extras={"neighbours": "octree"})
+    with pytest.raises(SceneError, match="neighbours 'octree' is not one of auto, cells, lists, dilute"):
+        validate(scene)
+
+
 def test_flags_override_a_scene_file(tmp_path):
     code, out, err = invoke(["simulate", str(EXAMPLES / "mixture.toml"), "--duration", "1e-11",
                              "--temperature", "600", "--seed", "9", "--no-db", "--write-scene",
