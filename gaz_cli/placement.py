@@ -35,9 +35,10 @@ from gaz_cli.engine.boundaries import _nearest
 from gaz_cli.engine.calendar import _heap_push, _heap_remove
 from gaz_cli.engine.dynamics import _advance, _relative_at
 from gaz_cli.engine.interactions import _contact_dt
-from gaz_cli.engine.layout import (C0, CELL, CNT, CODE, DONE, GATHER_SLOTS, HP, I_WIDTH, INF,
-                                   P_WIDTH, PART, PCNT, PR, PT, PV)
-from gaz_cli.engine.neighbours.cells import _assign_cells, _cell_entered, _cross_face, _gather_cells
+from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, CODE, DONE, GATHER_SLOTS, HP,
+                                   I_WIDTH, INF, P_WIDTH, PART, PCNT, PR, PT, PV)
+from gaz_cli.engine.neighbours.cells import (_assign_cells, _cell_entered, _cross_face, _gather_cells,
+                                             wider)
 from gaz_cli.engine.sizing import _cell_width
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.numba_config import njit
@@ -176,9 +177,8 @@ def first_overlap(positions: np.ndarray, radii: np.ndarray, length: float,
         nc = 1
     I = np.zeros((n, I_WIDTH), dtype=np.int32)
     cells = _cell_table(positions, I, nc, length / nc, dim)
-    room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
     return int(_first_overlap(positions, radii, float(length), bool(periodic), I, cells,
-                              np.empty(room, dtype=np.int32), np.empty(room, dtype=np.int32), nc))
+                              *_gather_buffers(cells, dim), nc))
 
 
 def rapid_1d(radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -539,42 +539,39 @@ def _ls_collide(P, i, j, L, periodic, gamma, D):
                 P[i, PV + d] -= du * nd
 
 
-@njit
-def _wider(cells, D):
-    """The cell table with room for twice as many particles a cell, and gather buffers for it."""
-    w = cells.shape[1]
-    wide = np.zeros((cells.shape[0], 2 * w), dtype=cells.dtype)
-    wide[:, :w] = cells
-    room = 3 ** D * (2 * w - 1) + GATHER_SLOTS + 1
-    return wide, np.empty(room, dtype=np.int32), np.empty(room, dtype=np.int32)
+def _gather_buffers(cells, dim: int) -> tuple:
+    """The gather buffers (GB, GS) of a scan of the 3^dim cells of ``cells``' width."""
+    room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
+    return np.empty(room, dtype=np.int32), np.empty(room, dtype=np.int32)
 
 
 @njit
-def _ls_grow(P, I, cells, GB, GS, edges, D, L, periodic, gamma, f_end, nc, max_events,
-             rescale_every):
+def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_end, nc,
+             max_events, rescale_every):
     """Lubachevsky-Stillinger growth, event by event, on the engine's rows, cells and heap.
 
     P (N, P_WIDTH) rows at time 0: start positions (points: f = 0 at t = 0), velocities,
     final radii R, in units where the box is L wide; I (N, I_WIDTH) with the cells
     assigned (cells of side >= the final largest diameter; ``cells`` and the gather
-    buffers GB, GS as the engine's, widened here when a crossing would overflow a cell).
+    buffers GB, GS as the engine's). The engine's heap (:mod:`.engine.calendar`: keys HK
+    (N,), particles HI (N,), links Q (N, 4)) holds every particle under its next event;
+    C (3,) float64 is where the growth stands: time, events, heap size (-1 before the first
+    call: every event predicted then).
     Radii grow as R gamma t; a colliding pair leaves with its normal relative velocity
     mirrored about the growth speed (elastic in the growing frame), a wall likewise;
     every ``rescale_every`` events the speeds are scaled back to unit mean square per
     component and every event predicted afresh. The rows are moved to time f_end / gamma.
-    Returns (status, f reached, events): status 0 done, 1 event budget spent (jammed
-    below f_end).
+    Returns (status, f reached, events): status DONE, 1 event budget spent (jammed
+    below f_end) or CELL_FULL: the next event, a crossing, would overflow a cell; nothing of
+    it is done: widen the table (:func:`.engine.neighbours.cells.wider`), take gather
+    buffers for it and call again, which goes on from there.
     """
     n = P.shape[0]
-    # the engine's heap (gaz_cli.engine.calendar) holds every particle under its next event
-    HK = np.empty(n)
-    HI = np.empty(n, dtype=np.int64)
-    Q = np.zeros((n, 4), dtype=np.int32)  # its links: the position of k in the heap at HP
     t_end = f_end / gamma
-    t = 0.0
-    events = 0
-    hsize = 0
-    fresh = True
+    t = C[0]
+    events = int(C[1])
+    hsize = int(C[2])
+    fresh = hsize < 0
     while True:
         if fresh:
             # (re)start: every row at time t, every event predicted
@@ -592,6 +589,11 @@ def _ls_grow(P, I, cells, GB, GS, edges, D, L, periodic, gamma, f_end, nc, max_e
         if events >= max_events:
             return 1, gamma * t, events
         i = HI[0]
+        if I[i, PART] < 0 and not I[i, CODE] & 1:  # a crossing: room in the cell entered?
+            into = _cell_entered(I, i, I[i, CODE], nc, D)
+            if into != I[i, CELL] and cells[into, 0] + 1 >= cells.shape[1]:
+                C[0], C[1], C[2] = t, events, hsize
+                return CELL_FULL, gamma * t, events
         t = te
         events += 1
         j = -1
@@ -620,9 +622,6 @@ def _ls_grow(P, I, cells, GB, GS, edges, D, L, periodic, gamma, f_end, nc, max_e
                     P[i, PV + d] = 2.0 * rg - P[i, PV + d]
                 I[i, CNT] += 1
             else:
-                into = _cell_entered(I, i, code, nc, D)
-                if into != I[i, CELL] and cells[into, 0] + 1 >= cells.shape[1]:
-                    cells, GB, GS = _wider(cells, D)
                 _cross_face(P, I, cells, edges, i, d, up, nc, L, D)
         if rescale_every > 0 and events % rescale_every == 0:
             # everybody to now at the old speeds, then the new speeds
@@ -646,7 +645,7 @@ def _ls_grow(P, I, cells, GB, GS, edges, D, L, periodic, gamma, f_end, nc, max_e
                 hsize = _heap_push(HK, HI, Q, hsize, tk, p)
     for k in range(n):
         _advance(P, k, t, 0.0, D, False)
-    return 0, gamma * t, events
+    return DONE, gamma * t, events
 
 
 def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -684,12 +683,17 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     edges = np.arange(nc + 1) * (Ls / nc)
     edges[nc] = Ls
     cells = _cell_table(P, I, nc, Ls / nc, dim)
-    room = 3 ** dim * (cells.shape[1] - 1) + GATHER_SLOTS + 1
     budget = max_events if max_events is not None else 4000 * n + 1_000_000
-    status, f, events = _ls_grow(P, I, cells, np.empty(room, dtype=np.int32),
-                                 np.empty(room, dtype=np.int32), edges, dim, float(Ls),
-                                 bool(periodic), float(rate), 1.0, nc, int(budget), int(2 * n))
-    if status != 0:
+    HK, HI, Q = np.empty(n), np.empty(n, dtype=np.int64), np.zeros((n, 4), dtype=np.int32)
+    C = np.array([0.0, 0.0, -1.0])  # where the growth stands: time, events, heap size
+    while True:
+        status, f, events = _ls_grow(P, I, cells, *_gather_buffers(cells, dim), edges, HK, HI, Q,
+                                     C, dim, float(Ls), bool(periodic), float(rate), 1.0, nc,
+                                     int(budget), int(2 * n))
+        if status != CELL_FULL:
+            break
+        cells = wider(cells)  # a crossing into a full cell: room, and on
+    if status != DONE:
         eta = packing_fraction(dim, radii, length)
         raise PlacementError(
             f"growth jammed at {f ** dim * eta:.3g} of packing fraction {eta:.3g} after {events} "

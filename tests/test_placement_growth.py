@@ -132,3 +132,28 @@ def test_growth_widens_a_full_cell():
     x = placement.grow(3, radii, L, np.random.default_rng(1), periodic=True)
     assert placement.first_overlap(x, radii, L, True) == -1
     assert np.all((x >= 0) & (x < L))
+
+
+def test_growth_stopped_at_a_full_cell_goes_on_as_if_the_cell_had_room(monkeypatch):
+    """The growth kernel returns at a crossing into a full cell (CELL_FULL) and, its table
+    widened by the engine's :func:`wider`, goes on where it stopped: the same positions, bit
+    for bit, as a growth whose table had room from the start (widened 3 times up front)."""
+    from gaz_cli.engine.neighbours.cells import wider
+
+    rng = np.random.default_rng(8)
+    radii = np.where(rng.random(300) < 0.05, 0.5, 0.15)
+    L = (np.sum(4.0 / 3.0 * math.pi * radii ** 3) / 0.30) ** (1 / 3)
+    widened = []
+
+    def counted(table):
+        widened.append(table.shape)
+        return wider(table)
+
+    monkeypatch.setattr(placement, "wider", counted)
+    x = placement.grow(3, radii, L, np.random.default_rng(5), periodic=True)
+    assert widened  # this draw fills a cell after 874 events (a rescale at 600 before)
+    table = placement._cell_table
+    monkeypatch.setattr(placement, "_cell_table", lambda *a: wider(wider(wider(table(*a)))))
+    widened.clear()
+    roomy = placement.grow(3, radii, L, np.random.default_rng(5), periodic=True)
+    assert not widened and np.array_equal(x, roomy)
