@@ -71,11 +71,26 @@ class Tee(Recorder):
 
 
 def prepare(scene: Scene) -> Scene:
-    """Validate ``scene`` and give it a seed if it has none (recorded, so the run can be repeated)."""
+    """Validate ``scene`` and give it a seed if it has none, and the search the event engine
+    will take (:func:`with_search`): recorded, so the run can be repeated."""
     scene = validate(scene)
     if scene.seed is None:
         scene = replace(scene, seed=fresh_seed())
-    return scene
+    return with_search(scene)
+
+
+def with_search(scene: Scene) -> Scene:
+    """``scene`` (valid) with the event engine's search as resolved for it
+    (:func:`gaz_cli.engine.driver.resolved_search`) in ``extras``, where the caller left it
+    unset or on 'auto'; other engines' scenes unchanged. The scene file then stores it (its
+    ``[search]`` table), and a rerun takes the same search, hence the same rows, whatever
+    the cost model of a later gaz would choose."""
+    if scene.engine != "event":
+        return scene
+    from gaz_cli.engine.driver import resolved_search
+
+    given = {k: v for k, v in scene.extras.items() if v != "auto"}
+    return replace(scene, extras={**scene.extras, **resolved_search(scene), **given})
 
 
 class WallMomentum(Recorder):
@@ -171,6 +186,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
         # the exam's engine writes no trajectory: a tiny run with one takes the event engine
         scene = replace(scene, engine="event", extras={
             **scene.extras, "engine_reason": "hard spheres: exact event-driven dynamics (a trajectory asked for)"})
+        scene = with_search(scene)
     run = engine_run(scene.engine)
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")

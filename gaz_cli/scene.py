@@ -113,8 +113,9 @@ class Scene:
     partners (:data:`SEARCH`: 'neighbours', 'skin', 'classes'). Every search is exact, but
     each rounds differently and a gas is chaotic: with the same seed, cells and neighbour
     lists give the same numbers of events and different rows (times, speeds in the last
-    digits, then the events themselves), so the scene file keeps the ones set (its
-    ``[search]`` table) and reproduces the run. What :func:`validate` adds
+    digits, then the events themselves), so the scene file keeps the search the run took (its
+    ``[search]`` table: the ones set, and the ones left on 'auto' as the runner resolved them,
+    :func:`gaz_cli.runner.with_search`) and reproduces the run. What :func:`validate` adds
     ('engine_reason', 'engine_auto') is derived and not stored."""
 
     # --- derived quantities -------------------------------------------------

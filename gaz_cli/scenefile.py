@@ -18,9 +18,10 @@ engine's partner search: neighbours, skin, classes; :data:`gaz_cli.scene.SEARCH`
 ``Scene.extras``) and ``[output]`` (db, trajectory, every, save_state) are tables.
 
 A stored run's scene file (SCENE.SC_FILE, :func:`dumps`) runs it again with the same rows:
-every field, the seed, and the search settings the run was given (each search is exact but
+every field, the seed, and the search the run took: the settings it was given, and what it
+left on 'auto' as resolved (:func:`gaz_cli.runner.with_search`; each search is exact but
 rounds its own way, and a gas is chaotic: the rows differ between them); not what the run
-derived (``engine_reason``). Reading checks the keys and their types
+derived otherwise (``engine_reason``). Reading checks the keys and their types
 (unknown key, wrong type: one line naming the key, the value and what is allowed), then
 builds the scene and passes it through :func:`gaz_cli.scene.validate`, the one door.
 

@@ -68,7 +68,7 @@ def test_a_tiny_run_loads_no_compiled_engine():
             "built = loop.build.cache_info().currsize if loop else 0\n"
             "heavy = ('pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask', 'gaz_cli.engine.driver',"
             " 'gaz_cli.engine.loop', 'tomllib')\n"
-            "print(sorted(m for m in heavy if m in sys.modules), built, len(placement._rsa.signatures), file=sys.stderr)")
+            "print(sorted(m for m in heavy if m in sys.modules), built, len(placement.rsa._rsa.signatures), file=sys.stderr)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert '"engine": "reference"' in out.stdout, out.stdout + out.stderr
     assert out.stderr.strip().splitlines()[-1] == "[] 0 0", out.stderr
@@ -82,10 +82,10 @@ def test_a_tiny_run_places_as_the_compiled_kernel_does():
 
     radii = np.full(200, ARGON.radius)
     interpreted = placement.rejection(3, radii, 1e-8, np.random.default_rng(3))
-    saved = placement.INTERPRETED_MAX
+    saved = placement.rsa.INTERPRETED_MAX
     try:
-        placement.INTERPRETED_MAX = 0
+        placement.rsa.INTERPRETED_MAX = 0
         compiled = placement.rejection(3, radii, 1e-8, np.random.default_rng(3))
     finally:
-        placement.INTERPRETED_MAX = saved
+        placement.rsa.INTERPRETED_MAX = saved
     assert np.array_equal(interpreted, compiled)

@@ -2,7 +2,7 @@
 
 The growth's pair time is the engine's contact root with a growing sum of radii
 (``interactions._contact_dt`` with s > 0), checked against the definition solved in
-50-digit decimals; its collision rule (``placement._ls_collide``) against the growing
+50-digit decimals; its collision rule (``placement.growth._ls_collide``) against the growing
 frame's elastic bounce; the whole growth on the engine's cells when a cell overflows and
 is widened mid-run.
 """
@@ -110,7 +110,7 @@ def test_growth_collision_is_elastic_in_the_growing_frame():
         v0 = P[:, PV:PV + dim].copy()
         s = (r[0] + r[1]) * gamma
         un = (v0[1] - v0[0]) @ n
-        placement._ls_collide(P, 0, 1, 100.0, False, gamma, dim)
+        placement.growth._ls_collide(P, 0, 1, 100.0, False, gamma, dim)
         v1 = P[:, PV:PV + dim]
         scale = np.abs(v0).max() + s
         np.testing.assert_allclose(v1.sum(axis=0), v0.sum(axis=0), rtol=0, atol=KERNEL_RTOL * scale)
@@ -132,3 +132,28 @@ def test_growth_widens_a_full_cell():
     x = placement.grow(3, radii, L, np.random.default_rng(1), periodic=True)
     assert placement.first_overlap(x, radii, L, True) == -1
     assert np.all((x >= 0) & (x < L))
+
+
+def test_growth_stopped_at_a_full_cell_goes_on_as_if_the_cell_had_room(monkeypatch):
+    """The growth kernel returns at a crossing into a full cell (CELL_FULL) and, its table
+    widened by the engine's :func:`wider`, goes on where it stopped: the same positions, bit
+    for bit, as a growth whose table had room from the start (widened 3 times up front)."""
+    from gaz_cli.engine.neighbours.cells import wider
+
+    rng = np.random.default_rng(8)
+    radii = np.where(rng.random(300) < 0.05, 0.5, 0.15)
+    L = (np.sum(4.0 / 3.0 * math.pi * radii ** 3) / 0.30) ** (1 / 3)
+    widened = []
+
+    def counted(table):
+        widened.append(table.shape)
+        return wider(table)
+
+    monkeypatch.setattr(placement.growth, "wider", counted)
+    x = placement.grow(3, radii, L, np.random.default_rng(5), periodic=True)
+    assert widened  # this draw fills a cell after 874 events (a rescale at 600 before)
+    table = placement.growth._cell_table
+    monkeypatch.setattr(placement.growth, "_cell_table", lambda *a: wider(wider(wider(table(*a)))))
+    widened.clear()
+    roomy = placement.grow(3, radii, L, np.random.default_rng(5), periodic=True)
+    assert not widened and np.array_equal(x, roomy)

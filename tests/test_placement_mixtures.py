@@ -34,6 +34,6 @@ def test_one_size_keeps_the_index_order():
     radii = np.full(500, 1.0)
     length = 60.0
     got = placement.rejection(2, radii, length, np.random.default_rng(7))
-    in_order = placement._rejection_in_order(2, radii, length, np.random.default_rng(7), False,
+    in_order = placement.rsa._rejection_in_order(2, radii, length, np.random.default_rng(7), False,
                                              100_000, None)
     assert np.array_equal(got, in_order)

@@ -212,12 +212,56 @@ def test_a_run_given_its_search_is_stored_with_it_and_reruns_to_the_same_rows(tm
     assert api.simulate(api.make_scene(species=species, **keys), db=str(auto)).stats.extras["dilute_scan"]
     code, stored, err = invoke(["scene", "1", "--db", str(db)])
     assert code == 0, err
-    assert '[search]\nneighbours = "cells"\nskin = 0.5\n' in stored and "engine_reason" not in stored
+    assert '[search]\nneighbours = "cells"\nclasses = "off"\nskin = 0.5\n' in stored  # one grid: resolved
+    assert "engine_reason" not in stored
     (tmp_path / "run.toml").write_text(stored)
     code, out, err = invoke(["simulate", str(tmp_path / "run.toml"), "--db", str(again)])
     assert code == 0, err
     assert len(_rows(db)) > 100 and _rows(db) == _rows(again)
     assert _rows(db) != _rows(auto)  # the search the file names matters
+
+
+def test_a_run_left_on_auto_stores_the_search_it_took_and_reruns_to_its_rows_under_another_cost_model(
+        tmp_path, monkeypatch):
+    """A run left on 'auto' stores the search it took ([search]: what the driver resolved),
+    not 'auto': a later gaz whose cost model (sizing) chooses otherwise reruns the stored
+    scene file to the same rows, while a new run on 'auto' takes the other search."""
+    from gaz_cli import api
+    from gaz_cli.engine import sizing
+
+    keys = dict(dim=2, length=1.0, duration=1.0, temperature=1.0 / 1.380649e-23, seed=5,
+                engine="event")
+    species = [{"name": "X", "count": 200, "mass": 1.0, "radius": 0.005}]
+    db, again, other = tmp_path / "a.db", tmp_path / "b.db", tmp_path / "c.db"
+    assert api.simulate(api.make_scene(species=species, **keys), db=str(db)).stats.extras["dilute_scan"]
+    stored = scenefile.stored(str(db), 1)
+    assert '[search]\nneighbours = "dilute"\nclasses = "off"\n' in stored, stored
+    monkeypatch.setattr(sizing, "dilute_scan_pays", lambda *args: False)  # a refitted cost model
+    assert not api.simulate(api.make_scene(species=species, **keys), db=str(other)).stats.extras["dilute_scan"]
+    (tmp_path / "run.toml").write_text(stored)
+    code, out, err = invoke(["simulate", str(tmp_path / "run.toml"), "--db", str(again), "--json"])
+    assert code == 0, err
+    assert json.loads(out)["dilute_scan"]
+    assert len(_rows(db)) > 100 and _rows(db) == _rows(again)
+    assert _rows(db) != _rows(other)  # the cost model's choice would have changed the rows
+
+
+def test_a_search_given_explicitly_is_kept_and_the_skin_of_lists_stored():
+    from gaz_cli.engine import sizing
+    from gaz_cli.runner import prepare
+
+    base = Scene(dim=3, components=((BUILTIN["Ar"], 400),), length=3.0e-9, duration=1e-13,
+                 boundary="periodic", engine="event", seed=1, force=True)
+    assert base.packing_fraction > sizing.NEIGHBOUR_LIST_FROM[3]
+    search = ("neighbours", "classes", "skin")
+    dense = prepare(base)  # 'auto': lists, one grid, the default skin
+    assert {k: dense.extras.get(k) for k in search} == {
+        "neighbours": "lists", "classes": "off", "skin": sizing.NEIGHBOUR_SKIN}
+    given = prepare(replace(base, extras={"neighbours": "lists", "skin": 0.5}))
+    assert {k: given.extras.get(k) for k in search} == {"neighbours": "lists", "classes": "off", "skin": 0.5}
+    cells = prepare(replace(base, extras={"neighbours": "cells"}))
+    assert {k: cells.extras.get(k) for k in search} == {"neighbours": "cells", "classes": "off", "skin": None}
+    assert not set(search) & set(prepare(replace(base, dim=1, length=1e-6)).extras)  # no search in 1D
 
 
 @pytest.mark.parametrize("line, words", [
@@ -236,6 +280,15 @@ def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, w
     assert code == 1 and len(lines) == 1 and out == "", err
     for w in words:
         assert w in lines[0], lines[0]
+
+
+def test_a_bad_search_is_refused_at_the_one_door_with_the_cli_message():
+    """scene.validate alone checks the search (the driver's sizing no longer repeats it): a
+    Python caller gets the line the CLI prints."""
+    scene = Scene(dim=2, components=((BUILTIN["Ar"], 10),), length=1e-7, duration=1e-10,
+                  extras={"neighbours": "octree"})
+    with pytest.raises(SceneError, match="neighbours 'octree' is not one of auto, cells, lists, dilute"):
+        validate(scene)
 
 
 def test_flags_override_a_scene_file(tmp_path):

@@ -104,6 +104,54 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     return sim.run(start_time)
 
 
+def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
+    """The neighbour search of a run: (neighbour lists?, dilute scan?, size-class plan or
+    None, cells per axis, list skin h in m), for ``scene`` (valid) with these radii (N,) m and
+    interaction parameters PP (:func:`.interactions.pair_params`).
+
+    Cells with crossing events, neighbour lists or the dilute scan, sized on the
+    interaction's reach; radii far apart: cells per size class (extras 'classes': 'off'
+    forces one grid)."""
+    D, n, L = int(scene.dim), radii.size, float(scene.length)
+    periodic = scene.boundary == "periodic"
+    pairs = float(radii.max()) > 0.0 and n > 1
+    sigma = pair_reach(float(radii.max()), PP)
+    extras = scene.extras or {}
+    h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
+    use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
+                                        pairs, sigma, h, scene.packing_fraction)
+    dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                    float(scene.gravity) > 0.0, pairs, use_nl, sigma,
+                                    scene.packing_fraction)
+    nc = 1 if dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
+    mix = None if dilute or extras.get("classes", "auto") == "off" else classes.plan(
+        radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, PP),
+        sizing.cells_per_axis)
+    nc = mix.nc if mix is not None else nc
+    return use_nl, dilute, mix, nc, h
+
+
+def resolved_search(scene: Scene) -> dict:
+    """The search a run of ``scene`` (valid, event engine) takes, in the names of the scene
+    file's ``[search]`` table (:data:`gaz_cli.scene.SEARCH`): 'neighbours' (the path taken:
+    'lists', 'dilute' or 'cells'), 'classes' ('off' when one grid; 'auto' when the size
+    classes are used, the plan being a rule of the radii alone), 'skin' (with lists: the
+    skin in largest diameters). Empty when no search runs (1D, no pairs).
+
+    The runner stores it in the scene (what the caller set stays): a scene left on 'auto'
+    reruns from its scene file with the same search, hence the same rows, whatever a later
+    cost model (:mod:`.sizing`) would choose. A new search kind adds its name here."""
+    radii = np.ascontiguousarray(scene.radii(), dtype=np.float64)
+    if scene.dim == 1 or radii.size < 2 or not float(radii.max()) > 0.0:
+        return {}
+    use_nl, dilute, mix, _, h = _search(scene, radii, pair_params(scene))
+    out = {"neighbours": "lists" if use_nl else "dilute" if dilute else "cells",
+           "classes": "auto" if mix is not None else "off"}
+    if use_nl:
+        out["skin"] = float((scene.extras or {}).get("skin", sizing.NEIGHBOUR_SKIN))
+    return out
+
+
 class _Simulation(Rows):
     """One run: its arrays (:class:`.rows.Rows`) and the calls around the kernels."""
 
@@ -148,23 +196,8 @@ class _Simulation(Rows):
         self.D, self.n, self.L, self.g, self.periodic = D, n, L, g, periodic
         self.duration, self.pairs, self.inelastic = duration, pairs, e < 1.0
 
-        # neighbour search: cells with crossing events, or neighbour lists, sized on the
-        # interaction's reach
         self.PP = pair_params(scene)
-        sigma = pair_reach(rmax, self.PP)
-        extras = scene.extras or {}
-        h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
-        use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
-                                            pairs, sigma, h, scene.packing_fraction)
-        self.dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
-                                             g > 0.0, pairs, use_nl, sigma,
-                                             scene.packing_fraction)
-        nc = 1 if self.dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
-        # radii far apart: cells per size class (extras 'classes': 'off' forces one grid)
-        self.mix = None if self.dilute or extras.get("classes", "auto") == "off" else classes.plan(
-            radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, self.PP),
-            sizing.cells_per_axis)
-        nc = self.mix.nc if self.mix is not None else nc
+        use_nl, self.dilute, self.mix, nc, h = _search(scene, radii, self.PP)
         self.nc, self.use_nl, self.h = nc, use_nl, h
         self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
                           self.mix is not None, self.dilute)

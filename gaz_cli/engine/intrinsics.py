@@ -4,14 +4,16 @@ No physics here: :func:`_borrow` is what lets the event loop call small helpers 
 arrays at no cost (its docstring says why), :func:`_prefetch` / :func:`_prefetch_at`
 are cache hints, :func:`_fma` a correctly rounded ``x * y + z`` (written with Numba's
 public extension API, ``intrinsic``); :func:`_sources_digest` keys the loop's disk cache
-on every engine module.
+on every module the loop imports (:func:`kernel_sources`).
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
+import os
 import pathlib
+import re
 
 import numba
 from llvmlite import ir
@@ -126,17 +128,89 @@ def _fma(typingctx, x, y, z):
     return ty(ty, ty, ty), codegen
 
 
-@functools.lru_cache(maxsize=None)
-def _sources_digest() -> int:
-    """A number that changes with the source of any engine module the loop inlines.
+_IMPORT = re.compile(r"^(?:from[ \t]+(\.*)([\w.]*)[ \t]+import[ \t]+(\([^)]*\)|[^\n#]*)"
+                     r"|import[ \t]+([^\n#]*))", re.M)
+"""A module-level import statement (at the start of a line: an import inside a function is
+indented): ``from`` (dots, module, names) or ``import`` (modules)."""
+
+
+def kernel_sources(root: pathlib.Path | None = None, start: str = "gaz_cli.engine.loop") -> list:
+    """The source files whose code the loop's compiled kernels may hold: ``start``'s module and
+    every gaz module it imports at module level, directly or through those it imports.
+
+    A kernel reaches other modules' jitted helpers and constants only through its module's
+    globals, hence through module-level imports (an import inside a Python function is not
+    seen by Numba); so the set is the closure of the module-level ``import`` / ``from ...
+    import`` lines (:data:`_IMPORT`, read as text: nothing is imported, and a regular
+    expression costs a few ms at each start where :mod:`ast` cost 50 ms), whatever package each module
+    lives in: engine/, its sub-packages at any depth, gaz_cli/numba_config.py (the
+    decorators' options, which Numba's key leaves out). ``from package import name`` counts
+    ``package/name.py`` when name is a module. ``root`` is the directory holding the
+    ``gaz_cli`` package (default: this installation's). Sorted paths.
+    """
+    root = pathlib.Path(__file__).parents[2] if root is None else pathlib.Path(root)
+    top = start.split(".")[0]
+
+    files: dict = {}
+
+    def file_of(module: str) -> pathlib.Path | None:
+        if module not in files:
+            base = os.path.join(root, *module.split("."))
+            files[module] = next((pathlib.Path(f) for f in (base + ".py", os.path.join(base, "__init__.py"))
+                                  if os.path.isfile(f)), None)
+        return files[module]
+
+    seen: dict = {}
+    todo, visited = [start], set()
+    while todo:
+        module = todo.pop()
+        if module in visited:
+            continue
+        visited.add(module)
+        f = file_of(module)
+        if f is None or f in seen:
+            continue
+        seen[f] = module
+        package = module if f.name == "__init__.py" else module.rpartition(".")[0]
+        for dots, name, names, plain in _IMPORT.findall(f.read_text(encoding="utf-8")):
+            if plain:
+                todo += [m for m in (p.split(" as ")[0].strip() for p in plain.split(","))
+                         if m.split(".")[0] == top]
+                continue
+            if dots:  # relative: from .x import y
+                parts = package.split(".")
+                base = ".".join(parts[:len(parts) - len(dots) + 1])
+                name = f"{base}.{name}" if name else base
+            if name.split(".")[0] != top:
+                continue
+            todo.append(name)
+            g = file_of(name)
+            if g is not None and g.name == "__init__.py":  # from package import module?
+                todo += [f"{name}.{n.split(' as ')[0].strip()}" for n in names.strip("()").split(",")
+                         if n.strip() and n.strip() != "*"]
+    return sorted(seen)
+
+
+def sources_digest(root: pathlib.Path | None = None) -> int:
+    """A number that changes with the source of any module the loop's kernels may hold
+    (:func:`kernel_sources`: the loop's module-level imports, followed through every package),
+    for the ``gaz_cli`` package under ``root`` (default: this installation's).
 
     Numba's disk cache keys a function on its own file only: an edit of an inlined helper in
-    another module (interactions.py, say) would leave a stale loop in the cache. The loop
-    (loop.build) holds this number as a closure constant, which Numba's cache key includes.
+    another module (interactions.py, say, or a module of a sub-package) would leave a stale
+    loop in the cache, and a user upgrading gaz would run old kernels. The loop (loop.build)
+    holds this number (:func:`_sources_digest`) as a closure constant, which Numba's cache
+    key includes.
     """
-    here = pathlib.Path(__file__).parent
+    root = pathlib.Path(__file__).parents[2] if root is None else pathlib.Path(root)
     h = hashlib.sha256()
-    for f in sorted(here.glob("*.py")) + sorted(here.glob("neighbours/*.py")):
-        h.update(f.name.encode())
+    for f in kernel_sources(root):
+        h.update(f.relative_to(root).as_posix().encode())
         h.update(f.read_bytes())
     return int(h.hexdigest()[:15], 16)
+
+
+@functools.lru_cache(maxsize=None)
+def _sources_digest() -> int:
+    """:func:`sources_digest` of this installation, once a process."""
+    return sources_digest()

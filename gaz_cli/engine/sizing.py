@@ -39,12 +39,11 @@ def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bo
                         sigma: float, h: float, packing: float) -> bool:
     """Whether a run uses neighbour lists (dense 2D/3D) or cell-crossing events.
 
-    ``choice`` (scene.extras['neighbours']) may force 'lists' or 'cells'; 'auto' picks
-    lists from NEIGHBOUR_LIST_FROM on. Periodic boxes need three list-sized cells per axis
-    (one image per neighbour): narrower ones use cells.
+    ``choice`` (scene.extras['neighbours'], one of :data:`gaz_cli.scene.SEARCH`'s: checked at
+    the door, scene.validate) may force 'lists' or 'cells'; 'auto' picks lists from
+    NEIGHBOUR_LIST_FROM on. Periodic boxes need three list-sized cells per axis (one image
+    per neighbour): narrower ones use cells.
     """
-    if choice not in ("auto", "lists", "cells", "dilute"):
-        raise SceneError(f"neighbours {choice!r} is not one of auto, lists, cells, dilute")
     if not pairs or D == 1 or choice in ("cells", "dilute"):
         return False
     if periodic and L < 3.0 * (sigma + 2.0 * h) * (1.0 + 1e-9):
