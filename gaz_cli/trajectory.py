@@ -50,7 +50,9 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
     float32 positions in nm, velocities in nm/ps, diameters in nm, masses in
     daltons, particle types named by species; ``configuration.step`` is k and
     the log entry ``gaz/time_ps`` the time. 1D runs are written as 2D (y = 0)
-    with ``gaz/dimension`` = 1 in the log.
+    with ``gaz/dimension`` = 1 in the log. In a periodic box ``particles/image`` holds the
+    box crossings as H5MD's ``image`` does (position + image * box is the unwrapped
+    position; HOOMD's own convention).
 
 ``.pvd`` / ``.vtu``
     VTK XML for ParaView, written by meshio: one ``STEM_00000.vtu`` per
@@ -119,6 +121,7 @@ class TrajectoryWriter(Recorder):
         self.scene = scene
         self.count = 0
         self._last_t = -np.inf
+        self._image = self._previous = None  # periodic images so far, and the last positions
 
     def add_snapshot(self, t, positions, velocities, images=None) -> None:
         positions = np.asarray(positions, dtype=np.float64)
@@ -140,6 +143,19 @@ class TrajectoryWriter(Recorder):
                images: np.ndarray | None) -> None:
         """One snapshot into the file(s); images (N, D) or None (see :meth:`add_snapshot`)."""
         raise NotImplementedError
+
+    def _images(self, positions: np.ndarray, images: np.ndarray | None) -> np.ndarray:
+        """(N, D) int32 box crossings since the start of a periodic run's snapshot: the
+        engine's count when it hands one, else inferred from the previous snapshot by the
+        minimum image (module docstring); for the writers that store them (H5MD, GSD)."""
+        if self._image is None:
+            self._image = np.zeros(positions.shape, dtype=np.int32)
+        if images is not None:  # the engine's count
+            self._image = images.astype(np.int32)
+        elif self._previous is not None:  # no count given: the minimum image
+            self._image -= np.rint((positions - self._previous) / self.scene.length).astype(np.int32)
+        self._previous = positions.copy()
+        return self._image
 
     def close(self) -> None:
         """Finish the file(s); idempotent."""
@@ -236,8 +252,6 @@ class H5MDWriter(TrajectoryWriter):
                 g["step"], g["time"] = self.step, self.time  # one step, one time: hard links
             self._values[name] = value
         self._edges = np.full(d, scene.length / NM)
-        self._image = np.zeros((n, d), dtype=np.int32)
-        self._previous = None
         params = f.create_group("parameters")
         for key, val in _scene_attributes(scene).items():
             params.attrs[key] = val
@@ -249,12 +263,7 @@ class H5MDWriter(TrajectoryWriter):
         k = self.count
         data = {"position": positions / NM, "velocity": velocities * (PS / NM), "box/edges": self._edges}
         if self.periodic:
-            if images is not None:  # the engine's count
-                self._image = images.astype(np.int32)
-            elif self._previous is not None:  # no count given: the minimum image (module docstring)
-                self._image -= np.rint((positions - self._previous) / self.scene.length).astype(np.int32)
-            self._previous = positions.copy()
-            data["image"] = self._image
+            data["image"] = self._images(positions, images)
         try:
             for dataset in (self.step, self.time, *self._values.values()):
                 dataset.resize(k + 1, axis=0)
@@ -311,6 +320,8 @@ class GSDWriter(TrajectoryWriter):
         except OSError as err:
             raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {_reason(err)}") from None
         self._hoomd = gsd_hoomd
+        self.periodic = scene.boundary == "periodic"
+        self.want_images = self.periodic
         d, length = scene.dim, scene.length / NM
         # GSD boxes are 2D (Lz = 0) or 3D: a 1D run is drawn in a square, on y = 0
         self._box = [length, length, length if d == 3 else 0.0, 0.0, 0.0, 0.0]
@@ -338,6 +349,10 @@ class GSDWriter(TrajectoryWriter):
         frame.particles.velocity = vel
         frame.particles.diameter = self._diameter
         frame.particles.mass = self._mass
+        if self.periodic:
+            image = np.zeros((n, 3), dtype=np.int32)
+            image[:, :d] = self._images(positions, images)
+            frame.particles.image = image
         frame.log["gaz/time_ps"] = np.array([t / PS])
         frame.log["gaz/dimension"] = np.array([d], dtype=np.int32)
         try:

@@ -352,18 +352,24 @@ def periodic_scene(dim, components, extras, **kw) -> Scene:
 
 
 def write_run(scene, every, path, run=None):
-    """Run ``scene`` (the event engine unless ``run``) into the H5MD file ``path``; (stats,
-    times, wrapped positions, images, velocities) read back, SI."""
-    import h5py
-
+    """Run ``scene`` (the event engine unless ``run``) into the trajectory ``path`` (H5MD, or
+    GSD for a .gsd path); (stats, times, wrapped positions, images, velocities) read back, SI."""
     from gaz_cli import engine
     from gaz_cli.scene import initial_state
 
     with open_trajectory(path, every, scene) as w:
         stats = (run or engine.run)(scene, initial_state(scene), w)
-    data = read_h5md(path)
-    with h5py.File(path) as f:
-        images = f["particles/all/image/value"][()].astype(np.int64)
+    data = read_trajectory(path)
+    if path.suffix == ".gsd":
+        import gsd.hoomd
+
+        with gsd.hoomd.open(str(path), "r") as f:
+            images = np.stack([fr.particles.image[:, :scene.dim] for fr in f]).astype(np.int64)
+    else:
+        import h5py
+
+        with h5py.File(path) as f:
+            images = f["particles/all/image/value"][()].astype(np.int64)
     return stats, data["time"], data["positions"], images, data["velocities"]
 
 
@@ -382,6 +388,19 @@ def test_images_of_sparse_snapshots_are_those_of_a_dense_run(tmp_path, monkeypat
     the minimum image infers between the snapshots of a dense run of the same seed (same
     events), whose interval is short enough for it to be exact: the fastest possible speed,
     sqrt(2 E / m_min), times the interval is under half the box."""
+    _check_sparse_images(tmp_path, monkeypatch, search, ".h5")
+
+
+@pytest.mark.parametrize("search", ["2d cells", "3d lists", "1d rods"])
+def test_gsd_images_of_sparse_snapshots_are_those_of_a_dense_run(tmp_path, monkeypatch, search):
+    """The same in a GSD file: particles/image (HOOMD's convention, positions centred on the
+    origin in float32 nm) holds the engine's box crossings, as H5MD's image does."""
+    pytest.importorskip("gsd.hoomd")
+    _check_sparse_images(tmp_path, monkeypatch, search, ".gsd")
+
+
+def _check_sparse_images(tmp_path, monkeypatch, search, suffix):
+    """Sparse snapshots' images = the dense run's minimum-image count (see the tests above)."""
     from gaz_cli.engine import driver
 
     dim, components, extras, churn = PERIODIC_SEARCHES[search]
@@ -393,8 +412,8 @@ def test_images_of_sparse_snapshots_are_those_of_a_dense_run(tmp_path, monkeypat
     dense_every = 0.45 * scene.length / fastest_speed_bound(scene)
     ratio = int(np.ceil(0.5 / dense_every))
     dense_every = 0.5 / ratio  # the sparse snapshots (every 0.5 s) fall on dense ones
-    stats, t, x, _, _ = write_run(scene, dense_every, tmp_path / "dense.h5")
-    sparse_stats, ts, xs, images, _ = write_run(scene, 0.5, tmp_path / "sparse.h5")
+    stats, t, x, _, _ = write_run(scene, dense_every, tmp_path / f"dense{suffix}")
+    sparse_stats, ts, xs, images, _ = write_run(scene, 0.5, tmp_path / f"sparse{suffix}")
     assert sparse_stats.collisions == stats.collisions > 0
     if churn:
         assert sparse_stats.extras["rebases"] > 3 and sparse_stats.extras["restarts"] > 3
