@@ -90,8 +90,8 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     the physical events (collisions + wall bounces); ``extras`` holds the cell
     crossings, stale predictions, compile and set-up times, ``pair_tests`` (pair times
     computed exactly, on every search path: cells, lists, the dilute scan's survivors)
-    and ``dilute_scanned`` (particles the dilute scan's rejection pass went through; 0 on
-    the other paths); ``--json`` prints them.
+    and ``dilute_scanned`` (particles, or with wide cells slots, the float32 rejection pass
+    went through; 0 on the other paths); ``--json`` prints them.
 
     ``scene.extras`` may hold 'neighbours' ('auto', 'cells' or 'lists') and
     'skin' (neighbour-list skin in largest diameters) for benchmarks.
@@ -165,9 +165,15 @@ class _Simulation(Rows):
             radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, self.PP),
             sizing.cells_per_axis)
         nc = self.mix.nc if self.mix is not None else nc
+        # dilute gases with walls: wide cells scanned in float32 (neighbours.wide)
+        self.wide = sizing.use_wide_cells(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                          g > 0.0, pairs, use_nl, self.dilute,
+                                          self.mix is not None, sigma, scene.packing_fraction)
+        if self.wide:
+            nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction)
         self.nc, self.use_nl, self.h = nc, use_nl, h
         self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
-                          self.mix is not None, self.dilute)
+                          self.mix is not None, self.dilute, self.wide)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -220,7 +226,8 @@ class _Simulation(Rows):
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
-                   self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.NB, self.NN, self.SCR,
+                   self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.XB, self.NB,
+                   self.NN, self.SCR,
                    self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
                    self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV, self.IM)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
@@ -396,6 +403,7 @@ class _Simulation(Rows):
             "size_classes": self.mix is not None,
             "coarse_cells_per_axis": self.mix.ncl if self.mix is not None else 0,
             "dilute_scan": self.dilute,
+            "wide_cells": self.wide,
             "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,
