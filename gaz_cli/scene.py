@@ -229,7 +229,7 @@ def _one_of(name: str, value, allowed) -> None:
 
 
 SEARCH = {
-    "neighbours": ("auto", "cells", "lists", "dilute"),
+    "neighbours": ("auto", "cells", "lists", "dilute", "wide"),
     "classes": ("auto", "off"),
     "skin": "neighbour-list skin, in largest diameters, > 0",
 }

@@ -152,10 +152,11 @@ def _kept_and_found(P, XS, XC, t_mirror, t, tx, L):
     return kept, found
 
 
-def adversarial_rows(rng, n, dim, L, radius, speed, t, horizon, age):
-    """Rows (n, 8) of particle 0 at time t (inside the box, near the far walls) and n - 1
-    partners, each set up to touch it at a chosen time tc in [0, horizon] (a fifth
-    touching now, tc = 0; a tenth just inside the horizon, tc = horizon (1 - 1e-12)),
+def adversarial_rows(rng, n, dim, L, radius, speed, t, horizon, age, at=None):
+    """Rows (n, 8) of particle 0 at time t (inside the box, near the far walls; or ``at``:
+    its position and velocity) and n - 1 partners, each set up to touch it at a chosen time
+    tc in [0, horizon] (a fifth touching now, tc = 0; a tenth just inside the horizon,
+    tc = horizon (1 - 1e-12)),
     closing in along a grazing normal (n.dv = -eta |dv|, eta from 1e-7 to 1), a tenth
     overlapping slightly; each partner's row stamped up to ``age`` before t, its path
     inside the box since (candidates that leave it are drawn again)."""
@@ -163,6 +164,8 @@ def adversarial_rows(rng, n, dim, L, radius, speed, t, horizon, age):
     P0 = np.zeros(8)
     P0[:d] = L - radius * (1.0 + rng.uniform(0.0, 2.0, d))
     P0[PV:PV + d] = speed * rng.normal(size=d)
+    if at is not None:
+        P0[:d], P0[PV:PV + d] = at
     P0[PT] = t
     P0[PR] = radius
     rows = [P0[None, :]]

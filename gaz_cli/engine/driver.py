@@ -90,8 +90,8 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
     the physical events (collisions + wall bounces); ``extras`` holds the cell
     crossings, stale predictions, compile and set-up times, ``pair_tests`` (pair times
     computed exactly, on every search path: cells, lists, the dilute scan's survivors)
-    and ``dilute_scanned`` (particles the dilute scan's rejection pass went through; 0 on
-    the other paths); ``--json`` prints them.
+    and ``dilute_scanned`` (particles, or with wide cells slots, the float32 rejection pass
+    went through; 0 on the other paths); ``--json`` prints them.
 
     ``scene.extras`` may hold 'neighbours' ('auto', 'cells' or 'lists') and
     'skin' (neighbour-list skin in largest diameters) for benchmarks.
@@ -106,7 +106,7 @@ def run(scene: Scene, state: State, recorder: Recorder | None = None,
 
 def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
     """The neighbour search of a run: (neighbour lists?, dilute scan?, size-class plan or
-    None, cells per axis, list skin h in m), for ``scene`` (valid) with these radii (N,) m and
+    None, cells per axis, list skin h in m, wide cells?), for ``scene`` (valid) with these radii (N,) m and
     interaction parameters PP (:func:`.interactions.pair_params`).
 
     Cells with crossing events, neighbour lists or the dilute scan, sized on the
@@ -128,13 +128,19 @@ def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
         radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, PP),
         sizing.cells_per_axis)
     nc = mix.nc if mix is not None else nc
-    return use_nl, dilute, mix, nc, h
+    # dilute gases with walls: wide cells scanned in float32 (neighbours.wide)
+    wide = sizing.use_wide_cells(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                 float(scene.gravity) > 0.0, pairs, use_nl, dilute,
+                                 mix is not None, sigma, scene.packing_fraction)
+    if wide:
+        nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction)
+    return use_nl, dilute, mix, nc, h, wide
 
 
 def resolved_search(scene: Scene) -> dict:
     """The search a run of ``scene`` (valid, event engine) takes, in the names of the scene
     file's ``[search]`` table (:data:`gaz_cli.scene.SEARCH`): 'neighbours' (the path taken:
-    'lists', 'dilute' or 'cells'), 'classes' ('off' when one grid; 'auto' when the size
+    'lists', 'dilute', 'wide' or 'cells'), 'classes' ('off' when one grid; 'auto' when the size
     classes are used, the plan being a rule of the radii alone), 'skin' (with lists: the
     skin in largest diameters). Empty when no search runs (1D, no pairs).
 
@@ -144,8 +150,8 @@ def resolved_search(scene: Scene) -> dict:
     radii = np.ascontiguousarray(scene.radii(), dtype=np.float64)
     if scene.dim == 1 or radii.size < 2 or not float(radii.max()) > 0.0:
         return {}
-    use_nl, dilute, mix, _, h = _search(scene, radii, pair_params(scene))
-    out = {"neighbours": "lists" if use_nl else "dilute" if dilute else "cells",
+    use_nl, dilute, mix, _, h, wide = _search(scene, radii, pair_params(scene))
+    out = {"neighbours": "lists" if use_nl else "dilute" if dilute else "wide" if wide else "cells",
            "classes": "auto" if mix is not None else "off"}
     if use_nl:
         out["skin"] = float((scene.extras or {}).get("skin", sizing.NEIGHBOUR_SKIN))
@@ -197,10 +203,10 @@ class _Simulation(Rows):
         self.duration, self.pairs, self.inelastic = duration, pairs, e < 1.0
 
         self.PP = pair_params(scene)
-        use_nl, self.dilute, self.mix, nc, h = _search(scene, radii, self.PP)
+        use_nl, self.dilute, self.mix, nc, h, self.wide = _search(scene, radii, self.PP)
         self.nc, self.use_nl, self.h = nc, use_nl, h
         self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
-                          self.mix is not None, self.dilute)
+                          self.mix is not None, self.dilute, self.wide)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0
@@ -253,7 +259,8 @@ class _Simulation(Rows):
     # --- kernel calls ---------------------------------------------------------
     def _loop(self, t_stop: float, max_events: int) -> int:
         T = Tables(self.P, self.M, self.TL, self.XN, self.I, self.EV, self.Q, self.HK, self.HI,
-                   self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.NB, self.NN, self.SCR,
+                   self.BH, self.cells, self.GB, self.GS, self.XS, self.XC, self.XB, self.NB,
+                   self.NN, self.SCR,
                    self.order, self.edges, self.ident, self.bt, self.bp, self.bw, self.bs, self.bv,
                    self.ct, self.ci, self.cj, self.cimp, self.CL, self.CV, self.IM)
         return self.kern.loop(T, self.S, self.PP, float(t_stop), int(max_events))
@@ -429,6 +436,7 @@ class _Simulation(Rows):
             "size_classes": self.mix is not None,
             "coarse_cells_per_axis": self.mix.ncl if self.mix is not None else 0,
             "dilute_scan": self.dilute,
+            "wide_cells": self.wide,
             "list_rebuilds": int(st["rebuild"]),
             "restarts": self.restarts,
             "rebases": self.rebases,

@@ -89,6 +89,7 @@ Tables = namedtuple("Tables", [
     "cells", "GB", "GS",  # cell table, a scan's gathered particles and their image shifts
     "XS", "XC",  # dilute scans: the rows as float32 structure of arrays, its units
     #   (neighbours.dilute)
+    "XB",  # wide cells: each cell's rows as a float32 block (neighbours.wide)
     "NB", "NN", "SCR",  # neighbour lists (N, width), their lengths, a rebuild's scratch
     "order", "edges", "ID",  # 1D line order, cell faces along an axis, the caller's numbers
     "bt", "bp", "bw", "bs", "bv",  # bounce buffers: time, particle, wall, speed, |v_perp|

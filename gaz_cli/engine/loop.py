@@ -58,13 +58,17 @@ from gaz_cli.engine.dynamics import _advance
 from gaz_cli.engine.interactions import _collide
 from gaz_cli.engine.intrinsics import _borrow, _inline, _sources_digest
 from gaz_cli.engine.layout import (BUFFER_FULL, C0, CELL, CELL_FULL, CNT, CODE, DONE, KEY,
-                                   NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, TCOL, TX)
+                                   NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, SLOT, TCOL,
+                                   TX)
 from gaz_cli.engine.neighbours.cells import (_block_entered, _cell_entered, _cell_of,
                                              _cross_face, _gather_cells, _predict_pairs)
 from gaz_cli.engine.neighbours.classes_events import (_cross_face_classes, _gather_classes,
                                                       _room_to_cross)
 from gaz_cli.engine.neighbours.dilute import _mirror, _mirror_all, _predict_all
 from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
+from gaz_cli.engine.neighbours.wide import _mirror as _wmirror
+from gaz_cli.engine.neighbours.wide import _mirror_all as _wmirror_all
+from gaz_cli.engine.neighbours.wide import _moved_out, _predict_wide
 from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engine.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
                                      _prefetch_listed, _prefetch_next_events)
@@ -100,7 +104,7 @@ def _gather_rebuild(P, XN, I, IM, cells, NN, NB, SCR, k, t, ainv, nc, L, h, g, D
 
 @functools.lru_cache(maxsize=None)
 def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = False,
-          MIX: bool = False, DIL: bool = False):
+          MIX: bool = False, DIL: bool = False, WIDE: bool = False):
     """The kernels for one kind of scene; the flags are compile-time constants.
 
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
@@ -110,7 +114,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
     the coarse table ``T.CL`` beside the fine one, the counts ``T.CV``); DIL a dilute gas
     in a box with walls, no gravity: every particle scans all the others
-    (:mod:`.neighbours.dilute`, one cell, no crossings). The restitution is a run-time
+    (:mod:`.neighbours.dilute`, one cell, no crossings); WIDE the same gas in wide cells
+    whose blocks that pass scans (:mod:`.neighbours.wide`). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
@@ -118,7 +123,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     IMG = bool(IMG and PER and PAIRS and D > 1 and not NL)
     DIL = bool(DIL and PAIRS and D > 1 and not NL and not PER and not GRAV)
     CELLS = bool(PAIRS and D > 1 and not NL and not DIL)  # cell lists with crossing events
-    MIX = bool(MIX and CELLS and not IMG)
+    WIDE = bool(WIDE and CELLS and not PER and not GRAV)
+    MIX = bool(MIX and CELLS and not IMG and not WIDE)
     SOURCES = _sources_digest()
 
     @njit
@@ -142,7 +148,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
         I, EV, Q = _borrow(T.I), _borrow(T.EV), _borrow(T.Q)
         HK, HI, BH = _borrow(T.HK), _borrow(T.HI), _borrow(T.BH)
         cells, GB, GS, XS = _borrow(T.cells), _borrow(T.GB), _borrow(T.GS), _borrow(T.XS)
-        XC = _borrow(T.XC)
+        XC, XB = _borrow(T.XC), _borrow(T.XB)
         NB, NN, SCR = _borrow(T.NB), _borrow(T.NN), _borrow(T.SCR)
         order, edges, ID = _borrow(T.order), _borrow(T.edges), _borrow(T.ID)
         bt, bp, bw, bs, bv = _borrow(T.bt), _borrow(T.bp), _borrow(T.bw), _borrow(T.bs), _borrow(T.bv)
@@ -184,6 +190,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     break
                 if DIL and pk == 0:
                     _mirror_all(P, XS, XC, n, t_stop, L)
+                if WIDE and pk == 0:
+                    _wmirror_all(P, I, XB, XC, n, t_stop, L)
                 k = pk
                 pk += 1
                 t = t_stop
@@ -290,13 +298,20 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                                                         PER)
                             xd, xup = d, up
                         else:
+                            old, sl, co = I[k, CELL], I[k, SLOT], cells[I[k, CELL], 0]
                             _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
+                            if WIDE and I[k, CELL] != old:
+                                _moved_out(XB, cells, old, sl, co)
                         lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             if DIL and not predicting:
                 _mirror(P, XS, XC, k)  # what the event changed, for the scans below
                 if j >= 0:
                     _mirror(P, XS, XC, j)
+            if WIDE and not predicting:
+                _wmirror(P, I, XB, XC, k)
+                if j >= 0:
+                    _wmirror(P, I, XB, XC, j)
 
             # --- predict and push, in steps: a gather of a side's cells, then the
             # rest for that side. Large systems (pf) gather both sides first (a
@@ -304,7 +319,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
             # first scan waits on its own), small ones gather each just before its
             # scan (faster in cache). One step loop keeps a single copy of each
             # inlined helper (compile time).
-            cellscan = CELLS and rescan
+            cellscan = CELLS and rescan and not WIDE
             ng0 = 0
             ng1 = 0
             for step in range(2 * nres if cellscan else nres):
@@ -342,6 +357,11 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if DIL and rescan:
                     n_pairs += _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV)
                     n_scanned += n
+                if WIDE and rescan:
+                    exact, slots = _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L,
+                                                 g, full, lo0, hi0, lo1, hi1, lo2, hi2, PP, D)
+                    n_pairs += exact
+                    n_scanned += slots
                 if cellscan:
                     ng = ng0 if side == 0 else ng1
                     _predict_pairs(P, I, EV, GB, GS, base, ng, p, t, L, g, full, PP, D, PER,
@@ -376,5 +396,5 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
 
     ns = Kernels()
     ns.loop = loop
-    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG, MIX, DIL)
+    ns.flags = (D, PER, GRAV, PAIRS, NL, IMG, MIX, DIL, WIDE)
     return ns

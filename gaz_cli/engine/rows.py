@@ -19,6 +19,7 @@ from gaz_cli.engine.neighbours import classes
 from gaz_cli.engine.neighbours.cells import _assign_cells, wider
 from gaz_cli.engine.neighbours.dilute import XC_SIZE, XS_ROWS
 from gaz_cli.engine.neighbours.lists import _build_nl
+from gaz_cli.engine.neighbours.wide import empty_blocks, wider_blocks
 from gaz_cli.errors import EngineError
 
 
@@ -105,6 +106,8 @@ class Rows:
         self._gather_buffers()
         self.XS = _alloc((XS_ROWS, n if self.dilute else 1), np.float32, fill=0.0)  # filled by
         self.XC = np.zeros(XC_SIZE)  # the loop
+        # wide cells: each cell's rows as a float32 block, filled by the loop
+        self.XB = empty_blocks(nc ** D if self.wide else 1, self.cap if self.wide else 1)
         if self.use_nl:
             while True:
                 self.NB = _alloc((n, self.nb_width), np.int32)
@@ -132,6 +135,8 @@ class Rows:
         """Cells with twice the room (one was full)."""
         self.cells = wider(self.cells)
         self.cap = self.cells.shape[1] - 1
+        if self.wide:
+            self.XB = wider_blocks(self.XB, self.cap)
         if self.mix is not None:
             classes.grow(self)
         self._gather_buffers()

@@ -44,7 +44,7 @@ def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bo
     NEIGHBOUR_LIST_FROM on. Periodic boxes need three list-sized cells per axis (one image
     per neighbour): narrower ones use cells.
     """
-    if not pairs or D == 1 or choice in ("cells", "dilute"):
+    if not pairs or D == 1 or choice in ("cells", "dilute", "wide"):
         return False
     if periodic and L < 3.0 * (sigma + 2.0 * h) * (1.0 + 1e-9):
         return False
@@ -106,19 +106,85 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> 
     few large spheres among many small ones must not count as n large ones, which gave
     packings above 1 and the contact value's refusal).
     """
-    from gaz_cli import theory  # (numpy only; imported when a scene asks)
+    path = _path(D, n, L, packing)
+    dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
+    return dilute < _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0,
+                                                              False))
 
-    diameter = 2.0 * (packing * L ** D / (n * UNIT_BALL[D])) ** (1.0 / D)
-    lam = float(theory.mean_free_path(D, n / L ** D, diameter))
-    path = 1.0 / (1.0 / lam + D / (2.0 * L))
-    nc = cells_per_axis(D, n, L, True, False, sigma, 0.0, False)
+
+def _cells_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
+    """The cost of a particle's event with cells (nc an axis) by the model of
+    :func:`dilute_scan_pays`, in DILUTE_COST's units."""
     w = L / nc
     per_cell = n / nc ** D
     cross = (4.0 / math.pi if D == 2 else 1.5) * path / w
     c = DILUTE_COST
-    cells = c["event"] * (1.0 + cross) + c["pair"] * per_cell * (3 ** D + 3 ** (D - 1) * cross)
-    dilute = c["event"] + c["scanned"] * n
-    return dilute < cells
+    return c["event"] * (1.0 + cross) + c["pair"] * per_cell * (3 ** D + 3 ** (D - 1) * cross)
+
+
+def _path(D: int, n: int, L: float, packing: float) -> float:
+    """The mean path between two events of a particle in a box with walls, 1 / (1/lambda +
+    D / (2 L)) (collisions at the mean free path lambda of n equal particles filling the
+    scene's ``packing`` fraction, bounces off D pairs of walls)."""
+    from gaz_cli import theory  # (numpy only; imported when a scene asks)
+
+    diameter = 2.0 * (packing * L ** D / (n * UNIT_BALL[D])) ** (1.0 / D)
+    lam = float(theory.mean_free_path(D, n / L ** D, diameter))
+    return 1.0 / (1.0 / lam + D / (2.0 * L))
+
+
+def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
+                   pairs: bool, use_nl: bool, dilute: bool, classes: bool, sigma: float,
+                   packing: float) -> bool:
+    """Whether a run uses wide cells scanned by the float32 pass (:mod:`.neighbours.wide`):
+    2D/3D, hard walls, no gravity, no neighbour lists, not the dilute scan, no size classes
+    (``classes``: the run has them).
+
+    ``choice`` 'wide' forces it where it applies (elsewhere the other searches stay); 'auto'
+    takes it below DILUTE_BELOW when the model of :func:`wide_cells_per_axis` costs less
+    than that of cells (:func:`dilute_scan_pays`)."""
+    if not (pairs and D > 1 and not periodic and not gravity and not use_nl and not dilute
+            and not classes):
+        return False
+    if choice == "wide":
+        return True
+    if choice != "auto" or packing >= DILUTE_BELOW:
+        return False
+    path = _path(D, n, L, packing)
+    nc = wide_cells_per_axis(D, n, L, sigma, packing)
+    cells = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
+    return _wide_cost(D, n, L, path, nc) < cells
+
+
+WIDE_COST = {"event": 1.46, "slot": 0.00145}
+"""Relative CPU cost, with wide cells, of a queue event (the event, its blocks' set-up) and
+of a slot of a block in the float32 pass, in the units of DILUTE_COST. Fitted on scene (b)
+of benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls; CPU time, shared host)
+with 5 to 18 cells an axis forced: 1.11 us a queue event, 1.10 ns a slot (the model within
+3 % of the six runs); cells on the same scene, 7 to 28 cells an axis: 0.76 us a queue
+event, 14.6 ns a pair test (the event of DILUTE_COST)."""
+
+
+def _wide_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
+    """The cost of a particle's event with wide cells (nc an axis), in DILUTE_COST's units:
+    the event, k_D l / w crossings (each a queue event and a scan of the 3^(D-1) blocks that
+    come into view) and a scan of the 3^D blocks around (l the path between two events of a
+    particle, k_D as in :func:`dilute_scan_pays`); a block holds n / nc^D particles, its scan
+    covers them rounded up to the pass's 8 lanes."""
+    per_cell = n / nc ** D
+    slots = 8.0 * math.ceil(per_cell / 8.0)
+    cross = (4.0 / math.pi if D == 2 else 1.5) * path * nc / L
+    blocks = min(3 ** D, nc ** D) + min(3 ** (D - 1), nc ** (D - 1)) * cross
+    c = WIDE_COST
+    return c["event"] * (1.0 + cross) + c["slot"] * slots * blocks
+
+
+def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float) -> int:
+    """Cells along each axis for wide cells: the count, among those at least a pair's reach
+    (sigma) wide (at most 64), that costs least by the model of :func:`_wide_cost`."""
+    path = _path(D, n, L, packing)
+    most = max(1, min(64, int(math.floor(L / (sigma * (1.0 + 1e-9))))))
+    return min(range(1, most + 1), key=lambda nc: _wide_cost(D, n, L, path, nc))
 
 
 def cells_per_axis(D: int, n: int, L: float, pairs: bool, periodic: bool, sigma: float,

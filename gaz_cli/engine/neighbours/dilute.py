@@ -113,27 +113,33 @@ nearly at rest, whose horizon spans a million box crossings; exact roots for all
 
 
 @_inline
-def _mirror(P, XS, XC, p):
-    """Copy particle p's row (positions, velocities, stamp, radius) into column p of XS, in
-    the units of XC; raise XC's running maximum speed."""
+def _mirror_to(P, XS, XC, p, col):
+    """Copy particle p's row (positions, velocities, stamp, radius) into column ``col`` of
+    XS, in the units of XC; raise XC's running maximum speed."""
     c, il, it = XC[CENTRE], XC[IL], XC[IT]
     vs = il / it
     v2 = 0.0
     for d in range(3):
-        XS[d, p] = (P[p, d] - c) * il
+        XS[d, col] = (P[p, d] - c) * il
         v = P[p, PV + d] * vs
-        XS[3 + d, p] = v
+        XS[3 + d, col] = v
         v2 += v * v
-    XS[6, p] = (P[p, PT] - XC[T0]) * it
-    XS[7, p] = P[p, PR] * il
+    XS[6, col] = (P[p, PT] - XC[T0]) * it
+    XS[7, col] = P[p, PR] * il
     if v2 > XC[V2]:
         XC[V2] = v2
 
 
 @_inline
-def _mirror_all(P, XS, XC, n, t, L):
-    """Choose XC's units for the rows at time t (box edge L) and copy every row into XS
-    (before the first predictions)."""
+def _mirror(P, XS, XC, p):
+    """Copy particle p's row into column p of XS (:func:`_mirror_to`)."""
+    _mirror_to(P, XS, XC, p, p)
+
+
+@_inline
+def _choose_units(P, XC, n, t, L):
+    """XC's units for the rows at time t (box edge L): t0 = t, lengths in L from the box
+    centre, times in the time the fastest particle takes to cross L."""
     vmax2 = 0.0
     for p in range(n):
         vmax2 = max(vmax2, P[p, PV] ** 2 + P[p, PV + 1] ** 2 + P[p, PV + 2] ** 2)
@@ -143,6 +149,13 @@ def _mirror_all(P, XS, XC, n, t, L):
     # (a gas at rest: any unit, its scaled speeds are 0)
     XC[IT] = math.sqrt(vmax2) / L if vmax2 > 0.0 else 1.0 / L
     XC[V2] = 1.0
+
+
+@_inline
+def _mirror_all(P, XS, XC, n, t, L):
+    """Choose XC's units for the rows at time t (box edge L) and copy every row into XS
+    (before the first predictions)."""
+    _choose_units(P, XC, n, t, L)
     for p in range(n):
         _mirror(P, XS, XC, p)
 
@@ -198,12 +211,10 @@ def _reject_pass(XS, n, t, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv,
 
 
 @_inline
-def _keep(P, XS, XC, p, t, tx, n):
-    """Pass 1 for particle p (its row at t) up to its horizon tx: XS[KEEP] marks every
-    particle that may touch it by tx (rebasing the stamps first if due); returns whether
-    any is marked."""
-    if (t - XC[T0]) * XC[IT] > REBASE:
-        _rebase(P, XS, XC, n, t)
+def _bounds(P, XC, p, t, tx):
+    """The float32 arguments of particle p's pass (its row at t) up to its horizon tx, in
+    XC's units: (whether the pass may filter, i.e. its input error delta < DELTA_MAX; tau,
+    x_k, v_k, r_k, delta, horizon, bv, bx: see :func:`_reject_pass`)."""
     c, il, it = XC[CENTRE], XC[IL], XC[IT]
     vs = il / it
     tau = (t - XC[T0]) * it
@@ -213,19 +224,30 @@ def _keep(P, XS, XC, p, t, tx, n):
     ex = math.sqrt(3.0) * U32 * (8.0 + 2.0 * REBASE * v)
     ev = math.sqrt(3.0) * U32 * 4.0 * v
     delta = ex + ev * horizon
-    if delta < DELTA_MAX:
-        # b's round-off for a pair within reach (|dx| <= sg): |dx| ev + |dv| ex + their
-        # product + its evaluation's ~8 U32 |dx| |dv|, |dv| <= 2 v; doubled
-        bv = 2.0 * (ev + 8.0 * U32 * 2.0 * v)
-        bx = 2.0 * ex * (2.0 * v + ev + 1.0)
+    # b's round-off for a pair within reach (|dx| <= sg): |dx| ev + |dv| ex + their
+    # product + its evaluation's ~8 U32 |dx| |dv|, |dv| <= 2 v; doubled
+    bv = 2.0 * (ev + 8.0 * U32 * 2.0 * v)
+    bx = 2.0 * ex * (2.0 * v + ev + 1.0)
+    return (delta < DELTA_MAX, np.float32(tau), np.float32((P[p, 0] - c) * il),
+            np.float32((P[p, 1] - c) * il), np.float32((P[p, 2] - c) * il),
+            np.float32(P[p, PV] * vs), np.float32(P[p, PV + 1] * vs),
+            np.float32(P[p, PV + 2] * vs), np.float32(P[p, PR] * il), np.float32(delta),
+            np.float32(horizon), np.float32(bv), np.float32(bx))
+
+
+@_inline
+def _keep(P, XS, XC, p, t, tx, n):
+    """Pass 1 for particle p (its row at t) up to its horizon tx: XS[KEEP] marks every
+    particle that may touch it by tx (rebasing the stamps first if due); returns whether
+    any is marked."""
+    if (t - XC[T0]) * XC[IT] > REBASE:
+        _rebase(P, XS, XC, n, t)
+    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv, bx = _bounds(P, XC, p, t, tx)
+    if ok:
         own = XS[0, p]
         XS[0, p] = FAR  # (p itself out of reach: dv = 0 exactly, b = 0, |dx|^2 = FAR^2)
-        kept = _reject_pass(XS, n, np.float32(tau),
-                            np.float32((P[p, 0] - c) * il), np.float32((P[p, 1] - c) * il),
-                            np.float32((P[p, 2] - c) * il), np.float32(P[p, PV] * vs),
-                            np.float32(P[p, PV + 1] * vs), np.float32(P[p, PV + 2] * vs),
-                            np.float32(P[p, PR] * il), np.float32(delta), np.float32(horizon),
-                            np.float32(bv), np.float32(bx))
+        kept = _reject_pass(XS, n, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv,
+                            bx)
         XS[0, p] = own
     else:  # (every pair exactly: a particle nearly at rest, or at rest: horizon inf)
         for m in range(n):

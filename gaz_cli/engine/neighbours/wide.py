@@ -1,0 +1,220 @@
+"""Wide cells for dilute gases in a box with walls: cells several diameters wide, each
+scanned by the float32 rejection pass of :mod:`.dilute`.
+
+Cells a diameter wide cost a dilute gas many crossing events per physical event (scene (b)
+of benchmarks/engine.py: 8 crossings an event at 28 cells an axis); cells several diameters
+wide cost few crossings but many candidates a scan, each an exact float64 pair time. Here
+the cells are wide and each holds its particles as a contiguous block of the rows
+``XS_ROWS`` of :mod:`.dilute` (``XB[cell, row, slot]``, float32, in the box units of ``XC``,
+slot s holding the particle of the cell table's slot s + 1): a scan of a cell is
+:func:`.dilute._reject_pass` over its block, vectorised 8 lanes wide (a block's slots
+beyond its count, up to a multiple of 8, hold an inert row: x0 = FAR, at rest, radius 0),
+then the exact float64 pair time (:func:`.interactions._pair_time`, from the rows) of
+the few pairs kept: the exact root decides, as in :mod:`.dilute`.
+
+Crossings work as with cells (:mod:`.cells`): a full scan of the 3^D cells around the
+particle after a collision or a bounce, a scan of the 3^(D-1) cells that come into view at
+a crossing, merged with the predictions kept. Every scan of a particle between two of its
+course changes (collision, wall bounce) has the same horizon: its next wall bounce tw
+along its line (a crossing does not change the line), and the predictions later than
+tw (plus 1e-9 of the time to it: within the pass's own widening, MARGIN32) are dropped,
+so that the second prediction of a full scan stays sure. A collision is then never missed:
+for a pair that collides at tc, take the later of the two particles' last course changes
+before tc; from then on both horizons are >= tc, and the scans that find the pair with
+cells (the cells' invariant) find it here. The round-off bound of the pass is that of
+:mod:`.dilute` with that horizon (:func:`.dilute._bounds`): the same units (box edges from
+the centre; a particle stays in its cell until its next event), the same stamps rebased
+within REBASE time units (:func:`_rebase`).
+
+The blocks mirror the rows: a particle's slot is rewritten after each event that changes
+its row (:func:`_mirror`), all of them at the first predictions (:func:`_mirror_all`); a
+crossing moves the cell's last slot into the hole it leaves (:func:`_moved_out`, as
+:func:`.cells._move` does in the table). A cell that fills up widens the table and the
+blocks (the driver: ``Rows._grow_cells``), slots and units kept.
+
+Chosen by :func:`.sizing.use_wide_cells`, its cells per axis by
+:func:`.sizing.wide_cells_per_axis`; walls only, no gravity, no size classes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gaz_cli.engine.boundaries import _crossing
+from gaz_cli.engine.dynamics import _relative_at
+from gaz_cli.engine.interactions import _pair_time
+from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
+                                   PT, SLOT, SURE, TCOL, TCOL2)
+from gaz_cli.engine.neighbours.cells import _stamp
+from gaz_cli.engine.neighbours.dilute import (FAR, IT, KEEP, REBASE, T0, XS_ROWS, _bounds,
+                                              _choose_units, _mirror_to, _reject_pass)
+
+LANES = 8
+"""A block's scan covers its count rounded up to this many slots (the pass's vector width:
+no scalar remainder loop)."""
+
+HORIZON_SLACK = 1e-9
+"""Predictions up to the horizon plus this fraction of the time to it are kept (far inside
+the pass's widening MARGIN32, so every pair that the exact root puts there is kept)."""
+
+
+def block_width(cap: int) -> int:
+    """Slots of a block for a cell table of ``cap`` particles a cell: a multiple of LANES."""
+    return LANES * ((cap + LANES - 1) // LANES)
+
+
+def empty_blocks(cells: int, cap: int) -> np.ndarray:
+    """The blocks of ``cells`` cells of ``cap`` particles, every slot inert."""
+    XB = np.zeros((cells, XS_ROWS, block_width(cap)), dtype=np.float32)
+    XB[:, 0, :] = FAR
+    return XB
+
+
+def wider_blocks(XB: np.ndarray, cap: int) -> np.ndarray:
+    """The blocks ``XB`` widened for ``cap`` particles a cell, their slots kept."""
+    new = empty_blocks(XB.shape[0], cap)
+    new[:, :, :XB.shape[2]] = XB
+    return new
+
+
+@_inline
+def _mirror(P, I, XB, XC, p):
+    """Copy particle p's row into its slot of its cell's block."""
+    _mirror_to(P, XB[I[p, CELL]], XC, p, I[p, SLOT] - 1)
+
+
+@_inline
+def _mirror_all(P, I, XB, XC, n, t, L):
+    """Choose XC's units at time t and copy every row into its slot (the first predictions;
+    the other slots stay inert)."""
+    _choose_units(P, XC, n, t, L)
+    for p in range(n):
+        _mirror(P, I, XB, XC, p)
+
+
+@_inline
+def _rebase(P, I, XB, XC, n, t):
+    """Stamps relative to t0 = t (as :func:`.dilute._rebase`)."""
+    XC[T0] = t
+    it = XC[IT]
+    for m in range(n):
+        XB[I[m, CELL], 6, I[m, SLOT] - 1] = (P[m, PT] - t) * it
+
+
+@_inline
+def _moved_out(XB, cells, old, sl, co):
+    """A particle left slot sl (1-based, as the table's) of cell ``old``, which held co
+    particles: the table moved the last one into its slot; so do the blocks, and the last
+    slot becomes inert."""
+    if sl != co:
+        for r in range(XS_ROWS - 1):
+            XB[old, r, sl - 1] = XB[old, r, co - 1]
+    for r in range(XS_ROWS - 1):
+        XB[old, r, co - 1] = 0.0
+    XB[old, 0, co - 1] = FAR
+
+
+@_inline
+def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, hi0, lo1,
+                  hi1, lo2, hi2, PP, D):
+    """Particle p's two earliest collisions (its row at t) before its next wall bounce, in
+    the cells c + (lo..hi) on each axis around its cell c (all 3^D: ``full``; else those
+    that came into view, merged with the predictions kept, as
+    :func:`.cells._predict_pairs` merges them), written to its predictions. Returns (pair
+    times computed exactly, slots the pass went through)."""
+    tw, _ = _crossing(P, I, edges, p, nc, n, L, g, D, False, False, True, True)  # walls only
+    tcut = tw + HORIZON_SLACK * (tw - t)
+    if (t - XC[T0]) * XC[IT] > REBASE:
+        _rebase(P, I, XB, XC, n, t)
+    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv, bx = _bounds(P, XC, p, t, tw)
+    if full:
+        best = INF
+        bj = -1
+        best2 = INF
+        bj2 = -1
+    else:
+        best = EV[p, TCOL]
+        bj = I[p, PART]
+        best2 = EV[p, TCOL2]
+        bj2 = I[p, PART2]
+    oc1 = I[p, PCNT]
+    oc2 = I[p, PCNT2]
+    src1 = KEPT1
+    src2 = KEPT2
+    x0 = P[p, 0]
+    x1 = P[p, 1]
+    x2 = P[p, 2]
+    v0 = P[p, 3]
+    v1 = P[p, 4]
+    v2 = P[p, 5]
+    rad = P[p, PR]
+    own_cell = I[p, CELL]
+    own_slot = I[p, SLOT] - 1
+    own = XB[own_cell, 0, own_slot]
+    XB[own_cell, 0, own_slot] = FAR  # (p itself out of reach, as in .dilute._keep)
+    c0 = I[p, C0]
+    c1 = I[p, C0 + 1]
+    c2 = I[p, C0 + 2] if D > 2 else 0
+    if D < 3:
+        lo2 = 0
+        hi2 = 0
+    exact = 0
+    scanned = 0
+    for o0 in range(lo0, hi0 + 1):
+        n0 = c0 + o0
+        if n0 < 0 or n0 >= nc:
+            continue
+        for o1 in range(lo1, hi1 + 1):
+            n1 = c1 + o1
+            if n1 < 0 or n1 >= nc:
+                continue
+            for o2 in range(lo2, hi2 + 1):
+                n2 = c2 + o2
+                if n2 < 0 or n2 >= nc:
+                    continue
+                cell = (n0 * nc + n1) * nc + n2 if D > 2 else n0 * nc + n1
+                cnt = cells[cell, 0]
+                if cnt == 0:
+                    continue
+                X = XB[cell]
+                kept = True
+                if ok:
+                    lanes = (cnt + 7) & ~7
+                    scanned += lanes
+                    kept = _reject_pass(X, lanes, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta,
+                                        horizon, bv, bx)
+                if not kept:
+                    continue
+                for s in range(cnt):
+                    if ok and X[KEEP, s] != 0.0:
+                        continue
+                    m = cells[cell, 1 + s]
+                    if m == p:
+                        continue
+                    exact += 1
+                    dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, x0, x1, x2, v0, v1, v2,
+                                                                g, D, False)
+                    tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rad, P[m, PR], PP, D)
+                    if tp < best2 and tp <= tcut:
+                        if tp < best:
+                            best2 = best
+                            bj2 = bj
+                            src2 = src1
+                            best = tp
+                            bj = m
+                            src1 = NEW
+                        else:
+                            best2 = tp
+                            bj2 = m
+                            src2 = NEW
+    XB[own_cell, 0, own_slot] = own
+    EV[p, TCOL] = best
+    I[p, PART] = bj
+    I[p, PCNT] = _stamp(I, bj, src1, oc1, oc2)
+    EV[p, TCOL2] = best2
+    I[p, PART2] = bj2
+    if full:
+        I[p, SURE] = 1
+    I[p, PCNT2] = _stamp(I, bj2, src2, oc1, oc2)
+    return exact, scanned

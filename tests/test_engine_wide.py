@@ -1,0 +1,185 @@
+"""Wide cells scanned by the float32 pass (gaz_cli.engine.neighbours.wide); and when 'auto'
+takes them (gaz_cli.engine.sizing.use_wide_cells)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numba
+import numpy as np
+import pytest
+from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, energy, readme_scene, scene_b)
+from test_event_engine import assert_inside, assert_same_events_as_the_exam, min_gap, unit_scene
+
+from gaz_cli import engine
+from gaz_cli.constants import K_B
+from gaz_cli.engine import sizing
+from gaz_cli.engine.boundaries import _crossing
+from gaz_cli.engine.dynamics import _relative_at
+from gaz_cli.engine.interactions import _pair_time
+from gaz_cli.engine.layout import CELL, I_WIDTH, PR, PV, SLOT, TCOL, TCOL2
+from gaz_cli.engine.neighbours.cells import _assign_cells
+from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
+from gaz_cli.engine.neighbours.wide import _mirror_all, _predict_wide, empty_blocks
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species
+
+WIDE = {"neighbours": "wide"}
+
+
+@pytest.fixture
+def four_cells(monkeypatch):
+    """Wide cells forced to 4 an axis (small scenes: crossings and partial scans happen)."""
+    monkeypatch.setattr(sizing, "wide_cells_per_axis", lambda *a: 4)
+
+
+@pytest.mark.parametrize("dim, n, radius", [(2, 30, 0.02), (3, 30, 0.04), (3, 60, 0.03)])
+@pytest.mark.parametrize("seed", [3, 4])
+def test_same_events_as_the_exam(dim, n, radius, seed, four_cells):
+    """Wide cells and the exam's algorithm give the same events in the same order at the
+    same times, within test_event_engine's error model, up to its horizon."""
+    stats = assert_same_events_as_the_exam(unit_scene(dim, n, radius, duration=6.0, seed=seed,
+                                                      extras=WIDE))
+    assert stats.extras["wide_cells"] and stats.extras["cell_crossings"] > 0
+
+
+@pytest.mark.parametrize("dim, packing", [(2, 0.2), (3, 0.05), (3, 0.25)])
+def test_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing, four_cells):
+    """Forced on gases from dilute to dense (where the pass keeps many pairs): no pair is
+    ever found overlapping when it collides (a missed collision would be, later), the
+    energy stays within ENERGY_RTOL, every particle ends inside the box and apart."""
+    n = 300
+    unit = {2: np.pi, 3: 4 * np.pi / 3}[dim]
+    radius = (packing / (n * unit)) ** (1 / dim)
+    total = 0
+    for seed in (5, 6, 7):
+        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=WIDE)
+        state = initial_state(scene)
+        stats = engine.run(scene, state, Recorder())
+        assert stats.extras["wide_cells"] and stats.extras["cell_crossings"] > 0
+        assert stats.extras["overlapping_collisions"] == 0, (seed, stats.extras)
+        e0, e1 = energy(scene, state.velocities), energy(scene, stats.final.velocities)
+        assert abs(e1 - e0) <= ENERGY_RTOL * e0
+        assert_inside(scene, stats.final.positions)
+        assert min_gap(scene, stats.final.positions) > -1e-9
+        total += stats.collisions
+    assert total > 5e3, total
+
+
+def test_a_full_cell_widens_its_block_and_the_run_stays_exact(monkeypatch, four_cells):
+    """Cells made with room for one particle: they fill at once, the table and the blocks
+    grow (their slots kept) and the run goes on exact (no overlap, energy kept)."""
+    monkeypatch.setattr(sizing, "_cell_capacity", lambda per_cell: 1)
+    scene = unit_scene(3, 200, 0.02, duration=3.0, seed=8, extras=WIDE)
+    state = initial_state(scene)
+    stats = engine.run(scene, state, Recorder())
+    assert stats.extras["wide_cells"] and stats.extras["cell_growths"] > 0
+    assert stats.extras["overlapping_collisions"] == 0
+    e0, e1 = energy(scene, state.velocities), energy(scene, stats.final.velocities)
+    assert abs(e1 - e0) <= ENERGY_RTOL * e0
+    assert min_gap(scene, stats.final.positions) > -1e-9
+    assert stats.collisions > 500
+
+
+def test_collisions_and_bounces_agree_with_cells():
+    """The same gas run with cells and with wide cells (the model's count an axis): the two
+    trajectories part by chaos, so their counts are compared as Poisson counts (within 5
+    standard deviations, sqrt(2 k) for the difference of two counts near k)."""
+    scene = unit_scene(3, 2000, 0.006, duration=1.0, seed=2)
+    state = initial_state(scene)
+    cells = engine.run(dataclasses.replace(scene, extras={"neighbours": "cells"}), state)
+    wide = engine.run(dataclasses.replace(scene, extras=WIDE), state)
+    assert not cells.extras["wide_cells"] and wide.extras["wide_cells"]
+    assert wide.extras["cells_per_axis"] < cells.extras["cells_per_axis"]
+    for k in ("collisions", "wall_bounces"):
+        a, b = getattr(cells, k), getattr(wide, k)
+        assert a > 1000 and abs(a - b) <= 5 * math.sqrt(a + b), k
+
+
+@pytest.mark.parametrize("scene, wide", [
+    (scene_b(), True),  # 10^4 atoms, packing 0.01: wide cells
+    (readme_scene(), False),  # the dilute scan (no cells at all)
+    (scene_b(boundary="periodic"), False),  # walls only
+    (scene_b(gravity=9.81), False),  # no gravity
+    (unit_scene(3, 2000, (0.3 / (2000 * 4 / 3 * math.pi)) ** (1 / 3), duration=1e-4), False),
+    (scene_b(extras={"neighbours": "cells"}), False),  # forced
+    (unit_scene(3, 500, 0.05, duration=1e-3, extras=WIDE), True),  # forced, dense
+])
+def test_auto_takes_wide_cells_for_dilute_gases_in_boxes_with_walls(scene, wide):
+    stats = engine.run(scene, initial_state(scene), Recorder())
+    assert stats.extras["wide_cells"] is wide
+    if wide:
+        assert not stats.extras["dilute_scan"] and stats.extras["dilute_scanned"] > 0
+
+
+def test_a_mixture_keeps_its_size_classes():
+    # 10 large spheres among 20000 small ones, walls, packing 0.005: size classes, not wide
+    # cells (whose cells the large ones would size)
+    scene = Scene(dim=3, length=1.0, duration=1e-3, temperature=1.0 / K_B, seed=3,
+                  components=((Species("L", 1.0, 0.02), 10), (Species("S", 1e-6, 0.0003), 20000)))
+    stats = engine.run(scene, initial_state(scene), Recorder())
+    assert stats.extras["size_classes"] and not stats.extras["wide_cells"]
+
+
+# --- the scan: it only filters (module docstring of neighbours.wide) ---
+
+@numba.njit(cache=True)
+def _kept_and_found(P, XC, nc, t_mirror, t, L, D):
+    """Particle 0's full scan (its row at t) in wide cells, nc an axis, after the rows were
+    mirrored at t_mirror: which particles the pass kept, which ones the exact float64 root
+    finds in contact by its next wall bounce, and its two predictions."""
+    n = P.shape[0]
+    I = np.zeros((n, I_WIDTH), np.int32)
+    cap = n
+    cells = np.zeros((nc ** D, cap + 1), np.int32)
+    _assign_cells(P, I, cells, nc, L / nc, D)
+    XB = np.zeros((nc ** D, 9, 8 * ((cap + 7) // 8)), np.float32)
+    XB[:, 0, :] = 1e10
+    _mirror_all(P, I, XB, XC, n, t_mirror, L)
+    EV = np.full((n, 4), np.inf)
+    edges = np.arange(nc + 1) * (L / nc)
+    edges[-1] = L
+    tw, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, True)
+    _predict_wide(P, I, EV, cells, XB, XC, edges, 0, t, n, nc, L, 0.0, True, -1, 1, -1, 1, -1, 1,
+                  (1.0, 0.0), D)
+    kept = np.zeros(n, np.bool_)
+    times = np.full(n, np.inf)
+    for m in range(1, n):
+        kept[m] = XB[I[m, CELL], KEEP, I[m, SLOT] - 1] == 0.0
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, P[0, 0], P[0, 1], P[0, 2],
+                                                    P[0, PV], P[0, PV + 1], P[0, PV + 2],
+                                                    0.0, 3, False)
+        times[m] = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, P[0, PR], P[m, PR], (1.0, 0.0), 3)
+    return kept, times, tw, EV[0, TCOL], EV[0, TCOL2]
+
+
+@pytest.mark.parametrize("case, dim, L, radius, speed, t, t_mirror, age", [
+    ("unit box", 3, 1.0, 0.01, 1.0, 0.3, 0.0, 0.5),
+    ("2D", 2, 1.0, 0.01, 1.0, 0.3, 0.0, 0.5),
+    ("box 10^4 diameters wide", 3, 1.0, 5e-5, 1.0, 0.3, 0.0, 1.0),
+    ("argon in SI units, late in the run (stamps rebased)", 3, 3.4e-8, 1.7e-10, 400.0, 7.3e-9,
+     0.0, 4e-11),
+])
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_scan_keeps_every_pair_the_exact_root_finds_before_the_next_bounce(
+        case, dim, L, radius, speed, t, t_mirror, age, seed):
+    """Partners set up to touch particle 0 (at the box centre, 3 cells an axis: all in view)
+    before its next wall bounce, grazing, touching now, overlapping, just inside that
+    horizon, in boxes 10^4 diameters wide and in SI units: every one the exact float64 root
+    finds in contact by the bounce is kept by the float32 pass, and the two predictions are
+    the two earliest of them, exactly."""
+    rng = np.random.default_rng(seed)
+    v0 = speed * rng.normal(size=dim)
+    x0 = np.full(dim, 0.5 * L)
+    horizon = float(np.min((0.5 * L - radius) / np.abs(v0)))  # (its next wall bounce)
+    P = adversarial_rows(rng, 3000, dim, L, radius, speed, t, horizon, age, at=(x0, v0))
+    kept, times, tw, t1, t2 = _kept_and_found(P, np.zeros(XC_SIZE), 3, t_mirror, t, L, dim)
+    assert tw == pytest.approx(t + horizon, rel=1e-9)
+    found = times <= tw
+    assert found.sum() > 1000, found.sum()  # (most partners do touch by the horizon)
+    missed = np.flatnonzero(found & ~kept)
+    assert missed.size == 0, (missed[:5], P[missed[:5]])
+    first, second = np.sort(times[found])[:2]
+    assert (t1, t2) == (first, second)
