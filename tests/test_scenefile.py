@@ -236,7 +236,10 @@ def test_a_run_left_on_auto_stores_the_search_it_took_and_reruns_to_its_rows_und
     assert api.simulate(api.make_scene(species=species, **keys), db=str(db)).stats.extras["dilute_scan"]
     stored = scenefile.stored(str(db), 1)
     assert '[search]\nneighbours = "dilute"\nclasses = "off"\n' in stored, stored
-    monkeypatch.setattr(sizing, "dilute_scan_pays", lambda *args: False)  # a refitted cost model
+    # a refitted cost model: cells (the wide cells' float32 pass keeps the dilute scan's exact
+    # roots, hence its rows, so it is refused too)
+    monkeypatch.setattr(sizing, "dilute_scan_pays", lambda *args: False)
+    monkeypatch.setattr(sizing, "use_wide_cells", lambda *args: False)
     assert not api.simulate(api.make_scene(species=species, **keys), db=str(other)).stats.extras["dilute_scan"]
     (tmp_path / "run.toml").write_text(stored)
     code, out, err = invoke(["simulate", str(tmp_path / "run.toml"), "--db", str(again), "--json"])
