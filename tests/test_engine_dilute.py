@@ -124,9 +124,12 @@ def test_auto_weighs_a_mixture_by_its_own_packing():
 
 
 def test_unknown_neighbour_search_is_refused():
+    """At the one door (scene.validate), naming the choices; the engine assumes a valid scene."""
+    from gaz_cli.scene import validate
+
     scene = readme_scene(extras={"neighbours": "sparse"})
-    with pytest.raises(ValueError, match="dilute"):
-        engine.run(scene, initial_state(scene), Recorder())
+    with pytest.raises(ValueError, match="is not one of auto, cells, lists, dilute"):
+        validate(scene)
 
 
 
