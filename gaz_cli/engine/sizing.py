@@ -11,7 +11,6 @@ import math
 import numpy as np
 
 from gaz_cli.engine.layout import GATHER_SLOTS
-from gaz_cli.errors import SceneError
 from gaz_cli.geometry import UNIT_BALL
 
 CELLS_PER_PARTICLE = 2.0
