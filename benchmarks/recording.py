@@ -31,10 +31,12 @@ beside it SQLite's own cost for the same rows: one ``INSERT ... SELECT`` from a 
 of them into the same file's REBOND (no Python, no binding: the floor of any writer
 going through SQLite's B-tree, which holds REBOND's key (SI_NUM, RE_NUM)), and into a plain
 table (a rowid, no key, no index, no journal; not the exam's schema): the floor of any
-layout. Measured 2026-11-23 (load 2-3, 5 rounds): insert_rows 198 ms, INSERT ... SELECT
-into REBOND 147 ms, into the plain table 97 ms (0.54 us a row): above 25 % of the
-example's 0.35-0.38 s engine (88-95 ms) whatever the layout, so the issue's 25 % is out of
-reach of any SQLite writer that runs after the engine. ``--record none``: the runs say
+layout. Measured 2026-11-23 (5 rounds at load 2-3, then 3 rounds at load 2 in
+benchmarks/issue15.py): insert_rows 198 / 148 ms, INSERT ... SELECT into REBOND 147 / 112
+ms (0.63-0.83 us a row: 35-40 % of the example's 0.32-0.38 s engine), into the plain table
+97 / 67 ms (21-27 %): only a table without the exam's key and without a journal comes near
+the issue's 25 %, and no SQLite writer that runs after the engine reaches it with REBOND's
+key. ``--record none``: the runs say
 whether anything was staged (a scratch file, a row).
 """
 
