@@ -48,6 +48,20 @@ load 2-3: a test suite ran beside it), medians of the pairs' ratios:
 | 4, start-up | <= 1.15 / 1.35 | 1.01 no database, 0.99 new SQLite file (CPU) |
 | 5, gaz / C, lists | >= 1.0 | 0.905 CPU (0.953, 0.833, 0.996, 0.768, 0.905) |
 | 6, mixture / small alone | <= 2 | 2D 1.29 per queue event, 1.41 per simulated second; 3D 2.53 per simulated second (its small-alone scene now takes the dilute scan) |
+
+Figures of 2026-11-23, second session (``--pairs 3``, new = 93e5f2b: wide cells on (b)):
+run A with a test suite beside it (load 1.3-2.1), run B ``--only 2,5`` on a quiet host
+(load 0.1-1.0):
+
+| item | target | run A | run B |
+| --- | --- | --- | --- |
+| 2, README example engine | >= 3x | 2.74 (3.19, 2.74, 2.46) | 2.98 (2.98, 3.11, 2.09) |
+| 2, scene (b) | >= 3x | 1.17 (1.17, 1.25, 1.06) | 1.12 (0.73, 1.29, 1.12); 9 wide cells an axis, 2.36 crossings, 3.62 queue events per physical event |
+| 2, scene (a) | not slower | 1.08 | 1.01 |
+| 3, recording / engine | < 25 % | 66.0 %; SQLite's own insert into REBOND 112 ms (35 %), into a keyless table 67 ms (21 %) | |
+| 4, start-up | <= 1.15 / 1.35 | 1.13 / 1.11 wall (1.14 / 1.14 CPU) | |
+| 5, gaz / C, lists | >= 1.0 | 0.899 | 0.842 |
+| 6, mixture / small alone | <= 2 | per physical event 2D 0.97, 3D 1.19 (per simulated second 2.27, 3.39: 2.34x, 2.86x the physical events) | |
 """
 
 from __future__ import annotations
