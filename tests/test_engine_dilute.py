@@ -48,15 +48,22 @@ def test_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing):
     """Forced on gases from dilute to dense (where the rejection pass keeps many pairs): no
     pair is ever found overlapping when it collides (a missed collision would be, later),
     the energy stays within ENERGY_RTOL, every particle ends inside the box and apart."""
+    assert_exact_runs(dim, packing, DILUTE, lambda extras: extras["dilute_scan"])
+
+
+def assert_exact_runs(dim, packing, extras, took_the_path):
+    """300 particles at ``packing``, seeds 5-7, run with the search forced by ``extras``:
+    the path taken (``took_the_path(stats.extras)``), no pair found overlapping when it
+    collides, energy within ENERGY_RTOL, everyone inside and apart; > 5000 collisions."""
     n = 300
     unit = {2: np.pi, 3: 4 * np.pi / 3}[dim]
     radius = (packing / (n * unit)) ** (1 / dim)
     total = 0
     for seed in (5, 6, 7):
-        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=DILUTE)
+        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=extras)
         state = initial_state(scene)
         stats = engine.run(scene, state, Recorder())
-        assert stats.extras["dilute_scan"]
+        assert took_the_path(stats.extras)
         assert stats.extras["overlapping_collisions"] == 0, (seed, stats.extras)
         e0, e1 = energy(scene, state.velocities), energy(scene, stats.final.velocities)
         assert abs(e1 - e0) <= ENERGY_RTOL * e0

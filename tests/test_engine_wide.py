@@ -9,8 +9,9 @@ import math
 import numba
 import numpy as np
 import pytest
-from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, energy, readme_scene, scene_b)
-from test_event_engine import assert_inside, assert_same_events_as_the_exam, min_gap, unit_scene
+from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, assert_exact_runs, energy,
+                                readme_scene, scene_b)
+from test_event_engine import assert_same_events_as_the_exam, min_gap, unit_scene
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
@@ -21,7 +22,7 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import CELL, I_WIDTH, PR, PV, SLOT, TCOL, TCOL2
 from gaz_cli.engine.neighbours.cells import _assign_cells
 from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
-from gaz_cli.engine.neighbours.wide import _mirror_all, _predict_wide, empty_blocks
+from gaz_cli.engine.neighbours.wide import _mirror_all, _predict_wide
 from gaz_cli.recording import Recorder
 from gaz_cli.scene import Scene, initial_state
 from gaz_cli.species import Species
@@ -50,22 +51,8 @@ def test_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing, four_
     """Forced on gases from dilute to dense (where the pass keeps many pairs): no pair is
     ever found overlapping when it collides (a missed collision would be, later), the
     energy stays within ENERGY_RTOL, every particle ends inside the box and apart."""
-    n = 300
-    unit = {2: np.pi, 3: 4 * np.pi / 3}[dim]
-    radius = (packing / (n * unit)) ** (1 / dim)
-    total = 0
-    for seed in (5, 6, 7):
-        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=WIDE)
-        state = initial_state(scene)
-        stats = engine.run(scene, state, Recorder())
-        assert stats.extras["wide_cells"] and stats.extras["cell_crossings"] > 0
-        assert stats.extras["overlapping_collisions"] == 0, (seed, stats.extras)
-        e0, e1 = energy(scene, state.velocities), energy(scene, stats.final.velocities)
-        assert abs(e1 - e0) <= ENERGY_RTOL * e0
-        assert_inside(scene, stats.final.positions)
-        assert min_gap(scene, stats.final.positions) > -1e-9
-        total += stats.collisions
-    assert total > 5e3, total
+    assert_exact_runs(dim, packing, WIDE,
+                      lambda extras: extras["wide_cells"] and extras["cell_crossings"] > 0)
 
 
 def test_a_full_cell_widens_its_block_and_the_run_stays_exact(monkeypatch, four_cells):
