@@ -238,7 +238,15 @@ SEARCH = {
 the dilute scan of every particle; size classes or one cell grid; the lists' skin."""
 
 
-def _check_search(extras: dict) -> None:
+WALLED_SEARCHES = ("dilute", "wide")
+"""Searches built for a box with walls and without gravity (their float32 pass bounds a
+straight flight up to the next wall bounce; see gaz_cli.engine.neighbours.dilute). Forced
+on another scene they used to give way to cells in silence; they are refused instead. (A
+1D run ignores ``[search]`` whatever it holds: rods only meet their two neighbours.)"""
+
+
+def _check_search(scene: Scene) -> None:
+    extras = scene.extras
     for key, allowed in SEARCH.items():
         if key not in extras:
             continue
@@ -248,6 +256,14 @@ def _check_search(extras: dict) -> None:
                 raise field_error(f"`skin` {value!r} must be a positive number ({allowed})")
         else:
             _one_of(key, value, allowed)
+    chosen = extras.get("neighbours")
+    if chosen in WALLED_SEARCHES:
+        unfit = [why for why, bad in (("periodic", scene.boundary == "periodic"),
+                                      ("under gravity", scene.gravity != 0)) if bad]
+        if unfit:
+            raise field_error(f"`neighbours` {chosen!r} searches a box with walls and without gravity; "
+                              f"this scene is {' and '.join(unfit)}: "
+                              "use 'auto', 'cells' or 'lists'")
 
 
 def validate(scene: Scene) -> Scene:
@@ -309,7 +325,7 @@ def validate(scene: Scene) -> Scene:
         raise field_error(f"`force` {scene.force!r} is not true or false")
     scene = _resolve_engine(scene)
     _check_engine_options(scene)
-    _check_search(scene.extras)
+    _check_search(scene)
     _check_initial(scene)
     check_magnitudes(scene)
     eta = scene.packing_fraction

@@ -285,6 +285,27 @@ def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, w
         assert w in lines[0], lines[0]
 
 
+@pytest.mark.parametrize("top, search, words", [
+    ('boundary = "periodic"', "wide", ["neighbours 'wide' searches a box with walls", "is periodic",
+                                       "use 'auto', 'cells' or 'lists'"]),
+    ("gravity = 9.81", "dilute", ["neighbours 'dilute' searches a box with walls", "is under gravity"]),
+])
+def test_a_walled_search_forced_where_it_cannot_run_is_refused(tmp_path, top, search, words):
+    """The dilute scan and wide cells bound a straight flight up to the next wall bounce: forced
+    on a periodic box or under gravity they would give way to cells in silence."""
+    path = tmp_path / "bad.toml"
+    path.write_text(f"dim = 2\nduration = 1e-10\nlength = 1e-7\n{top}\n\n[[species]]\nname = \"Ar\"\n"
+                    f"count = 10\n\n[search]\nneighbours = \"{search}\"\n")
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and out == "", err
+    for w in words:
+        assert w in lines[0], lines[0]
+    path.write_text(path.read_text().replace(top, ""))  # the same search with walls runs
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    assert code == 0, err
+
+
 def test_a_bad_search_is_refused_at_the_one_door_with_the_cli_message():
     """scene.validate alone checks the search (the driver's sizing no longer repeats it): a
     Python caller gets the line the CLI prints."""
