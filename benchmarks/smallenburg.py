@@ -35,24 +35,31 @@ simulate the same fluid). With ``--count`` the C code is also built with counter
 (pair tests, list rebuilds, stale events per collision; not timed) to compare the
 work per collision with gaz's.
 
-Figures (2026-11-23, 2 cores shared, load average 13-15, ``--pairs 7 --count --baseline``
-a git archive of be96fb4; CPU time, since wall time ran 5-7x the CPU time): the work per
-collision is the C code's (pair tests 30.52 against 30.54, list rebuilds 0.206 against
-0.217, stale 0.348 against 0.349, queue events 1.554 against 1.556); gaz/C CPU per pair
-1.096 1.240 1.218 0.976 1.032 1.059 0.996, median 1.059 (be96fb4: 1.085), gaz/be96fb4
-median 1.026, fastest against fastest 0.906 (noise: one run varies by 10-20 %). A perf
-profile (cpu-clock, the loop's machine code mapped from Numba's object) puts about 19 %
-of gaz's samples in the calendar queue's helpers, where the C code spends 8 % in its
-event tree and lists; its list rebuilds take 41 % and its scans 41 %, gaz's rebuilds
-roughly 17-23 % (the gather over 3^D cells 12 %, requesting their rows 6 %) and its scans
-roughly 25-30 % (the loop over a list 21 %): the next saving is in the calendar. gaz's
-skin (scene.extras 'skin', in diameters; in-process runs taken in turn, CPU): 0.15 and 0.2
-run 0.78x and 0.85x of 0.25 (medians of 4), 0.3 1.07x and 1.00x (4 and 6), 0.35 0.95x, 0.4 0.89x,
-so NEIGHBOUR_SKIN stays 0.25, the C code's shell. Tried and not kept (alternating child
-processes, CPU, against the same tree without it): the calendar's helpers inlined into the
-loop (inline='always'; LLVM leaves them as calls) 1.004x over 10 rounds, compile 99 s
-against 90 s; a rebuild's gather requesting only the centres XN of the 3^D cells' particles
-(not their P and NN rows) 0.937x over 6.
+Figures (2026-11-23, 2 cores shared, load 4.4, ``--pairs 6 --baseline`` a git archive of
+e7fa32c, CPU time): gaz/C per pair 1.305 1.274 1.243 1.211 1.218 1.199, median **1.231**
+(wall 1.249); e7fa32c/C 1.048 1.019 1.043 1.008 1.008 1.049, median 1.031; gaz/e7fa32c
+1.205. Both codes give beta P sigma^3 8.07-8.09 (KLM 8.08). What changed: the calendar's
+operations (``_sift_up``, ``_heap_push``, ``_heap_remove``, ``_q_insert``, ``_q_remove``,
+``_next_bucket``) inlined into the loop at Numba-IR level (``_inline``) instead of called
+(``_helper``): each call passed borrowed arrays through NRT incref/decref calls (no-ops,
+but calls: 1.8 % of the process) and LLVM left them as calls. A perf profile of e7fa32c
+(cpu-clock, the loop's machine code dumped from memory and annotated) had the list scan
+~30 % of the loop's samples, the rebuilds' gather ~15 %, the calendar's helpers ~15 %;
+after, no call is left in the hot path (scan ~32 %, gather ~20 %). Per step, alternating
+child processes: inlining the queue's operations 1.114x (6 pairs, load 5.6), then
+``_next_bucket`` 1.057x (6 pairs, load 7-9). Not kept: unsigned indices in the list scan and
+gather 1.005x; EVENTS_PER_BUCKET 16, 1.001x and 1.016x; MAX_BUCKETS 4096 (64 KB of bucket
+heads to 32 KB) 1.045x at N = 10^4, unmeasured at 10^5-10^6; no prefetch at 10^4, 1.026x.
+
+Until 2026-11-23 ``--baseline`` timed this checkout twice: ``python -c`` puts the working
+directory ahead of PYTHONPATH, so the baseline's worker imported the current tree. Earlier
+gaz/baseline figures (and the "inlined calendar: 1.004x" once written here) measured nothing;
+each worker now runs in its own tree. Earlier gaz/C figures stand (2026-11-23, load 13-15,
+7 pairs: median 1.059; 0.84-0.97 in later runs that day). The work per collision is the C
+code's (``--count``: pair tests 30.52 against 30.54, list rebuilds 0.206 against 0.217, stale
+0.348 against 0.349, queue events 1.554 against 1.556). gaz's skin (scene.extras 'skin', in
+diameters; in-process runs taken in turn, CPU): 0.15 and 0.2 run 0.78x and 0.85x of 0.25, 0.3
+1.07x and 1.00x, 0.35 0.95x, 0.4 0.89x, so NEIGHBOUR_SKIN stays 0.25, the C code's shell.
 """
 
 from __future__ import annotations
@@ -217,8 +224,10 @@ def run_gaz(tree: Path, state_file: Path, what: str = "run") -> dict:
     (RunStats.wall_time_s), CPU (the child's, over engine.run less the compile), collisions,
     pressure and its work counters."""
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    # cwd=tree: ``python -c`` puts the working directory before PYTHONPATH on sys.path, so
+    # run from another checkout's root every tree ran that checkout's gaz_cli
     res = subprocess.run([sys.executable, "-c", _WORKER, str(state_file), what], env=env,
-                         capture_output=True, text=True)
+                         cwd=tree, capture_output=True, text=True)
     if res.returncode != 0:
         sys.exit(f"smallenburg.py: gaz from {tree} failed:\n{res.stderr[-3000:]}")
     return json.loads(res.stdout.splitlines()[-1]) if what == "run" else {}
