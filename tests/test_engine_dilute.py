@@ -144,16 +144,17 @@ def test_unknown_neighbour_search_is_refused():
 # --- the float32 rejection pass: it only filters (module docstring of neighbours.dilute) ---
 
 @numba.njit(cache=True)
-def _kept_and_found(P, XS, XC, t_mirror, t, tx, L):
-    """The rejection pass of particle 0 (its row at t) up to tx, after the rows were mirrored
-    at t_mirror, and which particles the exact float64 root finds in contact by tx."""
+def _kept_and_found(P, XS, XC, t_mirror, t, tx, L, D):
+    """The rejection pass (in D dimensions) of particle 0 (its row at t) up to tx, after the
+    rows were mirrored at t_mirror, and which particles the exact float64 root finds in
+    contact by tx."""
     n = P.shape[0]
     _mirror_all(P, XS, XC, n, t_mirror, L)
-    _keep(P, XS, XC, 0, t, tx, n)
+    _keep(P, XS, XC, 0, t, tx, n, D)
     kept = np.zeros(n, np.bool_)
     found = np.zeros(n, np.bool_)
     for m in range(1, n):
-        kept[m] = XS[KEEP, m] == 0.0
+        kept[m] = XS[KEEP, m] <= 0.0
         dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, P[0, 0], P[0, 1], P[0, 2],
                                                     P[0, PV], P[0, PV + 1], P[0, PV + 2],
                                                     0.0, 3, False)
@@ -226,7 +227,7 @@ def test_rejection_pass_keeps_every_pair_the_exact_root_finds(case, dim, L, radi
     P = adversarial_rows(rng, 3000, dim, L, radius, speed, t, horizon, age)
     XS = np.zeros((XS_ROWS, len(P)), np.float32)
     XC = np.zeros(XC_SIZE)
-    kept, found = _kept_and_found(P, XS, XC, t_mirror, t, t + horizon, L)
+    kept, found = _kept_and_found(P, XS, XC, t_mirror, t, t + horizon, L, dim)
     assert found.sum() > 1000, found.sum()  # (most partners do touch by the horizon)
     missed = np.flatnonzero(found & ~kept)
     assert missed.size == 0, (missed[:5], P[missed[:5]])

@@ -134,7 +134,7 @@ def _kept_and_found(P, XC, nc, t_mirror, t, L, D):
     kept = np.zeros(n, np.bool_)
     times = np.full(n, np.inf)
     for m in range(1, n):
-        kept[m] = XB[I[m, CELL], KEEP, I[m, SLOT] - 1] == 0.0
+        kept[m] = XB[I[m, CELL], KEEP, I[m, SLOT] - 1] <= 0.0
         dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, P[0, 0], P[0, 1], P[0, 2],
                                                     P[0, PV], P[0, PV + 1], P[0, PV + 2],
                                                     0.0, 3, False)

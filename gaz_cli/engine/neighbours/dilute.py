@@ -7,15 +7,17 @@ cells and no crossings: a particle's next events are its next wall bounce and it
 earliest collisions before it, found by scanning every particle in two passes:
 
 1. a rejection pass, in float32, over a structure-of-arrays copy ``XS`` of the rows
-   (positions, velocities, time stamps, radii: rows 0-7 of ``XS``, particle m in column m),
-   contiguous and free of branches, so that LLVM vectorises it 8 lanes wide (AVX2): a pair
-   is kept if it is within reach now (|dx|^2 <= s^2) and not surely receding (b below its
-   round-off bound: the exact root never meets a receding pair), or if it approaches
-   (b = dx.dv < 0), its closest approach on straight lines is within reach
-   (|dx x dv|^2 = |dx|^2 |dv|^2 - b^2 <= s^2 |dv|^2) and it can reach before the
-   particle's next wall bounce (|dx|^2 - s^2 + 2 b H <= 0, H the time to it; see
-   :func:`.interactions._pair_time_within`), s the contact distance widened by the
-   round-off bound below; its verdict goes to row 8 of ``XS`` (0: kept, inf: not);
+   (each particle's position on its line at an epoch t0, its velocity, its radius: rows
+   0-6 of ``XS``, particle m in column m), contiguous and free of branches, so that LLVM
+   vectorises it 8 lanes wide (AVX2): a pair is kept if three numbers are <= 0: b - beta
+   (b = dx.dv < 0: approaching; beta >= 0 the round-off bound of b for a pair within
+   reach, so that a pair within reach now, |dx|^2 <= s^2, is kept unless surely receding:
+   the exact root never meets a receding pair); |dv|^2 (|dx|^2 - s^2) - b^2 (its closest
+   approach on straight lines, |dx x dv|^2 = |dx|^2 |dv|^2 - b^2 <= s^2 |dv|^2, within
+   reach); |dx|^2 - s^2 + 2 (b - beta) H (it can reach before the particle's next wall
+   bounce, H the time to it; see :func:`.interactions._pair_time_within`); s the contact
+   distance widened by the round-off bound below; a pair within reach now and not surely
+   receding passes all three. Its verdict goes to row 7 of ``XS`` (<= 0: kept);
 2. the exact float64 pair time (:func:`.interactions._pair_time`, from the rows themselves,
    as every other scan) of the few pairs kept, merged into the two earliest. The exact
    root decides; the pass only filters, so the events are those of a float64 pass (the
@@ -29,18 +31,21 @@ all rows when the first predictions are made (:func:`_mirror_all`).
 
 **Units and round-off of the float32 pass.** ``XS`` holds the rows in units of the box
 (lengths in box edges L, from the box centre: coordinates in [-1/2, 1/2]) and of a time T,
-the time the fastest particle of the first predictions takes to cross L (speeds O(1)), its
-stamps relative to a time t0 kept within REBASE T of the scan (:func:`_rebase` rewrites
-them, O(n), about once per particle event): every number of the pass is O(1), whatever the
-scene's SI magnitudes (no product under- or overflows; a contact distance below the
-round-off is widened to it). With u = 2^-24, |x~| <= 1/2, the scaled speeds at most V (a
-running maximum of every speed mirrored), tau = (t - t0) / T <= REBASE, and the
-displacement since a stamp at most one edge a coordinate (a particle stays in the box
-until its next event), a coordinate of particle m at t, x~ + v~ (tau - s~), is off by at
-most u (1/2 + 2 REBASE V + 2 + 1/2 + 1) from the float64 one, particle k's by u/2, their
-difference's rounding u: each coordinate of dx by u (5 + 2 REBASE V) (taken as 8 + 2
-REBASE V), of dv by 4 u V; so on the pass's straight line dx + dv s, for s in [0, H], is
-within delta = sqrt(3) u ((8 + 2 REBASE V) + 4 V H) of the float64 one. A pair the exact
+the time the fastest particle of the first predictions takes to cross L (speeds O(1)), the
+positions on the lines at an epoch t0 kept within REBASE T of the scan (:func:`_rebase`
+rewrites every column, O(n), when t - t0 passes REBASE T: none in the README example's
+10 ns): every number of the pass is O(1), whatever the scene's SI magnitudes (no product
+under- or overflows; a contact distance below the round-off is widened to it). With
+u = 2^-24, the scaled speeds at most V (a running maximum of every speed mirrored), tau =
+(t - t0) / T <= REBASE, a particle's position at t0 on its line within 1/2 + REBASE V of
+the centre (its last event is at most REBASE after t0, or before t0: then it is on that
+line at t0, in the box), a coordinate of particle m at t, x~ + v~ tau~ (one fma), is off
+from the float64 one by at most u/2 (1/2 + REBASE V) (x~), u/2 REBASE V (v~), u/2 REBASE
+V (tau~) and u/2 (1/2 + 1) (the fma's rounding), u (1 + 1.5 REBASE V) in all; particle
+k's by u/4, their difference's rounding u/2: each coordinate of dx by u (2 + 1.5 REBASE
+V) (taken as 8 + 2 REBASE V, the bound of the stamped rows this layout replaced), of dv by
+4 u V; so on the pass's straight line dx + dv s, for s in [0, H], is within delta =
+sqrt(3) u ((8 + 2 REBASE V) + 4 V H) of the float64 one. A pair the exact
 root finds in contact within [t, t + H] therefore comes within s + delta on the pass's
 line, and the pass's tests, in exact arithmetic on its float32 inputs, keep every such
 pair when s is widened by delta. Their evaluation in float32 errs by at most ~10 u of the
@@ -64,6 +69,25 @@ receding). The exact roots (pair_tests): 43 thousand, 0.18 a scan. Not tried: on
 pass for both particles of a collision (a quarter of the scans; it would save the second
 read of XS, not the arithmetic).
 
+**Measured again** (2026-11-23, 17:00-17:20 UTC, shared host, load 3.7-4.9): callgrind on
+e7fa32c (the README example's engine, 10 ns, the difference of runs with and without
+it: 1.60 G instructions, 7.6 thousand a queue event) put the pass's vectorised loop at
+95 % of them (101 instructions per 16 particles, 240 M particles). This layout (the
+positions at the epoch t0 instead of stamped rows, the radii pre-widened, the within-reach
+clause folded into the other three tests, the verdict stored as their max, ``near`` one
+fma, the third axis left out in 2D) takes 68: the README engine 1.185x faster than
+e7fa32c (5 alternating pairs, CPU s: 1.33, 1.12, 1.06, 1.19, 1.29), 3.86x faster than
+8b6e7d9 (benchmarks/issue15.py --only 2 --pairs 5: 3.97, 3.88, 3.62, 3.86, 3.82); scene
+(b) on wide cells 1.11x faster than e7fa32c (1.11, 1.09, 1.11, 1.11, 1.18). Not kept:
+the pass in chunks of 256 particles, each chunk's exact roots before the next (a scan
+that keeps a pair then looks for it in 256 verdicts, not 1000): the engine 2x slower
+(0.50-0.52 of this layout's speed in 5 pairs), though the pass alone, compiled apart,
+kept its 8 lanes; AVX-512 (16 lanes, LLVM's prefer-256-bit tuning turned off through
+NUMBA_CPU_FEATURES): the pass alone about 10 % faster on this host, not pursued.
+Kept: the survivors looked for eight verdicts at a time (one min of eight, most groups
+none kept), instead of one by one through all n in a scan that keeps any: the README
+engine 1.05x faster (5 pairs: 1.05, 1.08, 1.11, 1.05, 1.04; load 1.4).
+
 Chosen by :func:`.sizing.use_dilute_scan` (a cost model of both searches); scenes with
 gravity or a periodic box keep cells.
 """
@@ -79,29 +103,39 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.intrinsics import _fma, _inline
 from gaz_cli.engine.layout import CNT, INF, PART, PART2, PCNT, PCNT2, PR, PT, PV, SURE, TCOL, TCOL2, TX
 
-XS_ROWS = 9
-"""Rows of the float32 structure-of-arrays copy: x0 x1 x2 v0 v1 v2 t_stamp radius, in the
-units of XC (see the module docstring), then the rejection pass's verdict."""
+XS_ROWS = 8
+"""Rows of the float32 structure-of-arrays copy: x0 x1 x2 (the position on the particle's
+line at the epoch t0), v0 v1 v2, the radius widened by WIDEN, in the units of XC (see the
+module docstring), then the rejection pass's verdict."""
 
-KEEP = 8
-"""The row of ``XS`` holding the rejection pass's verdict (0.0 kept, inf rejected)."""
+RAD = 6
+"""The row of ``XS`` holding the radius times WIDEN."""
 
-XC_SIZE = 5
+KEEP = 7
+"""The row of ``XS`` holding the rejection pass's verdict (<= 0 kept, > 0 rejected)."""
+
+XC_SIZE = 6
 """The float64 units of XS: t0 (s), the box centre (m), 1 / L (1/m), 1 / T (1/s, T the
 time the fastest particle of the first predictions takes to cross L), V^2 (a running
-maximum of the scaled squared speeds mirrored since)."""
+maximum of the scaled squared speeds mirrored since), the largest widened radius mirrored
+since (box edges)."""
 
-T0, CENTRE, IL, IT, V2 = 0, 1, 2, 3, 4
+T0, CENTRE, IL, IT, V2, RMAX = 0, 1, 2, 3, 4, 5
 
 U32 = 2.0 ** -24
 """float32's unit round-off."""
 
 REBASE = 1.0
-"""The stamps are rebased (t0 = t) when t - t0 exceeds this many time units T."""
+"""The epoch is moved (t0 = t, every row rewritten) when t - t0 exceeds this many time
+units T."""
 
 MARGIN32 = 2.0 ** -16
 """Relative widening of the rejection tests' terms: 256 U32, above the round-off of
 evaluating them in float32 (at most ~10 U32 of the sum of their terms' magnitudes)."""
+
+WIDEN = (1.0 + MARGIN32) ** 1.5
+"""The radii's widening: a contact distance s = (r_k + r_m) WIDEN + delta sqrt(1 + MARGIN32)
+squares to (1 + MARGIN32) ((r_k + r_m) (1 + MARGIN32) + delta)^2."""
 
 FAR = np.float32(1e10)
 """A particle's own x0 in XS during its own pass: |dx|^2 = 1e20 (no float32 overflow)
@@ -114,20 +148,24 @@ nearly at rest, whose horizon spans a million box crossings; exact roots for all
 
 @_inline
 def _mirror_to(P, XS, XC, p, col):
-    """Copy particle p's row (positions, velocities, stamp, radius) into column ``col`` of
-    XS, in the units of XC; raise XC's running maximum speed."""
+    """Copy particle p's row into column ``col`` of XS, in the units of XC: its position on
+    its line at the epoch t0, its velocity, its widened radius; raise XC's running maxima
+    (speed, radius)."""
     c, il, it = XC[CENTRE], XC[IL], XC[IT]
     vs = il / it
+    back = XC[T0] - P[p, PT]
     v2 = 0.0
     for d in range(3):
-        XS[d, col] = (P[p, d] - c) * il
+        XS[d, col] = (P[p, d] - c + P[p, PV + d] * back) * il
         v = P[p, PV + d] * vs
         XS[3 + d, col] = v
         v2 += v * v
-    XS[6, col] = (P[p, PT] - XC[T0]) * it
-    XS[7, col] = P[p, PR] * il
+    r = P[p, PR] * il * WIDEN
+    XS[RAD, col] = r
     if v2 > XC[V2]:
         XC[V2] = v2
+    if r > XC[RMAX]:
+        XC[RMAX] = r
 
 
 @_inline
@@ -149,6 +187,7 @@ def _choose_units(P, XC, n, t, L):
     # (a gas at rest: any unit, its scaled speeds are 0)
     XC[IT] = math.sqrt(vmax2) / L if vmax2 > 0.0 else 1.0 / L
     XC[V2] = 1.0
+    XC[RMAX] = 0.0
 
 
 @_inline
@@ -162,59 +201,61 @@ def _mirror_all(P, XS, XC, n, t, L):
 
 @_inline
 def _rebase(P, XS, XC, n, t):
-    """Stamps relative to t0 = t (keeps t - t0 <= REBASE units: the round-off of the scaled
-    times stays that of O(1) numbers)."""
+    """The epoch moved to t0 = t: every particle's position on its line at t (keeps
+    t - t0 <= REBASE units: the round-off of the scaled positions and times stays that of
+    O(1) numbers)."""
     XC[T0] = t
-    it = XC[IT]
     for m in range(n):
-        XS[6, m] = (P[m, PT] - t) * it
+        _mirror(P, XS, XC, m)
 
 
 @_inline
-def _reject_pass(XS, n, t, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv, bx):
-    """Pass 1, in float32: XS[KEEP, m] = 0 for every particle m that may touch the
-    particle at x_k, v_k (radius rk) within ``horizon`` of t, inf for the others (all
-    arguments float32, in XC's units; the module docstring gives the tests and why
-    ``delta`` covers their inputs' round-off); returns whether any is kept (an or, not a
-    count: an int64 count held LLVM to 4 lanes). O(n), branch-free: LLVM vectorises it (8
-    lanes)."""
+def _reject_pass(XS, n, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr, D):
+    """Pass 1, in float32: XS[KEEP, m] <= 0 for every particle m that may touch the
+    particle at x_k, v_k (widened radius rk) within the horizon, > 0 for the others (all
+    arguments float32, in XC's units, from :func:`_bounds`; the module docstring gives the
+    tests and why they keep every pair the exact root finds); returns whether any is kept
+    (an or, not a count: an int64 count held LLVM to 4 lanes). O(n), branch-free: LLVM
+    vectorises it (8 lanes). In 2D (D = 2) the third axis is left out."""
     zero = np.float32(0.0)
-    inf = np.float32(INF)
     lo = np.float32(1.0 - MARGIN32)
-    hi = np.float32(1.0 + MARGIN32)
-    h2 = np.float32(2.0 * (1.0 + MARGIN32)) * horizon
     kept = False
     for m in range(n):
-        dtm = t - XS[6, m]
-        dx0 = _fma(XS[3, m], dtm, XS[0, m]) - xk0
-        dx1 = _fma(XS[4, m], dtm, XS[1, m]) - xk1
-        dx2 = _fma(XS[5, m], dtm, XS[2, m]) - xk2
         dv0 = XS[3, m] - vk0
         dv1 = XS[4, m] - vk1
-        dv2 = XS[5, m] - vk2
-        b = _fma(dx2, dv2, _fma(dx1, dv1, dx0 * dv0))
-        r2 = _fma(dx2, dx2, _fma(dx1, dx1, dx0 * dx0)) * lo
-        a = _fma(dv2, dv2, _fma(dv1, dv1, dv0 * dv0))
-        sg = _fma(rk + XS[7, m], hi, delta)
-        s2 = sg * sg * hi
-        # kept if within reach now and not surely receding (b < its round-off bound
-        # sg bv + bx), or if all three are < 0: approaching; closest approach on the lines,
-        # |dx|^2 |dv|^2 - b^2, within reach; reach possible within the horizon,
-        # |dx|^2 - s^2 + 2 b H <= 0
-        near = r2 - s2
-        miss = _fma(r2, a, -_fma(b, b, s2 * a))
-        late = _fma(b, h2, near)
-        keep = min(max(near, b - _fma(sg, bv, bx)), max(b, max(miss, late))) < zero
-        XS[KEEP, m] = zero if keep else inf
-        kept |= keep
+        dx0 = _fma(XS[3, m], tau, XS[0, m]) - xk0
+        dx1 = _fma(XS[4, m], tau, XS[1, m]) - xk1
+        b = _fma(dx1, dv1, dx0 * dv0)
+        r2 = _fma(dx1, dx1, dx0 * dx0)
+        a = _fma(dv1, dv1, dv0 * dv0)
+        if D > 2:
+            dv2 = XS[5, m] - vk2
+            dx2 = _fma(XS[5, m], tau, XS[2, m]) - xk2
+            b = _fma(dx2, dv2, b)
+            r2 = _fma(dx2, dx2, r2)
+            a = _fma(dv2, dv2, a)
+        sg = rk + XS[RAD, m]
+        near = _fma(r2, lo, -(sg * sg))
+        # kept if all three are <= 0: approaching or within b's round-off bound (bt);
+        # closest approach on the lines within reach, |dx|^2 |dv|^2 - b^2 <= s^2 |dv|^2;
+        # reach possible within the horizon, |dx|^2 - s^2 + 2 b H <= 0. A pair within
+        # reach now (near < 0) with bt <= 0 passes all three.
+        bt = b - thr
+        miss = _fma(a, near, -(b * b))
+        late = _fma(bt, h2, near)
+        verdict = max(bt, max(miss, late))
+        XS[KEEP, m] = verdict
+        kept |= verdict <= zero
     return kept
 
 
 @_inline
 def _bounds(P, XC, p, t, tx):
     """The float32 arguments of particle p's pass (its row at t) up to its horizon tx, in
-    XC's units: (whether the pass may filter, i.e. its input error delta < DELTA_MAX; tau,
-    x_k, v_k, r_k, delta, horizon, bv, bx: see :func:`_reject_pass`)."""
+    XC's units: (whether the pass may filter, i.e. its input error delta < DELTA_MAX; tau =
+    (t - t0) / T, x_k, v_k, the widened radius r_k WIDEN + delta sqrt(1 + MARGIN32), 2 H
+    (1 + MARGIN32) for the horizon H, b's round-off bound for a pair within reach: see
+    :func:`_reject_pass`)."""
     c, il, it = XC[CENTRE], XC[IL], XC[IT]
     vs = il / it
     tau = (t - XC[T0]) * it
@@ -224,30 +265,32 @@ def _bounds(P, XC, p, t, tx):
     ex = math.sqrt(3.0) * U32 * (8.0 + 2.0 * REBASE * v)
     ev = math.sqrt(3.0) * U32 * 4.0 * v
     delta = ex + ev * horizon
-    # b's round-off for a pair within reach (|dx| <= sg): |dx| ev + |dv| ex + their
-    # product + its evaluation's ~8 U32 |dx| |dv|, |dv| <= 2 v; doubled
+    rk = P[p, PR] * il * WIDEN + delta * math.sqrt(1.0 + MARGIN32)
+    # b's round-off for a pair within reach (|dx| <= s, s at most sg, the largest pair's
+    # widened contact distance): |dx| ev + |dv| ex + their product + its evaluation's
+    # ~8 U32 |dx| |dv|, |dv| <= 2 v; doubled
+    sg = (rk + XC[RMAX]) * (1.0 + 4.0 * U32)
     bv = 2.0 * (ev + 8.0 * U32 * 2.0 * v)
     bx = 2.0 * ex * (2.0 * v + ev + 1.0)
     return (delta < DELTA_MAX, np.float32(tau), np.float32((P[p, 0] - c) * il),
             np.float32((P[p, 1] - c) * il), np.float32((P[p, 2] - c) * il),
             np.float32(P[p, PV] * vs), np.float32(P[p, PV + 1] * vs),
-            np.float32(P[p, PV + 2] * vs), np.float32(P[p, PR] * il), np.float32(delta),
-            np.float32(horizon), np.float32(bv), np.float32(bx))
+            np.float32(P[p, PV + 2] * vs), np.float32(rk),
+            np.float32(2.0 * (1.0 + MARGIN32) * horizon), np.float32(sg * bv + bx))
 
 
 @_inline
-def _keep(P, XS, XC, p, t, tx, n):
+def _keep(P, XS, XC, p, t, tx, n, D):
     """Pass 1 for particle p (its row at t) up to its horizon tx: XS[KEEP] marks every
-    particle that may touch it by tx (rebasing the stamps first if due); returns whether
-    any is marked."""
+    particle that may touch it by tx (XS[KEEP] <= 0; the epoch moved first if due);
+    returns whether any is marked."""
     if (t - XC[T0]) * XC[IT] > REBASE:
         _rebase(P, XS, XC, n, t)
-    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv, bx = _bounds(P, XC, p, t, tx)
+    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr = _bounds(P, XC, p, t, tx)
     if ok:
         own = XS[0, p]
         XS[0, p] = FAR  # (p itself out of reach: dv = 0 exactly, b = 0, |dx|^2 = FAR^2)
-        kept = _reject_pass(XS, n, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv,
-                            bx)
+        kept = _reject_pass(XS, n, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr, D)
         XS[0, p] = own
     else:  # (every pair exactly: a particle nearly at rest, or at rest: horizon inf)
         for m in range(n):
@@ -263,7 +306,7 @@ def _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV):
     the second sure); returns the pair times computed exactly (the rejection pass's
     survivors)."""
     tx = EV[p, TX]
-    kept = _keep(P, XS, XC, p, t, tx, n)
+    kept = _keep(P, XS, XC, p, t, tx, n, D)
     xk0 = P[p, 0]
     xk1 = P[p, 1]
     xk2 = P[p, 2]
@@ -276,10 +319,15 @@ def _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV):
     best2 = INF
     bj2 = -1
     exact = 0
-    for m in range(n if kept else 0):  # (most scans of a dilute gas keep none: no pass 2)
-        if XS[KEEP, m] == 0.0:
-            if m == p:
-                continue
+    m = 0
+    while m < (n if kept else 0):  # (most scans of a dilute gas keep none: no pass 2)
+        if m + 8 <= n and min(min(min(XS[KEEP, m], XS[KEEP, m + 1]),
+                                  min(XS[KEEP, m + 2], XS[KEEP, m + 3])),
+                              min(min(XS[KEEP, m + 4], XS[KEEP, m + 5]),
+                                  min(XS[KEEP, m + 6], XS[KEEP, m + 7]))) > 0.0:
+            m += 8  # (eight verdicts at a time: most groups keep none)
+            continue
+        if XS[KEEP, m] <= 0.0 and m != p:
             exact += 1
             dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2,
                                                         g, D, GRAV)
@@ -293,6 +341,7 @@ def _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV):
                 else:
                     best2 = tp
                     bj2 = m
+        m += 1
     EV[p, TCOL] = best
     I[p, PART] = bj
     I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0

@@ -23,8 +23,8 @@ for a pair that collides at tc, take the later of the two particles' last course
 before tc; from then on both horizons are >= tc, and the scans that find the pair with
 cells (the cells' invariant) find it here. The round-off bound of the pass is that of
 :mod:`.dilute` with that horizon (:func:`.dilute._bounds`): the same units (box edges from
-the centre; a particle stays in its cell until its next event), the same stamps rebased
-within REBASE time units (:func:`_rebase`).
+the centre; a particle stays in its cell until its next event), the same positions on the
+lines at an epoch moved within REBASE time units (:func:`_rebase`).
 
 The blocks mirror the rows: a particle's slot is rewritten after each event that changes
 its row (:func:`_mirror`), all of them at the first predictions (:func:`_mirror_all`); a
@@ -45,7 +45,7 @@ from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
-                                   PT, SLOT, SURE, TCOL, TCOL2)
+                                   SLOT, SURE, TCOL, TCOL2)
 from gaz_cli.engine.neighbours.cells import _stamp
 from gaz_cli.engine.neighbours.dilute import (FAR, IT, KEEP, REBASE, T0, XS_ROWS, _bounds,
                                               _choose_units, _mirror_to, _reject_pass)
@@ -95,11 +95,10 @@ def _mirror_all(P, I, XB, XC, n, t, L):
 
 @_inline
 def _rebase(P, I, XB, XC, n, t):
-    """Stamps relative to t0 = t (as :func:`.dilute._rebase`)."""
+    """The epoch moved to t0 = t, every slot rewritten (as :func:`.dilute._rebase`)."""
     XC[T0] = t
-    it = XC[IT]
     for m in range(n):
-        XB[I[m, CELL], 6, I[m, SLOT] - 1] = (P[m, PT] - t) * it
+        _mirror(P, I, XB, XC, m)
 
 
 @_inline
@@ -127,7 +126,7 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
     tcut = tw + HORIZON_SLACK * (tw - t)
     if (t - XC[T0]) * XC[IT] > REBASE:
         _rebase(P, I, XB, XC, n, t)
-    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta, horizon, bv, bx = _bounds(P, XC, p, t, tw)
+    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr = _bounds(P, XC, p, t, tw)
     if full:
         best = INF
         bj = -1
@@ -182,12 +181,12 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
                 if ok:
                     lanes = (cnt + 7) & ~7
                     scanned += lanes
-                    kept = _reject_pass(X, lanes, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, delta,
-                                        horizon, bv, bx)
+                    kept = _reject_pass(X, lanes, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2,
+                                        thr, D)
                 if not kept:
                     continue
                 for s in range(cnt):
-                    if ok and X[KEEP, s] != 0.0:
+                    if ok and X[KEEP, s] > 0.0:
                         continue
                     m = cells[cell, 1 + s]
                     if m == p:
