@@ -100,6 +100,30 @@ def layout() -> _Layout:
 _NEW, _CURRENT = "new", "current"
 
 
+def use_wal(conn: sqlite3.Connection) -> None:
+    """Put the file of ``conn`` (outside any transaction) in WAL mode, waiting for other
+    processes as long as the busy timeout.
+
+    When several processes open one new file at the same instant, SQLite can answer
+    ``PRAGMA journal_mode = WAL`` with "database is locked" at once, without its busy
+    handler (a plain reader's lock does not do it: that one is waited for). Measured on a
+    loaded 2-core host: 8 processes opening one new file, 1 to 6 of them refused in 2
+    rounds of 30; none in 40 rounds with this loop. It polls with a growing pause and stops
+    as soon as the switch succeeds or another process has made it.
+    """
+    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    pause = 0.001
+    while conn.execute("PRAGMA journal_mode").fetchone()[0] != "wal":
+        try:
+            conn.execute("PRAGMA journal_mode = WAL")  # (an in-memory database stays "memory")
+            return
+        except sqlite3.OperationalError as err:
+            if "locked" not in str(err).lower() or time.monotonic() + pause > deadline:
+                raise
+            time.sleep(pause)
+            pause = min(2 * pause, 0.05)
+
+
 def _state(conn: sqlite3.Connection) -> str | None:
     """_NEW (none of gaz's tables), _CURRENT (every one, with exactly this layout's columns,
     at this version), or None: anything else, left to :class:`gaz_cli.store.Store`."""
@@ -199,8 +223,7 @@ class SqliteFile(RunStore):
         conn.execute("PRAGMA foreign_keys = ON")
         if _state(conn) is None:  # read only: a database for the store is left as it was
             raise ForTheStore
-        if conn.execute("PRAGMA journal_mode").fetchone()[0] != "wal":
-            conn.execute("PRAGMA journal_mode = WAL")
+        use_wal(conn)
         # also when there is nothing to create: a read-only or locked file fails here,
         # before the run, not at its commit
         with _transaction(conn):

@@ -341,10 +341,9 @@ class Store(RunStore):
         if self.is_sqlite:
             with self.engine.connect() as conn:
                 self._schema_state(conn)  # read only: refusals leave the file as it was
-                wal = conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
                 conn.rollback()
-                if not wal:  # outside any transaction, on the driver's connection
-                    conn.connection.driver_connection.execute("PRAGMA journal_mode = WAL")
+                # outside any transaction, on the driver's connection
+                sqlite_writer.use_wal(conn.connection.driver_connection)
             # also when there is nothing to create: a read-only or locked file fails here,
             # before the run, not at its commit
             with _write_transaction(self.engine) as conn:

@@ -200,3 +200,34 @@ def test_insert_rows_writes_the_row_numbers_in_the_sql_and_every_value_exactly(k
         want = sorted(zip(numbers.tolist(), t.tolist(), wall.tolist()))
         assert [r[:3] for r in got] == want
         assert {r[3:] for r in got} == {("integer", "real", "integer")}
+
+
+class _RefusingOnce:
+    """A sqlite3 connection whose ``PRAGMA journal_mode = WAL`` is refused ``refusals`` times
+    with SQLite's immediate "database is locked" (what several processes opening one new
+    file at once meet, without the busy handler)."""
+
+    def __init__(self, path, refusals):
+        self.conn = sqlite3.connect(path, isolation_level=None)
+        self.refusals = refusals
+
+    def execute(self, sql):
+        if sql == "PRAGMA journal_mode = WAL" and self.refusals:
+            self.refusals -= 1
+            raise sqlite3.OperationalError("database is locked")
+        return self.conn.execute(sql)
+
+
+def test_the_switch_to_wal_waits_for_other_processes_instead_of_failing(tmp_path):
+    conn = _RefusingOnce(tmp_path / "gaz.db", refusals=3)
+    sqlite_writer.use_wal(conn)
+    assert conn.refusals == 0
+    assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+
+
+def test_the_switch_to_wal_gives_up_after_the_busy_timeout(tmp_path, monkeypatch):
+    monkeypatch.setattr(sqlite_writer, "BUSY_TIMEOUT_S", 0.05)
+    conn = _RefusingOnce(tmp_path / "gaz.db", refusals=10**6)
+    with pytest.raises(sqlite3.OperationalError, match="locked"):
+        sqlite_writer.use_wal(conn)
+    assert conn.refusals > 0

@@ -306,15 +306,16 @@ def test_foreign_postgres_schema_is_refused_and_untouched(postgres_db):
 @both
 def test_concurrent_first_opens_create_one_schema(backend):
     """Processes opening the same new database at once all succeed, and the database
-    gets one schema: one version row, the built-in species once."""
+    gets one schema: one version row, the built-in species once. (Eight: on a loaded host
+    8 processes failed in 2 rounds of 30 before sqlite_writer.use_wal waited, in 0 of 40 after.)"""
     # each process imports first, then all open at the same instant
     code = ("import sys, time; from gaz_cli.store import Store; "
             "time.sleep(max(0.0, float(sys.argv[2]) - time.time())); Store(sys.argv[1]).close()")
     start = str(time.time() + 4.0)
     procs = [subprocess.Popen([sys.executable, "-c", code, backend, start], stderr=subprocess.PIPE, text=True)
-             for _ in range(4)]
+             for _ in range(8)]
     errors = [p.communicate(timeout=120)[1] for p in procs]
-    assert [p.returncode for p in procs] == [0] * 4, errors
+    assert [p.returncode for p in procs] == [0] * 8, errors
     store = st.Store(backend, create=False)
     assert len(store.table(st.schema_version)) == 1
     assert list(store.table(st.particule).PA_NOM) == list(BUILTIN)
