@@ -5,28 +5,46 @@ Not a test: it prints numbers. Run from the repository root:
 
     python benchmarks/recording.py                 # 5 rounds
     python benchmarks/recording.py --rounds 7 --record none
-    python benchmarks/recording.py --rounds 5 --in-process   # recording / engine only
+    python benchmarks/recording.py --rounds 7 --in-process   # recording / engine only
+    python benchmarks/recording.py --rounds 7 --in-process --staged   # the same, no early insert
     python benchmarks/recording.py --rounds 7 --insert       # the INSERT alone
 
 The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 --length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
 ~178 thousand wall bounces). Each round, alternating:
 
-- in process, ``runner.simulate`` into a new SQLite file, the writer
-  (:mod:`gaz_cli.sqlite_writer`) timed from outside (every ``add_bounces`` call, the
-  rows' copy, the commit that moves them in, the close that checkpoints them into the
-  file), in CPU seconds (``time.process_time``, what a
-  busy shared host disturbs least) and wall seconds; the engine is the rest of
-  the run (``simulate`` minus opening the store minus recording);
-- the same scene with no database (``--no-db``), in process: the engine alone;
+- in process, ``runner.simulate`` into a new SQLite file (the writer,
+  :mod:`gaz_cli.sqlite_writer`, inserting the rows early from a thread while the engine
+  runs; ``--staged``: not, the rows moved in after the engine), then the same scene with
+  no database (``--no-db``): the engine alone. Since the writer works in a thread of its
+  own, CPU time (``time.process_time``, every thread) no longer splits into engine and
+  recording; the figures are:
+
+  * *waited*: the main thread's wall seconds in the writer (every ``add_bounces`` call,
+    the commit -- the last chunks' insert and the COMMIT -- and the close that checkpoints
+    the rows into the file): what the user waits for, on a host with a core free for the
+    thread;
+  * *wall added*: the pair's difference of wall seconds (into a file minus no database,
+    opening the store excluded): what the user waits for on this host, which also counts
+    the engine slowed by the thread when no core is free;
+  * *recording CPU*: the pair's difference of CPU seconds, every thread;
+  * *critical path*: the main thread's extra CPU (``time.thread_time``: copies, the
+    commit, the close) plus the writer thread's CPU after the engine stopped: the wall
+    added on an idle host, fsync waits not counted;
+
+  each over the engine's figure (the run with no database: wall, or the main thread's
+  CPU for the critical path);
 - ``python -m gaz_cli simulate ... --json`` with and without the database, as
   processes: start-up (process start to exit minus the run time it reports)
-  and the end-to-end wall time.
+  and the end-to-end wall time (not with ``--in-process``).
 
-Medians over the rounds are printed, with recording / engine, the figure the
-issue bounds at 25 %. ``--insert``: only :func:`gaz_cli.staging.insert_rows` of the
-example's REBOND rows (the engine's chunks of 65536) into a new file, in one transaction, CPU
-per round (run it with PYTHONPATH at an older tree, alternating, to compare commits), and
+Medians over the rounds are printed, with the issue's bound: recording under 25 % of
+the engine's run time. Measured 2026-11-23 at load 3.5-4 on 2 cores (no core free):
+gaz_cli.staging's docstring. ``--buffer-rows N``: an experiment, the event engine's
+chunk of bounces (gaz_cli.engine.driver.BUFFER_ROWS) set to N.
+
+``--insert``: only :func:`gaz_cli.staging.insert_rows` of the example's REBOND rows (the
+engine's chunks of 65536) into a new file, in one transaction, CPU per round (run it with PYTHONPATH at an older tree, alternating, to compare commits), and
 beside it SQLite's own cost for the same rows: one ``INSERT ... SELECT`` from a TEMP copy
 of them into the same file's REBOND (no Python, no binding: the floor of any writer
 going through SQLite's B-tree, which holds REBOND's key (SI_NUM, RE_NUM)), and into a plain
@@ -85,14 +103,45 @@ class Clock:
         setattr(cls, name, timed)
 
 
-def in_process(db: str | None, record: str, recording: Clock, opening: Clock) -> dict:
-    recording.cpu = recording.wall = opening.cpu = opening.wall = 0.0
-    c, w = time.process_time(), time.perf_counter()
+class Tail:
+    """CPU seconds the early insert's thread spends after the engine has stopped (the inserts
+    the user waits for): each chunk's thread CPU, the share of it after ``finish`` was called
+    (prorated by wall time for a chunk under way then)."""
+
+    def __init__(self):
+        self.cpu = 0.0
+        self.stopped = None
+
+    def wrap(self):
+        insert, finish = sqlite_writer._EarlyInsert._insert, sqlite_writer._EarlyInsert.finish
+
+        def timed_insert(*args, **kw):
+            c, w = time.thread_time(), time.perf_counter()
+            try:
+                return insert(*args, **kw)
+            finally:
+                cpu, end = time.thread_time() - c, time.perf_counter()
+                stopped = self.stopped
+                if stopped is not None and end > w:
+                    self.cpu += cpu * (end - max(w, stopped)) / (end - w) if end > stopped else 0.0
+
+        def timed_finish(*args, **kw):
+            self.stopped = time.perf_counter()
+            return finish(*args, **kw)
+
+        sqlite_writer._EarlyInsert._insert = timed_insert
+        sqlite_writer._EarlyInsert.finish = timed_finish
+
+
+def in_process(db: str | None, record: str, recording: Clock, opening: Clock, tail: Tail) -> dict:
+    recording.cpu = recording.wall = opening.cpu = opening.wall = tail.cpu = 0.0
+    tail.stopped = None
+    c, w, m = time.process_time(), time.perf_counter(), time.thread_time()
     out = runner.simulate(scene(record), db=db)
-    cpu, wall = time.process_time() - c, time.perf_counter() - w
-    return {"cpu": cpu, "wall": wall, "rec_cpu": recording.cpu, "rec_wall": recording.wall,
-            "engine_cpu": cpu - recording.cpu - opening.cpu, "engine_wall": wall - recording.wall - opening.wall,
-            "open_cpu": opening.cpu, "bounces": out["wall_bounces"]}
+    cpu, wall, main = time.process_time() - c, time.perf_counter() - w, time.thread_time() - m
+    return {"cpu": cpu, "wall": wall, "main_cpu": main, "tail_cpu": tail.cpu, "rec_cpu": recording.cpu,
+            "rec_wall": recording.wall, "open_cpu": opening.cpu, "open_wall": opening.wall,
+            "bounces": out["wall_bounces"]}
 
 
 def as_process(extra: list[str]) -> tuple[float, float]:
@@ -104,16 +153,19 @@ def as_process(extra: list[str]) -> tuple[float, float]:
 
 
 def measure(rounds: int = 5, record: str = "bounces", log=print, processes: bool = True) -> dict:
-    """Alternating rounds (see the module docstring); returns the medians (seconds, and
-    ``ratio_cpu``: recording / engine) and ``rounds``: the per-round figures. ``log`` gets one
+    """Alternating rounds (see the module docstring); returns the medians (seconds, and the
+    ratios to the engine: ``ratio_wall`` waited, ``ratio_added`` wall added, ``ratio_cpu``
+    recording CPU, ``ratio_path`` critical path) and ``rounds``: the per-round figures.
+    ``rec_wall`` is the time waited, ``rec_cpu`` the pair's CPU difference. ``log`` gets one
     line per round (None: silent). ``processes=False``: no process runs (start-up and end to end
     not measured, NaN). benchmarks/engine.py's figure (j) calls this."""
-    recording, opening = Clock(), Clock()
-    saved = {(cls, name): cls.__dict__[name] for cls, name in WRAPPED}
+    recording, opening, tail = Clock(), Clock(), Tail()
+    saved = {(cls, name): cls.__dict__[name] for cls, name in WRAPPED + TAIL}
     try:
         for cls, name in WRAPPED:
             (opening if name == "__init__" else recording).wrap(cls, name)
-        return _rounds(rounds, record, recording, opening, log, processes)
+        tail.wrap()
+        return _rounds(rounds, record, recording, opening, tail, log, processes)
     finally:
         for (cls, name), inner in saved.items():
             setattr(cls, name, inner)
@@ -126,39 +178,60 @@ WRAPPED = [(TableRecorder, "add_bounces"), (TableRecorder, "add_collisions"),
 rows in, and the close that checkpoints them into the file (SQLite's WAL); opening is
 opening the file (schema checked or created) and the run's writer."""
 
+TAIL = [(sqlite_writer._EarlyInsert, "_insert"), (sqlite_writer._EarlyInsert, "finish")]
 
-def _rounds(rounds, record, recording, opening, log, processes=True) -> dict:
+
+def _rounds(rounds, record, recording, opening, tail, log, processes=True) -> dict:
     runner.simulate(scene(record), db=None)  # the JIT cache warm, imports done
-    rows = {k: [] for k in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "alone_cpu", "open_cpu",
-                            "startup", "e2e_db", "e2e_nodb", "ratio_cpu")}
+    keys = ("rec_cpu", "rec_wall", "added_wall", "engine_cpu", "engine_wall", "alone_cpu", "open_cpu",
+            "cpu_db", "startup", "e2e_db", "e2e_nodb", "ratio_cpu", "ratio_wall", "ratio_added",
+            "path_cpu", "ratio_path")
+    rows = {k: [] for k in keys}
     staged_any = []
     with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:  # the disk a user's gaz.db is on
         for k in range(rounds):
             db = os.path.join(tmp, f"r{k}.db")
-            r = in_process(db, record, recording, opening)
+            r = in_process(db, record, recording, opening, tail)
             staged = [p.name for p in Path(tmp).iterdir() if p.name.endswith(".staging")]
             staged_any += staged
-            alone = in_process(None, record, recording, opening)
+            alone = in_process(None, record, recording, opening, tail)
             if processes:
                 wall_db, _ = as_process(["--record", record, "--db", os.path.join(tmp, f"p{k}.db")])
                 wall_nodb, run_s = as_process(["--record", record, "--no-db"])
             else:
                 wall_db = wall_nodb = float("nan")
                 run_s = 0.0
-            for key in ("rec_cpu", "rec_wall", "engine_cpu", "engine_wall", "open_cpu"):
-                rows[key].append(r[key])
-            rows["alone_cpu"].append(alone["cpu"])
-            rows["ratio_cpu"].append(r["rec_cpu"] / r["engine_cpu"])
+            # the engine: the run with no database; recording's CPU (every thread's): the pair's
+            # difference; the wall the user waits for it: the main thread's in the writer, and
+            # the pair's difference (which also counts an engine slowed by the writer's thread)
+            fig = {"engine_cpu": alone["cpu"], "engine_wall": alone["wall"], "alone_cpu": alone["cpu"],
+                   "open_cpu": r["open_cpu"], "cpu_db": r["cpu"], "rec_wall": r["rec_wall"],
+                   "rec_cpu": r["cpu"] - r["open_cpu"] - alone["cpu"],
+                   "added_wall": r["wall"] - r["open_wall"] - alone["wall"]}
+            # the critical path on a host with a core free for the writer's thread: what the main
+            # thread spends beyond the run without a database (copies, the commit, the close),
+            # and what the thread does after the engine stopped (CPU; fsync waits not counted)
+            fig["path_cpu"] = r["main_cpu"] - r["open_cpu"] - alone["main_cpu"] + r["tail_cpu"]
+            fig["ratio_path"] = fig["path_cpu"] / alone["main_cpu"]
+            fig["ratio_cpu"] = fig["rec_cpu"] / fig["engine_cpu"]
+            fig["ratio_wall"] = fig["rec_wall"] / fig["engine_wall"]
+            fig["ratio_added"] = fig["added_wall"] / fig["engine_wall"]
+            for key, value in fig.items():
+                rows[key].append(value)
             rows["startup"].append(wall_nodb - run_s)
             rows["e2e_db"].append(wall_db)
             rows["e2e_nodb"].append(wall_nodb)
             if log:
-                log(f"  round {k + 1}: {r['bounces']:,} bounces; engine {r['engine_cpu']:.3f} s CPU "
-                    f"({r['engine_wall']:.2f} s wall), recording {r['rec_cpu']:.3f} s CPU "
-                    f"({r['rec_wall']:.2f} s wall) = {r['rec_cpu'] / r['engine_cpu']:.1%} of the engine; "
-                    f"opening the store {r['open_cpu']:.3f} s CPU; no database {alone['cpu']:.3f} s CPU; "
-                    f"processes: start-up {wall_nodb - run_s:.2f} s, end to end {wall_db:.2f} s with the "
-                    f"database, {wall_nodb:.2f} s without" + (f"; scratch files {staged}" if staged else ""))
+                log(f"  round {k + 1}: {r['bounces']:,} bounces; no database {alone['wall']:.3f} s wall, "
+                    f"{alone['cpu']:.3f} s CPU; into a new file {r['wall']:.3f} s wall, {r['cpu']:.3f} s CPU "
+                    f"(opening {r['open_wall']:.3f} s wall); recording: waited {r['rec_wall']:.3f} s wall "
+                    f"= {fig['ratio_wall']:.1%} of the engine, added {fig['added_wall']:.3f} s wall "
+                    f"= {fig['ratio_added']:.1%}, {fig['rec_cpu']:.3f} s CPU = {fig['ratio_cpu']:.1%}; "
+                    f"critical path {fig['path_cpu']:.3f} s CPU = {fig['ratio_path']:.1%} of the engine's "
+                    f"{alone['main_cpu']:.3f} s"
+                    + (f"; processes: start-up {wall_nodb - run_s:.2f} s, end to end {wall_db:.2f} s with "
+                       f"the database, {wall_nodb:.2f} s without" if processes else "")
+                    + (f"; scratch files {staged}" if staged else ""))
     med = {k: statistics.median(v) for k, v in rows.items()}
     med["rounds"] = rows
     med["bounces"] = r["bounces"]
@@ -232,19 +305,39 @@ def main():
     ap.add_argument("--in-process", action="store_true",
                     help="skip the process runs (start-up, end to end): recording / engine only")
     ap.add_argument("--insert", action="store_true", help="time staging.insert_rows alone (see above)")
+    ap.add_argument("--staged", action="store_true",
+                    help="no early insert (sqlite_writer.LOCK_BOUND_S = 0): the rows moved in after the engine")
+    ap.add_argument("--buffer-rows", type=int, default=None,
+                    help="an experiment: the event engine's chunk of bounces (driver.BUFFER_ROWS, 16384)")
     args = ap.parse_args()
+    if args.staged:
+        sqlite_writer.LOCK_BOUND_S = 0
+    if args.buffer_rows:
+        from gaz_cli.engine import driver
+
+        driver.BUFFER_ROWS = args.buffer_rows
     if args.insert:
         insert_only(args.rounds)
         return
-    print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}; "
+    print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}, "
+          f"{'staged' if args.staged else 'early insert'}"
+          + (f", chunks of {args.buffer_rows}" if args.buffer_rows else "") + "; "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
     med = measure(args.rounds, args.record, processes=not args.in_process)
-    ratios = med["rounds"]["ratio_cpu"]
-    print(f"median: start-up {med['startup']:.2f} s wall; engine {med['engine_cpu']:.3f} s CPU "
-          f"({med['engine_wall']:.2f} s wall; alone {med['alone_cpu']:.3f} s CPU); recording "
-          f"{med['rec_cpu']:.3f} s CPU ({med['rec_wall']:.2f} s wall); recording / engine "
-          f"{med['ratio_cpu']:.1%} (CPU; rounds {min(ratios):.1%}-{max(ratios):.1%}); end to end "
-          f"{med['e2e_db']:.2f} s with the database, {med['e2e_nodb']:.2f} s without")
+    r = med["rounds"]
+
+    def spread(key):
+        return f"rounds {min(r[key]):.1%}-{max(r[key]):.1%}"
+
+    print(f"median: engine (no database) {med['engine_wall']:.3f} s wall, {med['engine_cpu']:.3f} s CPU; "
+          f"into a new file {med['cpu_db']:.3f} s CPU (every thread); recording waited for "
+          f"{med['rec_wall']:.3f} s wall = {med['ratio_wall']:.1%} of the engine ({spread('ratio_wall')}); "
+          f"wall added {med['added_wall']:.3f} s = {med['ratio_added']:.1%} ({spread('ratio_added')}); "
+          f"recording CPU {med['rec_cpu']:.3f} s = {med['ratio_cpu']:.1%} ({spread('ratio_cpu')}); "
+          f"critical path {med['path_cpu']:.3f} s CPU = {med['ratio_path']:.1%} ({spread('ratio_path')})")
+    if not args.in_process:
+        print(f"processes: start-up {med['startup']:.2f} s wall; end to end {med['e2e_db']:.2f} s with the "
+              f"database, {med['e2e_nodb']:.2f} s without")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,17 @@ standard library's ``sqlite3`` alone:
   in with the SIMULATION, SCENE, COMPOSITION and RESULTAT rows in one short
   transaction, interrupts held over it, every failure one
   :class:`~gaz_cli.errors.StoreError` line (:func:`explain`, which the store
-  uses too).
+  uses too);
+- so that the user does not wait for the insert, a run's rows also go in while its
+  engine runs (:class:`_EarlyInsert`): once the engine should stop within
+  :data:`EARLY_START_S`, a thread takes the write lock if it is free, inserts the
+  chunks so far and those to come, and hands the open
+  transaction back for the RESULTAT row and the COMMIT; it holds the lock at most
+  :data:`LOCK_BOUND_S` while the engine runs, else rolls back, and the run is
+  committed the staged way. Same rows either way (both insert through
+  :func:`gaz_cli.staging.insert_chunk`); a failure in the thread rolls back and is
+  raised in the main thread; an interrupt rolls back. Figures: gaz_cli.staging's
+  docstring.
 """
 
 from __future__ import annotations
@@ -26,7 +36,10 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import functools
+import queue
 import sqlite3
+import threading
+import time
 from importlib import resources
 from pathlib import Path
 
@@ -210,8 +223,10 @@ class SqliteFile(RunStore):
         args, kwargs = connect if connect is not None else ((self.path,), {})
         self.conn = None
         with self._errors():
+            # check_same_thread: a run's early insert (_EarlyInsert) uses it from its thread,
+            # the one user of the connection until it is joined
             self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": BUSY_TIMEOUT_S,
-                                                  "isolation_level": None})
+                                                  "isolation_level": None, "check_same_thread": False})
             try:
                 self._prepare()
             except BaseException:
@@ -270,7 +285,8 @@ def _transaction(conn: sqlite3.Connection):
 
 # --- one simulation ---------------------------------------------------------------
 class StagedRun(TableRecorder):
-    """A run's rows staged (:mod:`gaz_cli.staging`) until the commit moves them in.
+    """A run's rows staged (:mod:`gaz_cli.staging`) until the commit moves them in, and
+    inserted meanwhile by an early insert (:class:`_EarlyInsert`) while it may.
 
     While staged, REBOND.PA_NUM holds the species index and SI_NUM 0; ``si_num``
     is None until the commit has succeeded.
@@ -284,14 +300,58 @@ class StagedRun(TableRecorder):
         columns = layout().columns
         staging.remove_stale(file.path)
         self.stage = staging.Stage(file.path, {t: columns[t] for t in self._n})
+        self._early: _EarlyInsert | None = None
+        self._early_tried = False
+        self._engine_start = time.monotonic()  # (the engine's own start, once it reports it)
+
+    def progress(self, t: float, events: int) -> None:
+        if not events:  # compiled and set up: the run starts (gaz_cli.recording.Recorder.progress)
+            self._engine_start = time.monotonic()
 
     def _errors(self):
         return self.file._errors()
 
     def _add(self, table: str, columns):
-        self.stage.add(table, columns)
+        early = self._early
+        if early is not None:
+            early.check()  # a failure of its thread stops the run here
+        kept = self.stage.add(table, columns)
+        if kept is None:  # spilled to a scratch file: a long run, today's path
+            if early is not None:
+                self._early = None
+                early.cancel(surface=True)
+        elif early is not None:
+            early.hand(table, kept)
+        elif not self._early_tried and LOCK_BOUND_S > 0 and self._ends_soon(table, kept):
+            self._early_tried = True
+            # every chunk so far: the backlog, then the chunks to come
+            self._early = _EarlyInsert(self, [(name, chunk) for name in self._n
+                                              for chunk in self.stage.chunks(name)])
+
+    def _ends_soon(self, table: str, columns: list) -> bool:
+        """Whether the engine, at the simulated time of this chunk's last row, should stop
+        within :data:`EARLY_START_S` (its pace so far, from its start: a guess, which the
+        bound on the lock corrects)."""
+        if self.scene.duration <= 0:
+            return True
+        times = columns[layout().columns[table].index(_TIME_COLUMN[table])]
+        done = float(times[-1]) / self.scene.duration
+        if done >= 1.0:
+            return True
+        if done <= 0.0:
+            return False
+        remaining = (time.monotonic() - self._engine_start) * (1.0 - done) / done
+        return remaining <= EARLY_START_S
 
     def commit(self) -> None:
+        early = self._early
+        if early is not None:
+            # the last chunks' insert (a signal meanwhile: abort() rolls it back)
+            if early.finish():  # its transaction holds every row: the result, and commit
+                with interrupts.held():
+                    self._commit_early(early)
+                return
+            self._early = None  # it gave up: the staged way
         self.stage.seal()
         conn, columns = self.file.conn, layout().columns
         attach = self.stage.path is not None
@@ -314,8 +374,181 @@ class StagedRun(TableRecorder):
                 conn.execute("DETACH DATABASE stage")
         self.stage.discard()
 
-    def abort(self) -> None:
+    def _commit_early(self, early: "_EarlyInsert") -> None:
+        """The end of a run whose rows the early insert has put in: the RESULTAT row, COMMIT
+        (called with interrupts held)."""
+        conn = self.file.conn
+        try:
+            try:
+                _result_row(conn, early.si_num, *self._result)
+                conn.execute("COMMIT")
+            except BaseException:
+                if conn.in_transaction:
+                    conn.execute("ROLLBACK")
+                raise
+        finally:
+            early.outcome, self._early = _ENDED, None
+            conn.execute("PRAGMA foreign_keys = ON")
+        self.si_num = early.si_num
         self.stage.discard()
+
+    def abort(self) -> None:
+        early, self._early = self._early, None
+        try:
+            if early is not None:
+                early.cancel()
+        finally:
+            self.stage.discard()
+
+
+LOCK_BOUND_S = 1.0
+"""How long a run's early insert may hold the database's write lock while its engine still
+runs, s; past it, it rolls back and the run ends as one without it (0: no early insert).
+
+Another writer of the file waits for the lock up to BUSY_TIMEOUT_S (60 s). A staged run
+holds it for its commit: ~0.2 s for the README example's 178 thousand rows, ~0.85 s for
+the largest run kept in memory (staging.MEMORY_ROWS rows at ~0.8 us a row). 1 s keeps the
+early insert's hold of the same order as that longest commit (plus one chunk, ~50 ms, and
+the rollback). The insert starts when the engine should stop within half of it
+(:data:`EARLY_START_S`); the bound catches a wrong guess (an engine slowed down), at the
+cost of the rows inserted so far (at most ~1 s of CPU, on the other core)."""
+
+_TIME_COLUMN = {"rebond": "re_t", "choc": "ch_t"}
+"""Each staged table's column of simulated times (what :meth:`StagedRun._ends_soon` reads)."""
+
+EARLY_START_S = LOCK_BOUND_S / 2
+"""The early insert starts at the first chunk after which the engine should stop within
+this many seconds (estimated from its pace so far): half the bound, a margin for the guess.
+The README example starts at its first chunk (~0.1 s into a ~0.3 s engine); a long run
+starts near its end, with the chunks so far as a backlog, instead of holding the lock for
+the bound and giving up (no more than MEMORY_ROWS rows: ~0.85 s of inserts)."""
+
+TRY_LOCK_S = 0.1
+"""How long the early insert waits for the write lock before giving up (the run then goes
+the staged way), s: a commit of another run's few chunks, not a long one."""
+
+_FINISH, _CANCEL = "finish", "cancel"
+_HOLDING, _GAVE_UP, _FAILED, _ENDED = "holding", "gave up", "failed", "ended"
+
+
+class _EarlyInsert:
+    """A run's rows inserted by a thread while its engine runs (the engine's kernels release
+    the GIL): from its first chunk, the thread takes the write lock (BEGIN IMMEDIATE, waiting
+    at most :data:`TRY_LOCK_S`), inserts the SIMULATION, COMPOSITION and SCENE rows, then each
+    chunk as the run hands it, and at the run's end (:meth:`finish`) hands the open transaction
+    back to the main thread, which adds the RESULTAT row and commits: the user waits for the
+    last chunk's insert and the commit only.
+
+    It gives up -- rolls back, and the run is committed the staged way, every row being
+    staged all along -- when the lock is not free, or when it has held it for
+    :data:`LOCK_BOUND_S` and the engine still runs. Any other failure rolls back too and is
+    raised in the main thread (:meth:`check`, at the run's next chunk; :meth:`finish`).
+
+    The connection is the thread's from its start until it is joined (:meth:`finish`,
+    :meth:`cancel`), then the main thread's: never both at once.
+    """
+
+    def __init__(self, run: StagedRun, first: list):
+        self.conn = run.file.conn
+        self.scene, self.started = run.scene, run.started
+        self.names = layout().columns
+        self.si_num = None
+        self.outcome = None
+        self.error: BaseException | None = None
+        self._done = threading.Event()
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        for item in first:
+            self._queue.put(item)
+        self._thread = threading.Thread(target=self._main, name="gaz-early-insert", daemon=True)
+        self._thread.start()
+
+    # --- the main thread's side
+    def hand(self, table: str, columns: list) -> None:
+        """A chunk kept by the stage (column arrays, not modified after)."""
+        if self.outcome is None:
+            self._queue.put((table, columns))
+
+    def check(self) -> None:
+        """Raise the thread's failure, if any."""
+        if self.error is not None:
+            raise self.error
+
+    def finish(self) -> bool:
+        """The engine has stopped: wait for the last chunks' insert. True if the thread holds
+        the open transaction with every row (the caller then commits it); False if it gave up.
+        Raises the thread's failure."""
+        self._done.set()
+        self._queue.put(_FINISH)
+        self._join()
+        self.check()
+        return self.outcome == _HOLDING
+
+    def cancel(self, surface: bool = False) -> None:
+        """Roll back and stop; raise the thread's failure with ``surface``."""
+        self._queue.put(_CANCEL)
+        self._join()
+        if self.outcome == _HOLDING:  # finished, not committed (a signal or failure in between)
+            self.outcome = _ENDED
+            if self.conn.in_transaction:
+                self.conn.execute("ROLLBACK")
+            self.conn.execute("PRAGMA foreign_keys = ON")
+        if surface:
+            self.check()
+
+    def _join(self) -> None:
+        # not cut by a signal: the thread must never be left holding the lock (it sees the
+        # queue between two chunks, ~50 ms, or gives up waiting for the lock, TRY_LOCK_S)
+        with interrupts.held():
+            self._thread.join()
+
+    # --- the thread's side
+    def _insert(self, table: str, columns: list) -> None:
+        staging.insert_chunk(self.conn, table, self.names[table], columns, self.si_num, self._pa_nums[table])
+
+    def _main(self) -> None:
+        conn = self.conn
+        try:
+            conn.execute("PRAGMA foreign_keys = OFF")  # as the staged commit (outside a transaction)
+            conn.execute(f"PRAGMA busy_timeout = {int(TRY_LOCK_S * 1000)}")
+            try:
+                conn.execute("BEGIN IMMEDIATE")
+            except sqlite3.OperationalError as err:
+                if "locked" in str(err).lower() or "busy" in str(err).lower():
+                    self.outcome = _GAVE_UP
+                    return
+                raise
+            deadline = time.monotonic() + LOCK_BOUND_S
+            self.si_num, nums = _simulation_rows(conn, self.scene, self.started)
+            self._pa_nums = {"rebond": nums, "choc": None}
+            while True:
+                if self._done.is_set():
+                    item = self._queue.get()
+                else:
+                    try:
+                        item = self._queue.get(timeout=max(0.0, deadline - time.monotonic()))
+                    except queue.Empty:
+                        item = None
+                    if not self._done.is_set() and (item is None or time.monotonic() > deadline):
+                        item = _CANCEL  # the engine runs on: give the lock back
+                if item == _FINISH:
+                    self.outcome = _HOLDING
+                    return
+                if item == _CANCEL:
+                    conn.execute("ROLLBACK")
+                    self.outcome = _GAVE_UP
+                    return
+                self._insert(*item)
+        except BaseException as err:  # raised in the main thread
+            self.error = err
+            self.outcome = _FAILED
+            with contextlib.suppress(sqlite3.Error):
+                if conn.in_transaction:
+                    conn.execute("ROLLBACK")
+        finally:
+            with contextlib.suppress(sqlite3.Error):
+                conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+                if self.outcome != _HOLDING:
+                    conn.execute("PRAGMA foreign_keys = ON")
 
 
 def _simulation_rows(conn: sqlite3.Connection, scene: Scene, started: _dt.datetime) -> tuple[int, list[int]]:

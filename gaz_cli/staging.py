@@ -5,7 +5,10 @@ A run into a SQLite database hands its REBOND (and CHOC) rows here while the
 engine runs, outside the database's write lock; at the end the store moves
 them in inside one short transaction (:meth:`gaz_cli.store.Store.simulation`).
 Several runs can thus write one file at once, and a run that fails or is
-interrupted only drops its rows.
+interrupted only drops its rows. (While the engine runs, a thread may also insert
+the chunks kept in memory straight into the database, under a bounded hold of the
+write lock: :class:`gaz_cli.sqlite_writer._EarlyInsert`; the rows stay staged
+here all the same, for the commit to take them if it gives up.)
 
 Up to :data:`MEMORY_ROWS` rows the chunks stay as the engine's arrays (copied):
 the commit inserts them straight into the database, one pass, each row
@@ -31,6 +34,24 @@ cannot zip several carrays into rows without a join), the rest is binding.
 Measured and left: page size, cache size and ``synchronous`` (no gain beyond the
 noise); staging the rows in a second SQLite table while the engine runs (the move
 by ``INSERT ... SELECT`` costs as much as the direct insert).
+
+No writer that starts after the engine can go below SQLite's own insert (~35 % of the
+example's engine), hence the early insert (:mod:`gaz_cli.sqlite_writer`): the chunks
+inserted by a thread while the engine computes the next ones. benchmarks/recording.py
+--in-process, 2026-11-23, 7 rounds a session, early and ``--staged`` sessions alternating,
+2 cores (the engine alone 0.18-0.30 s wall, 0.17-0.20 s CPU): the main thread waits for
+recording 61-65 ms = 26-30 % of the engine's wall at load 2.7 (72-85 ms = 25-29 % at load
+3.5-4), against 122-136 ms = 66-67 % staged (172-183 ms = 61-73 %); the wall the database
+adds to the run, the pairs' difference, falls from 66-67 % to 37-48 % at load 2.7, and not
+at 3.5-4 (46-76 % both ways: no core is free, the thread's CPU delays the engine as much as
+it saves). Every thread's CPU for recording is the same both ways (0.10-0.12 s). What the
+user still waits for: the last chunk (~30 ms: 47 thousand of the 178 thousand rows), the
+COMMIT (~10 ms CPU and ~10 ms of fsync) and the close (~5 ms). The engine's chunk
+(driver.BUFFER_ROWS, then 65536) bounds the first: chunks of 16384 (``--buffer-rows``) cut
+the wait to 35-46 ms = 19-20 %. On an idle host, with the faster engine of 2026-11-23
+evening (0.15 s), the wall added was 32.1 % / 30.7 % with chunks of 65536 and 23.4 % / 17.4 %
+with 16384 (two sessions each, alternating, 5 rounds a session): BUFFER_ROWS is now 16384. Measured and left: fsync of the WAL from
+the thread after each chunk (the COMMIT ~4 ms shorter), a smaller page cache (no gain).
 """
 
 from __future__ import annotations
@@ -139,16 +160,8 @@ def move_in(conn: sqlite3.Connection, stage: "Stage", table: str, names: list[st
     if not stage.rows[table]:
         return
     if stage.in_memory:
-        constants = {"si_num": int(si_num)}
-        if pa_nums is not None and len(set(pa_nums)) == 1:
-            constants["pa_num"] = int(pa_nums[0])
         for staged in stage.chunks(table):
-            staged = dict(zip(names[1:], staged[1:]))
-            if "pa_num" in constants:
-                del staged["pa_num"]
-            elif pa_nums is not None:
-                staged["pa_num"] = np.asarray(pa_nums, dtype=np.int64)[staged["pa_num"]]
-            insert_rows(conn, table, list(staged), list(staged.values()), constants)
+            insert_chunk(conn, table, names, staged, si_num, pa_nums)
         return
     values = ["?"]
     for name in names[1:]:
@@ -159,6 +172,23 @@ def move_in(conn: sqlite3.Connection, stage: "Stage", table: str, names: list[st
             values.append(name)
     conn.execute(f"INSERT INTO {table} ({', '.join(names)}) SELECT {', '.join(values)} "
                  f"FROM stage.{table} ORDER BY rowid", (int(si_num),))
+
+
+def insert_chunk(conn: sqlite3.Connection, table: str, names: list[str], staged: list, si_num: int,
+                 pa_nums: list[int] | None = None) -> None:
+    """One chunk kept in memory (column arrays, as :meth:`Stage.add` returns them) into
+    ``table`` on ``conn``, in its open transaction, under its real SI_NUM and PA_NUM (see
+    :func:`move_in`; the commit and the early insert of :mod:`gaz_cli.sqlite_writer` both go
+    through here, so their rows are the same). One species: PA_NUM written in the SQL."""
+    constants = {"si_num": int(si_num)}
+    if pa_nums is not None and len(set(pa_nums)) == 1:
+        constants["pa_num"] = int(pa_nums[0])
+    staged = dict(zip(names[1:], staged[1:]))
+    if "pa_num" in constants:
+        del staged["pa_num"]
+    elif pa_nums is not None:
+        staged["pa_num"] = np.asarray(pa_nums, dtype=np.int64)[staged["pa_num"]]
+    insert_rows(conn, table, list(staged), list(staged.values()), constants)
 
 
 class Stage:
@@ -182,16 +212,22 @@ class Stage:
         """True while (and if, at the commit) every row is still in memory."""
         return self._chunks is not None
 
-    def add(self, table: str, columns: list) -> None:
-        """Append rows given as column arrays (one per column of the table, in order)."""
+    def add(self, table: str, columns: list) -> list | None:
+        """Append rows given as column arrays (one per column of the table, in order).
+
+        Returns the copy kept in memory (not to be modified), or None once the rows go to
+        the scratch file."""
         k = len(columns[0])
         if self._chunks is not None and sum(self.rows.values()) + k > MEMORY_ROWS:
             self._spill()
+        kept = None
         if self._chunks is not None:
-            self._chunks[table].append([np.array(c, copy=True) for c in columns])
+            kept = [np.array(c, copy=True) for c in columns]
+            self._chunks[table].append(kept)
         else:
             insert_rows(self._conn, table, self.tables[table], columns)
         self.rows[table] += k
+        return kept
 
     def chunks(self, table: str):
         """The rows kept in memory for ``table``, as lists of column arrays, in order."""

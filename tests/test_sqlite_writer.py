@@ -130,16 +130,22 @@ def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_stor
     assert foreign.read_bytes() == before
 
 
-def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch):
-    """A failure while the rows move in rolls the whole run back: no SIMULATION, SCENE,
-    COMPOSITION or REBOND row, the file consistent; one StoreError line."""
+@pytest.mark.parametrize("path", ["staged", "early"])
+def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch, path):
+    """A failure at the commit rolls the whole run back: no SIMULATION, SCENE, COMPOSITION or
+    REBOND row, the file consistent; one StoreError line -- while the staged rows move in, or
+    when the rows inserted early get their RESULTAT row."""
     db = tmp_path / "g.db"
 
     def full(*args, **kwargs):
         raise sqlite3.OperationalError("database or disk is full")
 
     with sqlite_writer.open_for_writing(str(db)) as opened:
-        monkeypatch.setattr(staging, "move_in", full)
+        if path == "staged":
+            monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0)
+            monkeypatch.setattr(staging, "move_in", full)
+        else:
+            monkeypatch.setattr(sqlite_writer, "_result_row", full)
         with pytest.raises(StoreError, match="no space left for database"):
             write(opened, runs()[0])
     con = sqlite3.connect(db)

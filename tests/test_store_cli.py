@@ -90,9 +90,15 @@ CHILD = textwrap.dedent("""
 
     from gaz_cli import staging
     staging.MEMORY_ROWS = 100_000  # this run's 400 000 rows spill to a scratch file
+    import time
     move_in = staging.move_in
+    moves = []
     def announced(conn, stage, table, *args, **kw):
         if table == "rebond":
+            moves.append(1)
+            if len(moves) == 2:  # the second run's INSERT slowed down (1 ms every 10^4 SQLite
+                # instructions, ~4 s in all), so that the parent's kill lands inside it
+                conn.set_progress_handler(lambda: time.sleep(0.001), 10_000)
             print("moving", flush=True)
         return move_in(conn, stage, table, *args, **kw)
     staging.move_in = announced
@@ -221,7 +227,7 @@ def test_full_disk_at_the_commit_removes_the_state_file(tmp_path, monkeypatch):
         raise sqlite3.OperationalError("database or disk is full")
 
     db, state = tmp_path / "gaz.db", tmp_path / "final.csv"
-    monkeypatch.setattr(staging, "move_in", full)  # both SQLite writers move rows in through it
+    monkeypatch.setattr(staging, "insert_rows", full)  # both SQLite writers insert through it, early or not
     res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", str(state)])
     assert res.exit_code == 1, res.output
     assert res.stderr == f"gaz: error: no space left for database '{db}' (database or disk is full); " \

@@ -43,8 +43,14 @@ from gaz_cli.progress import EVENTS_PER_REPORT
 from gaz_cli.recording import Recorder, RunStats, hand_snapshot
 from gaz_cli.scene import Scene, State
 
-BUFFER_ROWS = 1 << 16
-"""Rows of each record buffer (bounces, collisions): memory stays bounded on any run."""
+BUFFER_ROWS = 1 << 14
+"""Rows of each record buffer (bounces, collisions), handed to the recorder when full: memory
+stays bounded on any run. 16384 rather than 65536: a run into a SQLite file inserts each
+chunk from a thread while the engine computes the next (gaz_cli.sqlite_writer._EarlyInsert),
+so the user waits for the last chunk's insert; on the README example (idle 2-core host,
+benchmarks/recording.py --in-process --rounds 5, sessions alternating) the wall recording
+adds fell from 32.1 % and 30.7 % of the engine to 23.4 % and 17.4 %, with the same CPU in
+all (0.26 s). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
 
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
