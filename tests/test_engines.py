@@ -53,10 +53,10 @@ def test_auto_picks_a_step_from_the_mean_free_time():
 
 def test_a_tiny_run_loads_no_compiled_engine():
     """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code:
-    no event loop is built, no placement kernel compiled or loaded (Numba's public
-    ``signatures``), the event engine's driver and loop are not even imported (placement
-    takes kernels, not the engine), no TOML parser is loaded for a scene given as options, and
-    the process imports neither pandas, SQLAlchemy, matplotlib, h5py nor dask."""
+    no event loop is built, no placement kernel compiled, the event engine's driver and loop
+    are not even imported, no TOML parser is loaded for a scene given as options, and the
+    process imports neither Numba (most of ``import numpy, numba``), pandas, SQLAlchemy,
+    matplotlib, h5py nor dask."""
     import subprocess
     import sys
 
@@ -67,8 +67,9 @@ def test_a_tiny_run_loads_no_compiled_engine():
             "loop = sys.modules.get('gaz_cli.engine.loop')\n"
             "built = loop.build.cache_info().currsize if loop else 0\n"
             "heavy = ('pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask', 'gaz_cli.engine.driver',"
-            " 'gaz_cli.engine.loop', 'tomllib')\n"
-            "print(sorted(m for m in heavy if m in sys.modules), built, len(placement.rsa._rsa.signatures), file=sys.stderr)")
+            " 'gaz_cli.engine.loop', 'tomllib', 'numba')\n"
+            "print(sorted(m for m in heavy if m in sys.modules), built, placement.rsa._compiled_rsa.cache_info().currsize,"
+            " file=sys.stderr)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert '"engine": "reference"' in out.stdout, out.stdout + out.stderr
     assert out.stderr.strip().splitlines()[-1] == "[] 0 0", out.stderr

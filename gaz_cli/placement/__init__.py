@@ -27,16 +27,29 @@ gives the same positions on every machine and for every engine.
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import numpy as np
 
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.geometry import packing_fraction
-from gaz_cli.placement.growth import GROWTH_RATE, RANDOM_LIMIT, grow
 from gaz_cli.placement.lattice import LATTICE_LIMIT, lattice
-from gaz_cli.placement.overlaps import first_overlap
 from gaz_cli.placement.rsa import INTERPRETED_MAX, INTERPRETED_PACKING, rapid_1d, rejection
+
+_COMPILED = {"GROWTH_RATE": "growth", "grow": "growth", "first_overlap": "overlaps",
+             "growth": "growth", "overlaps": "overlaps"}
+"""Names from the modules of compiled methods, imported at their first use: these modules
+import Numba and the engine's kernels, which a tiny run placed by the interpreted addition
+never needs (Numba's import is most of ``import numpy, numba``: issue 15's start-up)."""
+
+
+def __getattr__(name: str):
+    if name not in _COMPILED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module = importlib.import_module(f"{__name__}.{_COMPILED[name]}")
+    return module if name == _COMPILED[name] else getattr(module, name)
+
 
 __all__ = ["METHODS", "RSA_COMFORT", "RANDOM_LIMIT", "LATTICE_LIMIT", "GROWTH_RATE",
            "INTERPRETED_MAX", "INTERPRETED_PACKING", "place", "first_overlap", "rapid_1d",
@@ -46,6 +59,10 @@ METHODS = ("auto", "rejection", "rapid", "lattice", "grow")
 
 RSA_COMFORT = {1: 0.60, 2: 0.45, 3: 0.30}
 """Packing below which 'auto' uses rejection (RSA jamming: 0.7476, 0.547, 0.384)."""
+
+RANDOM_LIMIT = {2: 0.70, 3: 0.50}
+"""Densest random (grown) packing offered: beyond, a lattice start (2D liquid ends near 0.70,
+3D freezing at 0.494; growth goes further only by jamming into a glass)."""
 
 
 def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
@@ -92,6 +109,9 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     if method == "lattice":
         return lattice(dim, radii, length, rng, periodic)
     if method == "grow":
+        from gaz_cli.placement.growth import grow
+        from gaz_cli.placement.overlaps import first_overlap
+
         positions = grow(dim, radii, length, rng, periodic)
         if first_overlap(positions, radii, length, periodic) < 0:
             return positions

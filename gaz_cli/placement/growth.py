@@ -23,10 +23,6 @@ from gaz_cli.placement.rsa import rapid_1d, rejection
 GROWTH_RATE = 0.1
 """LS growth: final diameters grow from 0 at this rate per unit time (speeds ~1 diameter/time)."""
 
-RANDOM_LIMIT = {2: 0.70, 3: 0.50}
-"""Densest random (grown) packing offered: beyond, a lattice start (2D liquid ends near 0.70,
-3D freezing at 0.494; growth goes further only by jamming into a glass)."""
-
 
 @njit
 def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D):

@@ -3,13 +3,13 @@ addition on a cell grid (:func:`rejection`), interpreted for small dilute scenes
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
 from gaz_cli.errors import PlacementError
 from gaz_cli.geometry import packing_fraction
-from gaz_cli.numba_config import njit
 
 INTERPRETED_MAX = 256
 """Up to this many particles, random sequential addition runs as plain Python (the kernel's
@@ -17,7 +17,8 @@ INTERPRETED_MAX = 256
 positions) instead of loading compiled code: loading the first cached kernel of a process
 costs Numba about a second (its context refresh), placing 256 particles in Python 30 ms.
 A run whose engine needs no compiled code (``ideal``, a tiny ``reference`` run) then starts
-in the time of its imports."""
+in the time of its imports: Numba itself is imported at the first compiled placement
+(:func:`_compiled_rsa`), not before."""
 
 INTERPRETED_PACKING = 0.1
 """... and at most this packing fraction, where a few candidates per particle suffice (a
@@ -48,7 +49,6 @@ def rapid_1d(radii: np.ndarray, length: float, rng: np.random.Generator,
     return x[:, None]
 
 
-@njit
 def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt,
          max_tries, cell, x):
     """Place particles ``placed..N-1`` from candidate points ``cand`` (M, D) in [0,1)^D.
@@ -128,6 +128,14 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
     return placed, c, 0
 
 
+@functools.cache
+def _compiled_rsa():
+    """:func:`_rsa` compiled (Numba's disk cache: loaded, not compiled, after the first run)."""
+    from gaz_cli.numba_config import njit
+
+    return njit(_rsa)
+
+
 def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
               periodic: bool = False, max_tries: int = 100_000,
               budget: int | None = None) -> np.ndarray:
@@ -166,7 +174,8 @@ def _rejection_in_order(dim: int, radii: np.ndarray, length: float, rng: np.rand
     placed, spent = 0, 0
     batch = max(1024, min(4 * n, 1 << 20))
     # dilute and small: interpreted (no compiled code to load); else, or if it is slow going, compiled
-    rsa = _rsa.py_func if n <= INTERPRETED_MAX and packing_fraction(dim, radii, length) <= INTERPRETED_PACKING else _rsa
+    small = n <= INTERPRETED_MAX and packing_fraction(dim, radii, length) <= INTERPRETED_PACKING
+    rsa = _rsa if small else _compiled_rsa()
     while placed < n:
         cand = rng.random((batch, dim))
         placed, used, status = rsa(cand, radii, float(length), bool(periodic), pos, placed,
