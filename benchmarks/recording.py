@@ -147,8 +147,12 @@ def in_process(db: str | None, record: str, recording: Clock, opening: Clock, ta
 def as_process(extra: list[str]) -> tuple[float, float]:
     """(wall seconds from start to exit, the run time the summary reports)."""
     w = time.perf_counter()
+    # the gaz this process imported (python -m puts its working folder first on sys.path:
+    # from a checkout, a PYTHONPATH at an older tree would time the checkout)
+    tree = str(Path(runner.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([tree, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
     res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *ARGS, *extra, "--json"],
-                         capture_output=True, text=True, check=True)
+                         capture_output=True, text=True, check=True, env=env, cwd=tempfile.gettempdir())
     return time.perf_counter() - w, json.loads(res.stdout)["wall_time_s"]
 
 
