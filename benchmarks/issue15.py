@@ -62,6 +62,20 @@ run A with a test suite beside it (load 1.3-2.1), run B ``--only 2,5`` on a quie
 | 4, start-up | <= 1.15 / 1.35 | 1.13 / 1.11 wall (1.14 / 1.14 CPU) | |
 | 5, gaz / C, lists | >= 1.0 | 0.899 | 0.842 |
 | 6, mixture / small alone | <= 2 | per physical event 2D 0.97, 3D 1.19 (per simulated second 2.27, 3.39: 2.34x, 2.86x the physical events) | |
+
+Figures of 2026-11-23, third session (``--pairs 3``, new = 6b23c39: the calendar inlined,
+the dilute pass rewritten, the early insert with chunks of 16384 rows, no Numba in a tiny
+run; quiet host, load 0.1-1.0, nothing beside it):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 6.08 (6.06, 6.08, 6.25); 1.02 queue events, 0 crossings per physical event |
+| 2, scene (b) | >= 3x | 1.43 (1.28, 1.43, 1.56); 9 wide cells an axis, 3.62 queue events, 2.36 crossings per physical event |
+| 2, scene (a) | not slower | 1.15 (1.14, 1.15, 1.19) |
+| 3, recording / engine | < 25 % | wall added 44.6 % (rounds 44.4-47.3 %) of a 0.089 s engine; recording CPU 110 %; gaz's insert 72.2 ms against SQLite's own INSERT ... SELECT into REBOND 54.2 ms (61 % of the engine) and into a keyless table 34.5 ms (39 %) |
+| 4, start-up | <= 1.15 / 1.35 | 0.64 / 0.69 wall (0.75 / 0.76 CPU); the old tree 1.28 / 1.38 wall |
+| 5, gaz / C, lists | >= 1.0 | 1.134 CPU (1.143, 1.115, 1.134), 1.151 wall |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.59, 3D 1.42 (per simulated second 3.73, 4.05: 2.34x, 2.86x the physical events) |
 """
 
 from __future__ import annotations
