@@ -126,6 +126,17 @@ def test_the_library_names_fields_and_the_cli_its_flags(tmp_path):
     assert code == 1 and err.startswith(f"gaz: error: {path}: pair_gravity 1.0 applies to engine step only")
 
 
+def assert_refused_in_one_line(path, text, words):
+    """The scene file ``text`` written at ``path`` is refused: exit 1, one line on stderr
+    holding each of ``words``, nothing on stdout."""
+    path.write_text(text)
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    lines = err.strip().splitlines()
+    assert code == 1 and len(lines) == 1 and out == "", err
+    for w in words:
+        assert w in lines[0], lines[0]
+
+
 @pytest.mark.parametrize("line, words", [
     ("colour = 3", ["unknown key 'colour'", "= 3", "allowed: dim"]),
     ('dim = "two"', ["dim = 'two'", "whole number"]),
@@ -140,12 +151,7 @@ def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line,
     good = "dim = 2\nduration = 1e-10\nlength = 1e-7\nseed = 1\n"
     keys = {ln.split(" =")[0] for ln in line.splitlines()}
     body = "".join(ln + "\n" for ln in good.splitlines() if ln.split(" =")[0] not in keys)
-    path.write_text(f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n")
-    code, out, err = invoke(["simulate", str(path), "--no-db"])
-    lines = err.strip().splitlines()
-    assert code == 1 and len(lines) == 1 and out == "", err
-    for w in words:
-        assert w in lines[0], lines[0]
+    assert_refused_in_one_line(path, f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n", words)
 
 
 # --- presets ----------------------------------------------------------------------------------
@@ -275,14 +281,8 @@ def test_a_search_given_explicitly_is_kept_and_the_skin_of_lists_stored():
     ("skin = \"wide\"", ["search: skin = 'wide' must be a number"]),
 ])
 def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, words):
-    path = tmp_path / "bad.toml"
-    path.write_text("dim = 2\nduration = 1e-10\nlength = 1e-7\n\n[[species]]\nname = \"Ar\"\n"
-                    f"count = 10\n\n[search]\n{line}\n")
-    code, out, err = invoke(["simulate", str(path), "--no-db"])
-    lines = err.strip().splitlines()
-    assert code == 1 and len(lines) == 1 and out == "", err
-    for w in words:
-        assert w in lines[0], lines[0]
+    assert_refused_in_one_line(tmp_path / "bad.toml", "dim = 2\nduration = 1e-10\nlength = 1e-7\n\n[[species]]\n"
+                          f"name = \"Ar\"\ncount = 10\n\n[search]\n{line}\n", words)
 
 
 @pytest.mark.parametrize("top, search, words", [
@@ -294,13 +294,8 @@ def test_a_walled_search_forced_where_it_cannot_run_is_refused(tmp_path, top, se
     """The dilute scan and wide cells bound a straight flight up to the next wall bounce: forced
     on a periodic box or under gravity they would give way to cells in silence."""
     path = tmp_path / "bad.toml"
-    path.write_text(f"dim = 2\nduration = 1e-10\nlength = 1e-7\n{top}\n\n[[species]]\nname = \"Ar\"\n"
-                    f"count = 10\n\n[search]\nneighbours = \"{search}\"\n")
-    code, out, err = invoke(["simulate", str(path), "--no-db"])
-    lines = err.strip().splitlines()
-    assert code == 1 and len(lines) == 1 and out == "", err
-    for w in words:
-        assert w in lines[0], lines[0]
+    assert_refused_in_one_line(path, f"dim = 2\nduration = 1e-10\nlength = 1e-7\n{top}\n\n[[species]]\n"
+                          f"name = \"Ar\"\ncount = 10\n\n[search]\nneighbours = \"{search}\"\n", words)
     path.write_text(path.read_text().replace(top, ""))  # the same search with walls runs
     code, out, err = invoke(["simulate", str(path), "--no-db"])
     assert code == 0, err
