@@ -121,7 +121,7 @@ def use_wal(conn: sqlite3.Connection) -> None:
     ``PRAGMA journal_mode = WAL`` with "database is locked" at once, without its busy
     handler (a plain reader's lock does not do it: that one is waited for). Measured on a
     loaded 2-core host: 8 processes opening one new file, 1 to 6 of them refused in 2
-    rounds of 30; none in 40 rounds with this loop. It polls with a growing pause and stops
+    rounds of 30; none in 70 rounds with this loop. It polls with a growing pause and stops
     as soon as the switch succeeds or another process has made it.
     """
     deadline = time.monotonic() + BUSY_TIMEOUT_S
