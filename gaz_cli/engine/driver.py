@@ -50,7 +50,9 @@ chunk from a thread while the engine computes the next (gaz_cli.sqlite_writer._E
 so the user waits for the last chunk's insert; on the README example (idle 2-core host,
 benchmarks/recording.py --in-process --rounds 5, sessions alternating) the wall recording
 adds fell from 32.1 % and 30.7 % of the engine to 23.4 % and 17.4 %, with the same CPU in
-all (0.26 s). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
+all (0.26 s); measured again later the same day, with a faster engine (0.09 s): 62.9 % and
+64.6 % with 65536, 42.9 % and 46.2 % with 16384 (--buffer-rows, sessions alternating, the
+same CPU). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
 
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
