@@ -128,13 +128,14 @@ def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
     h = float(extras.get("skin", sizing.NEIGHBOUR_SKIN)) * sigma
     use_nl = sizing.use_neighbour_lists(extras.get("neighbours", "auto"), D, periodic, L,
                                         pairs, sigma, h, scene.packing_fraction)
-    dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
-                                    float(scene.gravity) > 0.0, pairs, use_nl, sigma,
-                                    scene.packing_fraction)
-    nc = 1 if dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
-    mix = None if dilute or extras.get("classes", "auto") == "off" else classes.plan(
+    plan = None if extras.get("classes", "auto") == "off" else classes.plan(
         radii, D, L, periodic, pairs, use_nl, lambda r: pair_reach(r, PP),
         sizing.cells_per_axis)
+    dilute = sizing.use_dilute_scan(extras.get("neighbours", "auto"), D, n, L, periodic,
+                                    float(scene.gravity) > 0.0, pairs, use_nl, sigma,
+                                    scene.packing_fraction, plan is not None)
+    nc = 1 if dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
+    mix = None if dilute else plan
     nc = mix.nc if mix is not None else nc
     # dilute gases with walls: wide cells scanned in float32 (neighbours.wide)
     wide = sizing.use_wide_cells(extras.get("neighbours", "auto"), D, n, L, periodic,

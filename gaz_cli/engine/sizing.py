@@ -58,13 +58,15 @@ keep their cells, and their events, whatever the cost model says)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
-                    pairs: bool, use_nl: bool, sigma: float, packing: float) -> bool:
+                    pairs: bool, use_nl: bool, sigma: float, packing: float,
+                    classes: bool = False) -> bool:
     """Whether a run scans every particle at each event, without cells
     (:mod:`.neighbours.dilute`): 2D/3D, hard walls, no gravity, no neighbour lists.
 
     ``choice`` 'dilute' forces it where it applies (elsewhere the cells stay);
-    'auto' takes it below DILUTE_BELOW when it costs less than cells, by the model of
-    :func:`dilute_scan_pays`.
+    'auto' takes it below DILUTE_BELOW when it costs less than the cheaper of cells and
+    wide cells, by the models of :func:`dilute_scan_pays` (``classes``: the scene would
+    have size classes, which wide cells do not take: cells only).
     """
     if not (pairs and D > 1 and not periodic and not gravity and not use_nl):
         return False
@@ -72,7 +74,7 @@ def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravi
         return True
     if choice != "auto" or packing >= DILUTE_BELOW:
         return False
-    return dilute_scan_pays(D, n, L, sigma, packing)
+    return dilute_scan_pays(D, n, L, sigma, packing, not classes)
 
 
 DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0025}
@@ -89,10 +91,12 @@ the README's density (measured: above 10^4) and N = 2150 at scene (b)'s
 one to refine (it overrates cells at the lower density, underrates them at the higher)."""
 
 
-def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> bool:
-    """Whether scanning all n particles costs less a particle's event than cells.
+def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
+                     wide: bool = True) -> bool:
+    """Whether scanning all n particles costs less a particle's event than cells and, with
+    ``wide``, than wide cells (:func:`_wide_cost` at :func:`wide_cells_per_axis`).
 
-    A model of both, per event of a particle: with cells of width w (those of
+    A model of each, per event of a particle: with cells of width w (those of
     :func:`cells_per_axis`), the event, k_D l / w crossings (each a queue event and a
     scan of the 3^(D-1) cells that come into view) and the scan of 3^D cells, l the
     path between two events of a particle, 1 / (1/lambda + D / (2 L)) (collisions at
@@ -104,11 +108,25 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> 
     equal particles filling the scene's ``packing`` fraction (a mixture's mean volume: a
     few large spheres among many small ones must not count as n large ones, which gave
     packings above 1 and the contact value's refusal).
+
+    Weighed against cells alone (until 2026-11-23) it took the dilute scan where wide cells
+    run faster; benchmarks/search_choice.py (argon 3D, walls; events a second of CPU, medians
+    of 3 alternating runs, load 1.4), the fastest forced search over the one 'auto' took:
+    at the README's density, N = 4000 and 6000, 1.17x and 1.44x (now taken); at packing
+    0.01, N = 1500 and 2000, 1.15x and 1.61x (now taken). The one miss left of the ten
+    scenes: the README's density at N = 3000, where the model rates wide cells 1 % cheaper
+    and the dilute scan runs 1.04x faster. A scene with size classes (``wide`` False: wide
+    cells do not take them) weighs cells alone: a mixture of 10 large spheres among 3000
+    small ones (tests/test_engine_dilute.py) runs the dilute scan 1.76x faster than its size
+    classes.
     """
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
-    return dilute < _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0,
-                                                              False))
+    other = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
+    if wide:
+        other = min(other, _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma,
+                                                                          packing)))
+    return dilute < other
 
 
 def _cells_cost(D: int, n: int, L: float, path: float, nc: int) -> float:

@@ -1,0 +1,116 @@
+"""Does 'auto' take the fastest partner search? Dilute gases in a box with walls.
+
+Not a test: it prints numbers. For argon at a given number density (3D or 2D, box with
+walls, no gravity), each N of the list runs with every search forced -- the scan of every
+particle ('dilute'), wide cells ('wide'), cells ('cells') -- and with 'auto', in turn
+(alternating, ``--rounds`` rounds; the first round also compiles), and prints the median
+physical events (collisions and wall bounces) per second of CPU time of each, the search
+'auto' took and the fastest one's margin over it. Run from the repository root:
+
+    python benchmarks/search_choice.py                       # both 3D densities below
+    python benchmarks/search_choice.py --dim 2 --packing 0.01 --n 1000,2000,4000
+    python benchmarks/search_choice.py --density 2.5443e25 --n 3000,4000,6000
+
+Densities: the README example's (1000 atoms in (34 nm)^3, 2.5443e25 m^-3, packing
+0.0006) and scene (b)'s of benchmarks/engine.py (packing 0.01). The simulated time is
+``--duration`` (default: five mean free times at that density; the runs are short, so their
+first predictions weigh in: they are part of what a user waits for).
+
+Figures (2026-11-23, 2 cores, load 1.3-1.4, 3 rounds, the default scenes): before 'auto'
+weighed wide cells against the dilute scan (6c625cb) it missed the fastest search in 4 of
+the 10 scenes, wide cells running 1.17x and 1.44x its dilute scan at the README's density
+(N = 4000, 6000), 1.15x and 1.61x at packing 0.01 (N = 1500, 2000); after, it takes them,
+and misses one: the README's density at N = 3000, the dilute scan 1.04x faster than the
+wide cells it took (the models rate them within 1 %). See
+:func:`gaz_cli.engine.sizing.dilute_scan_pays`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import statistics
+import time
+
+from gaz_cli import engine, theory
+from gaz_cli.constants import K_B
+from gaz_cli.geometry import UNIT_BALL
+from gaz_cli.recording import Recorder
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import lookup
+
+SEARCHES = ("auto", "dilute", "wide", "cells")
+
+README_DENSITY = 1000 / 3.4e-8 ** 3
+"""The README example's number density, m^-3."""
+
+
+def label(extras: dict) -> str:
+    if extras.get("dilute_scan"):
+        return "dilute"
+    return f"{'wide' if extras.get('wide_cells') else 'cells'} {extras['cells_per_axis']}"
+
+
+def measure(dim: int, density: float, n: int, duration: float | None, rounds: int) -> dict:
+    ar = lookup("Ar")
+    length = (n / density) ** (1.0 / dim)
+    if duration is None:  # five mean free times
+        speed = math.sqrt(8 * K_B * 300 / (math.pi * ar.mass))
+        duration = 5.0 * float(theory.mean_free_path(dim, density, 2 * ar.radius)) / speed
+    rates = {s: [] for s in SEARCHES}
+    took = {}
+    for r in range(rounds + 1):  # round 0 compiles, not counted
+        for s in SEARCHES:
+            scene = Scene(dim=dim, length=length, duration=duration, components=((ar, n),),
+                          seed=1, record="none", extras={"neighbours": s})
+            state = initial_state(scene)
+            c = time.process_time()
+            stats = engine.run(scene, state, Recorder())
+            cpu = time.process_time() - c - stats.extras["compile_s"]
+            if r > 0:
+                rates[s].append(stats.events / cpu)
+            took[s] = label(stats.extras)
+    med = {s: statistics.median(v) for s, v in rates.items()}
+    return {"n": n, "length": length, "rates": med, "took": took,
+            "packing": n * UNIT_BALL[dim] * ar.radius ** dim / length ** dim}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--dim", type=int, choices=(2, 3), default=3)
+    where = ap.add_mutually_exclusive_group()
+    where.add_argument("--density", type=float, help="particles per m^dim")
+    where.add_argument("--packing", type=float, help="packing fraction (sets the density)")
+    ap.add_argument("--n", default=None, help="particle counts, comma-separated")
+    ap.add_argument("--duration", type=float, default=None, help="simulated s")
+    ap.add_argument("--rounds", type=int, default=3)
+    args = ap.parse_args()
+    ar = lookup("Ar")
+    if args.density is None and args.packing is None:
+        plans = [(README_DENSITY, "1000,2000,3000,4000,6000,8000"),
+                 (0.01 / (UNIT_BALL[3] * ar.radius ** 3), "1000,1500,2000,3000")]
+        if args.dim != 3:
+            ap.error("--dim 2 needs --density or --packing")
+    else:
+        density = args.density or args.packing / (UNIT_BALL[args.dim] * ar.radius ** args.dim)
+        plans = [(density, "1000,2000,4000")]
+    print(f"gaz search choice: {args.dim}D argon, walls; {os.cpu_count()} cores, load "
+          f"{os.getloadavg()[0]:.2f}; {args.rounds} rounds; M physical events / s of CPU")
+    for density, default_n in plans:
+        for n in [int(x) for x in (args.n or default_n).split(",")]:
+            m = measure(args.dim, density, n, args.duration, args.rounds)
+            rates = m["rates"]
+            best = max(SEARCHES[1:], key=lambda s: rates[s])
+            took = m["took"]
+            same = next(s for s in SEARCHES[1:] if took[s] == took["auto"])
+            verdict = ("auto took the fastest" if took[best] == took["auto"] else
+                       f"the fastest, {best}, runs {rates[best] / rates[same]:.2f}x what auto took")
+            print(f"  N = {n}, packing {m['packing']:.2g}, L = {m['length']:.3g} m: "
+                  + ", ".join(f"{s} {rates[s] / 1e6:.3f} ({took[s]})" for s in SEARCHES)
+                  + f"; {verdict}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
