@@ -1,14 +1,25 @@
-"""gaz's neighbour lists against F. Smallenburg's C event-driven code (issue 15 item 5).
+"""gaz against F. Smallenburg's C event-driven code (issue 15 items 2 and 5).
 
 Not a test: it prints numbers. The C code is the "Single" variant of
 https://github.com/FSmallenburg/EDMD (neighbour lists, one event per particle;
-F. Smallenburg, Eur. Phys. J. E 45, 22, 2022). Give a copy of that repository (a work
-tree, or a bare git directory: its ``Single/`` is read from HEAD); the script patches
-the run's parameters into its globals, builds it with ``--cc`` and ``--cflags`` and
-runs it in a temporary directory. Run from the repository root:
+F. Smallenburg, Eur. Phys. J. E 45, 22, 2022), or with ``--variant Cell`` its "Cell"
+variant (cell lists with crossing events, every predicted collision queued; the one for
+gases). Give a copy of that repository (a work tree, or a bare git directory: its
+``Single/`` or ``Cell/`` is read from HEAD); the script patches the run's parameters
+into its globals, builds it with ``--cc`` and ``--cflags`` and runs it in a temporary
+directory. Run from the repository root:
 
     python benchmarks/smallenburg.py --edmd PATH_TO_EDMD            # 5 pairs, N = 10^4
     python benchmarks/smallenburg.py --edmd PATH --pairs 3 --per-particle 50
+    python benchmarks/smallenburg.py --edmd PATH --variant Cell --gaz-search auto --walled \
+        --packing 0.01 --per-particle 12 --equilibrate 3 --pairs 6     # a dilute gas
+
+gaz searches with neighbour lists unless ``--gaz-search`` says 'auto' (a periodic gas:
+cells with crossing events) or 'cells'; the equilibration uses the same search.
+``--walled`` adds to each pair a gaz run on the same gas in a box with walls (Scene's
+default boundary, search 'auto': wide cells below packing 0.05), melted the same way from
+gaz's own start: its collisions per second (wall bounces not counted, though its time
+includes them) beside the periodic ones, its beta P not measured (NaN).
 
 The scene, the same for both: 3D periodic cube, N hard spheres of diameter sigma = 1,
 mass m = 1, k_B T = 1 (the C code's units: lengths in sigma, times in
@@ -32,8 +43,10 @@ first lists, and the event loop; the JIT compile is done once before the pairs a
 excluded) and this process's CPU time over engine.run less the compile time. Both
 give beta P sigma^3 from their collision virials, beside KLM's (a check that both
 simulate the same fluid). With ``--count`` the C code is also built with counters
-(pair tests, list rebuilds, stale events per collision; not timed) to compare the
-work per collision with gaz's.
+(pair tests, list rebuilds, stale events per collision; Cell: pair tests, cell crossings,
+events processed and events queued; not timed) to compare the work per collision with
+gaz's. With another variant, search or ``--walled`` the last pair's gaz runs also print
+their work per collision (queue events, crossings, pair tests; wall bounces).
 
 Figures (2026-11-23, 2 cores shared, load 4.4, ``--pairs 6 --baseline`` a git archive of
 e7fa32c, CPU time): gaz/C per pair 1.305 1.274 1.243 1.211 1.218 1.199, median **1.231**
@@ -60,6 +73,33 @@ code's (``--count``: pair tests 30.52 against 30.54, list rebuilds 0.206 against
 0.348 against 0.349, queue events 1.554 against 1.556). gaz's skin (scene.extras 'skin', in
 diameters; in-process runs taken in turn, CPU): 0.15 and 0.2 run 0.78x and 0.85x of 0.25, 0.3
 1.07x and 1.00x, 0.35 0.95x, 0.4 0.89x, so NEIGHBOUR_SKIN stays 0.25, the C code's shell.
+
+Figures on a dilute gas (issue 15 item 2: is scene (b)'s 3x beyond the state of the art?;
+2026-11-23, 2 cores shared, load 2.6-3.1 from ``uptime``, N = 10^4, 12 collisions per
+particle, start melted over 3, collisions per second, CPU time). Packing 0.01, ``--variant
+Cell --gaz-search auto --walled --pairs 3``: C 311,350 309,884 282,615; gaz (cells, 28 an
+axis) 290,887 317,702 277,005; gaz/C 0.934 1.025 0.980, median **0.980** (wall 0.993); gaz
+walled (wide cells, 9 an axis) 393,007 446,160 407,636, walled/C median 1.440 (wall 1.465).
+Again with ``--pairs 6``: gaz/C median 1.002 (wall 1.008), walled/C 1.302 (wall 1.310; per
+pair 1.311 1.229 1.317 1.308 1.230 1.295). Work per collision (``--count``): C 17.11 cell
+crossings, 18.11 events processed, 20.58 queued, 32.4 pair tests; gaz periodic 11.93
+crossings, 13.08 queue events, 80.3 pair tests; gaz walled 3.41 crossings, 5.24 queue
+events, 2.9 pair tests and 0.446 wall bounces. beta P sigma^3: C 0.019881, gaz 0.019882
+(KLM 0.019882). The C code's own tuning is its best here (the binary alone, same run from a
+grid, user CPU, 2 runs each): its queue (maxscheduletime 1, 10, 50 tau,
+eventlisttimemultiplier 1, 10, 100; 6600 events in its overflow list at 1 tau) 0.34-0.41 s
+against 0.36-0.37 s as published; its cells (at most 8N, so 40 an axis, 2 sigma) against
+at most 1, 2, 4, 16, 64 N (64: 75 an axis, its MAXCEL): 0.55, 0.46, 0.39, 0.38, 0.46 s
+against 0.36-0.38 s.
+``--variant Single`` (neighbour lists, 91.4 rebuilds per collision) runs 51,336-54,317 a CPU
+second, gaz (auto) 5.71x that (walled 7.67x); gaz with lists (``--gaz-search lists``, the
+same work: 19.56 pair tests, 91.3 rebuilds per collision) 0.314x the C code (17,431-17,755
+a CPU second). Packing 0.05, ``--variant Cell``, 20 collisions per particle, start melted
+over 5: C 737,381 680,031 750,996; gaz (cells, 28 an axis) 627,986 566,456 605,024, gaz/C
+0.852 0.833 0.806, median **0.833** (wall 0.834); gaz walled (cells: wide cells only below
+0.05) median 0.890 of C; work per collision C 5.57 crossings, 13.0 pair tests, gaz 3.68
+crossings, 45.8 pair tests. So on the dilute gas the best C code (Cell) and gaz's periodic
+cells run at the same rate, and gaz with walls (wide cells, scene (b)'s search) 1.3-1.4x it.
 """
 
 from __future__ import annotations
