@@ -98,8 +98,12 @@ a CPU second). Packing 0.05, ``--variant Cell``, 20 collisions per particle, sta
 over 5: C 737,381 680,031 750,996; gaz (cells, 28 an axis) 627,986 566,456 605,024, gaz/C
 0.852 0.833 0.806, median **0.833** (wall 0.834); gaz walled (cells: wide cells only below
 0.05) median 0.890 of C; work per collision C 5.57 crossings, 13.0 pair tests, gaz 3.68
-crossings, 45.8 pair tests. So on the dilute gas the best C code (Cell) and gaz's periodic
-cells run at the same rate, and gaz with walls (wide cells, scene (b)'s search) 1.3-1.4x it.
+crossings, 45.8 pair tests. gaz with the C code's finer cells (sizing.CELLS_PER_PARTICLE
+set in one process to 4 and 8 against 2; 4 alternating rounds, load 1.3-1.9): packing 0.01,
+35 and 44 an axis, 0.932x and 0.826x (pair tests 49 and 31 per collision, crossings 15.0
+and 18.8); packing 0.05, 1.028x and 0.958x: a crossing costs gaz more than a pair test, its
+2N cells stand. So on the dilute gas the best C code (Cell) and gaz's periodic cells run at
+the same rate, and gaz with walls (wide cells, scene (b)'s search) 1.3-1.4x it.
 """
 
 from __future__ import annotations
@@ -394,7 +398,8 @@ def main() -> None:
         search += f"; gaz: search {args.gaz_search!r}"
     print(f"scene: 3D periodic, N = {n:,}, packing {eta}, L = {length:.4f} sigma, sigma = m = "
           f"k_B T = 1, simulated time {duration:.4g} tau (~{args.per_particle:g} collisions per "
-          f"particle), lattice start melted by gaz over ~{args.equilibrate:g} collisions per particle; {search}")
+          f"particle), lattice start melted by gaz over ~{args.equilibrate:g} collisions per "
+          f"particle; {search}")
     print(f"machine: {os.cpu_count()} cores (os.cpu_count), load average "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}; C: {args.cc} {args.cflags}", flush=True)
 
@@ -494,10 +499,11 @@ def main() -> None:
             for nm in runs:
                 r = res[nm]
                 col = r["collisions"]
-                print(f"  {nm:>9} ({r['search']}): queue events {r['events'] / col:.3f}, cell "
-                      f"crossings {r['crossings'] / col:.3f}, list rebuilds {r['rebuilds'] / col:.3f}, "
-                      f"stale {r['stale'] / col:.3f}, pair tests {r['pairs'] / col:.2f}; wall bounces "
-                      f"{r['bounces']:,} ({r['bounces'] / col:.3f} a collision)")
+                print(f"  {nm:>9} ({r['search']}): queue events {r['events'] / col:.3f}, "
+                      f"cell crossings {r['crossings'] / col:.3f}, list rebuilds "
+                      f"{r['rebuilds'] / col:.3f}, stale {r['stale'] / col:.3f}, pair tests "
+                      f"{r['pairs'] / col:.2f}; wall bounces {r['bounces']:,} "
+                      f"({r['bounces'] / col:.3f} a collision)")
         print(f"KLM beta P sigma^3 = {rho * float(z_klm(eta)):.5g}; gaz used neighbour lists: "
               f"{res['gaz']['lists']}")
 
