@@ -93,10 +93,11 @@ def readme_scene(**kw) -> Scene:
                  seed=1, **kw)
 
 
-def scene_b(n: int = 10_000, **kw) -> Scene:
-    """benchmarks/engine.py's scene (b): 10^4 argon atoms (or n), packing 0.01, shortened."""
+def scene_b(n: int = 10_000, packing: float = 0.01, **kw) -> Scene:
+    """benchmarks/engine.py's scene (b): 10^4 argon atoms, packing 0.01 (or n, packing),
+    shortened."""
     ar = lookup("Ar")
-    length = (n * 4.0 / 3.0 * math.pi * ar.radius ** 3 / 0.01) ** (1 / 3)
+    length = (n * 4.0 / 3.0 * math.pi * ar.radius ** 3 / packing) ** (1 / 3)
     return Scene(dim=3, length=length, duration=1e-13, components=((ar, n),), seed=2, **kw)
 
 

@@ -90,6 +90,9 @@ def test_collisions_and_bounces_agree_with_cells():
     # 2000 atoms: the dilute scan is cheaper than cells, wide cells cheaper still (1.56x
     # the dilute scan's events a second, which 'auto' took when it weighed it against cells)
     (scene_b(n=2000), True),
+    # packing 0.04: cells (sizing.WIDE_BELOW), 1.2-1.7x faster than wide cells, which the
+    # model rates cheaper
+    (scene_b(n=2000, packing=0.04), False),
     (readme_scene(), False),  # the dilute scan (no cells at all)
     (scene_b(boundary="periodic"), False),  # walls only
     (scene_b(gravity=9.81), False),  # no gravity

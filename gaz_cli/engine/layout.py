@@ -20,6 +20,17 @@ import numpy as np
 
 INF = math.inf
 
+WIDE_LANES = 16
+"""The float32 pass over a wide cell's block (:mod:`.neighbours.wide`) covers its count
+rounded up to this many slots. LLVM's vector loop of the pass steps 16 slots at a time (8
+lanes, unrolled twice) and leaves the rest to a scalar loop: rounded to 8, a block of 8
+particles or fewer ran all scalar, and scene (b) of benchmarks/engine.py fell from 0.54 to
+0.31 M events/s of CPU between 11 and 12 wide cells an axis (7.5 to 5.8 particles a cell;
+2026-11-23, cells an axis forced, 2 runs each); rounded to 16, 0.41-0.46 at 12. (Groups of
+exactly 8 slots, a loop each for LLVM to make one vector step of, ran slower still: 0.25 at
+9 cells an axis against 0.55-0.59.)"""
+
+
 # --- row layouts ------------------------------------------------------------
 # P (N, 8) float64
 PV = 3  # velocity columns 3..5 (positions 0..2)

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from gaz_cli.engine.layout import GATHER_SLOTS
+from gaz_cli.engine.layout import GATHER_SLOTS, WIDE_LANES
 from gaz_cli.geometry import UNIT_BALL
 
 CELLS_PER_PARTICLE = 2.0
@@ -55,6 +55,17 @@ def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bo
 DILUTE_BELOW = 0.05
 """'auto' considers the dilute scan below this packing fraction only (gases: denser scenes
 keep their cells, and their events, whatever the cost model says)."""
+
+WIDE_BELOW = 0.02
+"""'auto' considers wide cells below this packing fraction only. Their cost model
+(:data:`WIDE_COST`, fitted on scene (b), packing 0.01) rates them cheaper than cells up to
+DILUTE_BELOW, but cells ran faster from packing 0.02-0.03 on (argon, walls, CPU, 2 runs
+each, 2026-11-23; the best wide cells forced against the best cells: 3D N = 2000 / 10^4,
+packing 0.01: wide 1.22 / 1.15x faster; 0.02: 1.01x faster / 1.04x slower; 0.03: 1.10 /
+1.14x slower; 0.05: 1.18 / 1.38x slower; 2D N = 2000 / 10^4, 0.005: wide 1.35 / 1.33x
+faster; 0.02: 1.02x faster / 1.13x slower). No refit of the model's two constants on those 16 scenes did better
+than this threshold (least squares in log of the measured ratios: it lost 15-37 % on the
+dilute ones)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
@@ -123,7 +134,7 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
     other = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
-    if wide:
+    if wide and packing < WIDE_BELOW:
         other = min(other, _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma,
                                                                           packing)))
     return dilute < other
@@ -158,14 +169,14 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
     (``classes``: the run has them).
 
     ``choice`` 'wide' forces it where it applies (elsewhere the other searches stay); 'auto'
-    takes it below DILUTE_BELOW when the model of :func:`wide_cells_per_axis` costs less
+    takes it below WIDE_BELOW when the model of :func:`wide_cells_per_axis` costs less
     than that of cells (:func:`dilute_scan_pays`)."""
     if not (pairs and D > 1 and not periodic and not gravity and not use_nl and not dilute
             and not classes):
         return False
     if choice == "wide":
         return True
-    if choice != "auto" or packing >= DILUTE_BELOW:
+    if choice != "auto" or packing >= WIDE_BELOW:
         return False
     path = _path(D, n, L, packing)
     nc = wide_cells_per_axis(D, n, L, sigma, packing)
@@ -187,9 +198,9 @@ def _wide_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
     the event, k_D l / w crossings (each a queue event and a scan of the 3^(D-1) blocks that
     come into view) and a scan of the 3^D blocks around (l the path between two events of a
     particle, k_D as in :func:`dilute_scan_pays`); a block holds n / nc^D particles, its scan
-    covers them rounded up to the pass's 8 lanes."""
+    covers them rounded up to WIDE_LANES (the pass's vector step)."""
     per_cell = n / nc ** D
-    slots = 8.0 * math.ceil(per_cell / 8.0)
+    slots = WIDE_LANES * math.ceil(per_cell / WIDE_LANES)
     cross = (4.0 / math.pi if D == 2 else 1.5) * path * nc / L
     blocks = min(3 ** D, nc ** D) + min(3 ** (D - 1), nc ** (D - 1)) * cross
     c = WIDE_COST

@@ -8,7 +8,7 @@ the cells are wide and each holds its particles as a contiguous block of the row
 ``XS_ROWS`` of :mod:`.dilute` (``XB[cell, row, slot]``, float32, in the box units of ``XC``,
 slot s holding the particle of the cell table's slot s + 1): a scan of a cell is
 :func:`.dilute._reject_pass` over its block, vectorised 8 lanes wide (a block's slots
-beyond its count, up to a multiple of 8, hold an inert row: x0 = FAR, at rest, radius 0),
+beyond its count, up to a multiple of LANES, hold an inert row: x0 = FAR, at rest, radius 0),
 then the exact float64 pair time (:func:`.interactions._pair_time`, from the rows) of
 the few pairs kept: the exact root decides, as in :mod:`.dilute`.
 
@@ -45,14 +45,14 @@ from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
-                                   SLOT, SURE, TCOL, TCOL2)
+                                   SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
 from gaz_cli.engine.neighbours.cells import _stamp
 from gaz_cli.engine.neighbours.dilute import (FAR, IT, KEEP, REBASE, T0, XS_ROWS, _bounds,
                                               _choose_units, _mirror_to, _reject_pass)
 
-LANES = 8
-"""A block's scan covers its count rounded up to this many slots (the pass's vector width:
-no scalar remainder loop)."""
+LANES = WIDE_LANES
+"""A block's scan covers its count rounded up to this many slots (:data:`.layout.WIDE_LANES`:
+the pass's vector step, no scalar remainder loop)."""
 
 HORIZON_SLACK = 1e-9
 """Predictions up to the horizon plus this fraction of the time to it are kept (far inside
@@ -179,7 +179,7 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
                 X = XB[cell]
                 kept = True
                 if ok:
-                    lanes = (cnt + 7) & ~7
+                    lanes = (cnt + LANES - 1) & ~(LANES - 1)
                     scanned += lanes
                     kept = _reject_pass(X, lanes, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2,
                                         thr, D)
