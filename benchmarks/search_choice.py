@@ -7,21 +7,23 @@ particle ('dilute'), wide cells ('wide'), cells ('cells') -- and with 'auto', in
 physical events (collisions and wall bounces) per second of CPU time of each, the search
 'auto' took and the fastest one's margin over it. Run from the repository root:
 
-    python benchmarks/search_choice.py                       # both 3D densities below
+    python benchmarks/search_choice.py                       # the 3D densities below
     python benchmarks/search_choice.py --dim 2 --packing 0.01 --n 1000,2000,4000
     python benchmarks/search_choice.py --density 2.5443e25 --n 3000,4000,6000
 
 Densities: the README example's (1000 atoms in (34 nm)^3, 2.5443e25 m^-3, packing
-0.0006) and scene (b)'s of benchmarks/engine.py (packing 0.01). The simulated time is
+0.0006), scene (b)'s of benchmarks/engine.py (packing 0.01) and packing 0.03 (where cells
+beat wide cells). The simulated time is
 ``--duration`` (default: five mean free times at that density; the runs are short, so their
 first predictions weigh in: they are part of what a user waits for).
 
-Figures (2026-11-23, 2 cores, load 1.3-1.4, 3 rounds, the default scenes): before 'auto'
-weighed wide cells against the dilute scan (6c625cb) it missed the fastest search in 4 of
-the 10 scenes, wide cells running 1.17x and 1.44x its dilute scan at the README's density
-(N = 4000, 6000), 1.15x and 1.61x at packing 0.01 (N = 1500, 2000); after, it takes them,
-and misses one: the README's density at N = 3000, the dilute scan 1.04x faster than the
-wide cells it took (the models rate them within 1 %). See
+Figures (2026-11-23, 2 cores, load 0.6-0.7, 3 rounds, the 12 default scenes, one session):
+6c625cb ('auto' weighing the dilute scan against cells alone, wide cells up to packing
+0.05) missed the fastest search in 6: at the README's density wide cells ran 1.17x and
+1.48x its dilute scan (N = 4000, 6000), at packing 0.01 1.16x and 1.55x (N = 1500, 2000),
+and at packing 0.03 cells ran 1.07x and 1.19x its wide cells (N = 2000, 10^4). Now 'auto'
+takes the fastest in all 12 (the cheapest of the three models; wide cells only below
+packing 0.02, sizing.WIDE_BELOW; blocks rounded to 16 slots, layout.WIDE_LANES). See
 :func:`gaz_cli.engine.sizing.dilute_scan_pays`.
 """
 
@@ -90,7 +92,8 @@ def main() -> None:
     ar = lookup("Ar")
     if args.density is None and args.packing is None:
         plans = [(README_DENSITY, "1000,2000,3000,4000,6000,8000"),
-                 (0.01 / (UNIT_BALL[3] * ar.radius ** 3), "1000,1500,2000,3000")]
+                 (0.01 / (UNIT_BALL[3] * ar.radius ** 3), "1000,1500,2000,3000"),
+                 (0.03 / (UNIT_BALL[3] * ar.radius ** 3), "2000,10000")]
         if args.dim != 3:
             ap.error("--dim 2 needs --density or --packing")
     else:

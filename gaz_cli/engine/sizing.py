@@ -121,15 +121,14 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
     packings above 1 and the contact value's refusal).
 
     Weighed against cells alone (until 2026-11-23) it took the dilute scan where wide cells
-    run faster; benchmarks/search_choice.py (argon 3D, walls; events a second of CPU, medians
-    of 3 alternating runs, load 1.4), the fastest forced search over the one 'auto' took:
-    at the README's density, N = 4000 and 6000, 1.17x and 1.44x (now taken); at packing
-    0.01, N = 1500 and 2000, 1.15x and 1.61x (now taken). The one miss left of the ten
-    scenes: the README's density at N = 3000, where the model rates wide cells 1 % cheaper
-    and the dilute scan runs 1.04x faster. A scene with size classes (``wide`` False: wide
-    cells do not take them) weighs cells alone: a mixture of 10 large spheres among 3000
-    small ones (tests/test_engine_dilute.py) runs the dilute scan 1.76x faster than its size
-    classes.
+    run faster: benchmarks/search_choice.py (argon 3D, walls; events a second of CPU, medians
+    of 3 alternating runs), the fastest forced search over the one 'auto' took: at the
+    README's density, N = 4000 and 6000, 1.17x and 1.48x; at packing 0.01, N = 1500 and
+    2000, 1.16x and 1.55x; now 'auto' takes them (with WIDE_BELOW and WIDE_LANES it takes
+    the fastest search in all 12 of that script's scenes). A scene with size classes
+    (``wide`` False: wide cells do not take them) weighs cells alone: a mixture of 10 large
+    spheres among 3000 small ones (tests/test_engine_dilute.py) runs the dilute scan 1.76x
+    faster than its size classes.
     """
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
