@@ -63,9 +63,9 @@ DILUTE_BELOW, but cells ran faster from packing 0.02-0.03 on (argon, walls, CPU,
 each, 2026-11-23; the best wide cells forced against the best cells: 3D N = 2000 / 10^4,
 packing 0.01: wide 1.22 / 1.15x faster; 0.02: 1.01x faster / 1.04x slower; 0.03: 1.10 /
 1.14x slower; 0.05: 1.18 / 1.38x slower; 2D N = 2000 / 10^4, 0.005: wide 1.35 / 1.33x
-faster; 0.02: 1.02x faster / 1.13x slower). No refit of the model's two constants on those 16 scenes did better
-than this threshold (least squares in log of the measured ratios: it lost 15-37 % on the
-dilute ones)."""
+faster; 0.02: 1.02x faster / 1.13x slower). No refit of the model's two constants on
+those 16 scenes did better than this threshold (least squares in log of the measured
+ratios: it lost 15-37 % on the dilute ones)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
@@ -133,9 +133,8 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
     other = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
-    if wide and packing < WIDE_BELOW:
-        other = min(other, _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma,
-                                                                          packing)))
+    if wide:
+        other = min(other, _wide_auto_cost(D, n, L, path, sigma, packing))
     return dilute < other
 
 
@@ -178,9 +177,8 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
     if choice != "auto" or packing >= WIDE_BELOW:
         return False
     path = _path(D, n, L, packing)
-    nc = wide_cells_per_axis(D, n, L, sigma, packing)
     cells = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
-    return _wide_cost(D, n, L, path, nc) < cells
+    return _wide_auto_cost(D, n, L, path, sigma, packing) < cells
 
 
 WIDE_COST = {"event": 1.46, "slot": 0.00145}
@@ -204,6 +202,15 @@ def _wide_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
     blocks = min(3 ** D, nc ** D) + min(3 ** (D - 1), nc ** (D - 1)) * cross
     c = WIDE_COST
     return c["event"] * (1.0 + cross) + c["slot"] * slots * blocks
+
+
+def _wide_auto_cost(D: int, n: int, L: float, path: float, sigma: float,
+                    packing: float) -> float:
+    """The cost of wide cells as 'auto' weighs them (:func:`_wide_cost` at
+    :func:`wide_cells_per_axis`): infinite at WIDE_BELOW and above."""
+    if packing >= WIDE_BELOW:
+        return math.inf
+    return _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma, packing))
 
 
 def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float) -> int:
