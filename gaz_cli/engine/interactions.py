@@ -78,6 +78,9 @@ def _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, s, D):
         b -= s * sig
         a -= s * s
     c -= sig * sig
+    hit = max(b, -disc) < 0.0  # b < 0 and disc > 0, one comparison: one branch
+    if s == 0.0 and not hit:
+        return INF  # most pairs of a cell scan: no root taken
     t = c / (math.sqrt(max(disc, 0.0)) - b)
     t = max(t, 0.0)
     if s != 0.0 and a < 0.0:
@@ -86,7 +89,7 @@ def _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, s, D):
         if b >= 0.0:
             return (b + math.sqrt(disc)) / -a
         return t
-    return t if (b < 0.0 and disc > 0.0) else INF
+    return t if hit else INF
 
 
 def pair_params(scene) -> tuple:
