@@ -84,13 +84,13 @@ def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL, WIDE=False):
                     dt = 2.0 * (x - lo) / (math.sqrt(dd) - v)
                 wall = lo_wall
         else:
-            if v > 0.0 and has_hi:
-                dt = (hi - x) / v
-                up = True
-                wall = hi_wall
-            elif v < 0.0 and has_lo:
-                dt = (lo - x) / v
-                wall = lo_wall
+            # selects, not branches (the sign of v is a coin toss): the face ahead, the
+            # time to it (inf if it has none: v = 0, or no such face in 1D)
+            up = v > 0.0
+            ahead = has_hi if up else (has_lo and v < 0.0)
+            dt = ((hi if up else lo) - x) / v
+            dt = dt if ahead else INF
+            wall = hi_wall if up else lo_wall
         if dt < 0.0:
             dt = 0.0
         if dt < best:
