@@ -21,6 +21,9 @@ from gaz_cli.engine.memory import _alloc
 from gaz_cli.engine.prefetch import _prefetch_block
 from gaz_cli.numba_config import njit
 
+_U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
+
+
 @_inline
 def _beside(c, nc, PER):
     """A cell coordinate c next to the box's cells (c in -1..nc): (c wrapped around a
@@ -91,11 +94,14 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
-                cnt = cells[cell, 0]
-                GB[w] = cells[cell, 1]
-                GB[w + 1] = cells[cell, 2]
-                GB[w + 2] = cells[cell, 3]
-                GB[w + 3] = cells[cell, 4]
+                # unsigned indices: no negative-index wraparound (a compare and a
+                # select per index) on the copy
+                row, at = np.uint64(cell), np.uint64(w)
+                cnt = cells[row, 0]
+                GB[at] = cells[row, 1]
+                GB[at + _U1] = cells[row, 2]
+                GB[at + _U2] = cells[row, 3]
+                GB[at + _U3] = cells[row, 4]
                 if cnt > GATHER_SLOTS:
                     for q in range(GATHER_SLOTS, cnt):
                         GB[w + q] = cells[cell, 1 + q]
