@@ -15,6 +15,14 @@ miss: 22,000 cells of 32 bytes beside 10^4 rows, more than the 1 MB of L2). Trie
 dropped: the scan's read of a partner's row by an unsigned index too (0.963-1.006,
 median 0.988: noise); prefetching the block's cell rows at the start of every gather
 at N = 10^4 (0.967-1.084, median 0.993).
+
+With the pair-time and crossing changes of the same day (interactions.py,
+boundaries.py), against main de31f65, 5 alternating pairs, load 2.0, same events:
+periodic 0.793 0.797 0.784 0.775 0.783 (median 0.784), walls (argon) 0.778 0.809 0.785
+0.774 0.798 (0.785), the dense fluid's lists (packing 0.45) 0.980 0.998 0.984 0.979
+0.976 (0.980). benchmarks/smallenburg.py --variant Cell --gaz-search auto --packing
+0.05 --per-particle 20 --equilibrate 5 --pairs 3 --baseline (main): gaz/C CPU 1.129
+1.124 1.050 (median 1.124; main 0.857 0.853 0.864, 0.857); gaz/main 1.317.
 """
 
 from __future__ import annotations
