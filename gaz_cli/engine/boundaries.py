@@ -3,6 +3,15 @@
 A wall bounce puts the centre exactly on the wall plane, a crossing exactly on the cell
 face; a particle past a wall and moving out bounces at once. Along the gravity axis the
 times come from the stable quadratic forms of physics.md section 10.
+
+Off the gravity axis, :func:`_crossing` picks the face ahead and its time by selects,
+not by branches on the sign of the velocity (a coin toss for the predictor, three times
+an event); the same values. 2026-11-23, 2 shared cores, load 1.3-4.9, 3D N = 10^4
+packing 0.05 with cells, CPU time per queue event, 5 alternating pairs, same events:
+against the pair-time change alone (interactions.py) 0.921 0.919 0.929 0.877 0.954
+(median 0.921, periodic); both changes against main de31f65, periodic 0.833 0.844 0.868
+0.821 0.838 (0.838), walls (argon) 0.838 0.775 0.831 0.855 0.860 (0.838). A perf
+profile had _crossing 10.6 % of the loop's samples before, 5.2 % after.
 """
 
 from __future__ import annotations
@@ -84,13 +93,13 @@ def _crossing(P, I, edges, k, nc, n, L, g, D, PER, GRAV, PAIRS, NL, WIDE=False):
                     dt = 2.0 * (x - lo) / (math.sqrt(dd) - v)
                 wall = lo_wall
         else:
-            if v > 0.0 and has_hi:
-                dt = (hi - x) / v
-                up = True
-                wall = hi_wall
-            elif v < 0.0 and has_lo:
-                dt = (lo - x) / v
-                wall = lo_wall
+            # selects, not branches (the sign of v is a coin toss): the face ahead, the
+            # time to it (inf if it has none: v = 0, or no such face in 1D)
+            up = v > 0.0
+            ahead = has_hi if up else (has_lo and v < 0.0)
+            dt = ((hi if up else lo) - x) / v
+            dt = dt if ahead else INF
+            wall = hi_wall if up else lo_wall
         if dt < 0.0:
             dt = 0.0
         if dt < best:

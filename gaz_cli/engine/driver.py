@@ -57,12 +57,16 @@ same CPU). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a c
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
 """Systems of RESTART_FROM_N particles or more are renumbered in space order every
-RESTART_EVERY events per particle (memory locality; small systems fit in cache)."""
+RESTART_EVERY events per particle (memory locality; small systems fit in cache). From
+5000 instead, 3D N = 10^4 packing 0.05 with cells ran 1.07-1.12x slower per queue event
+(median 1.09, 5 alternating pairs, 2026-11-23)."""
 
 PREFETCH_FROM_N = 20_000
 """Systems of this many particles or more prefetch the cells and rows of each scan, and
 the rows of the next events (their data no longer fits in the caches; below, the hints
-cost more than they save)."""
+cost more than they save: from 5000 instead, 3D N = 10^4 packing 0.05 with cells ran
+1.07-1.12x slower, median 1.09, 5 alternating pairs, 2026-11-23; the block prefetch of
+the gather alone, neighbours/cells.py, gained nothing there either)."""
 
 PREFETCH_LISTS_FROM_N = 5_000
 """The same with neighbour lists, whose scans read the rows of a list at random (3D,

@@ -3,6 +3,26 @@
 A crossing only scans the 3^(D-1) cells that came into view. A scan runs in two
 passes: gather the particles of a block of cells into a buffer, then compute the pair
 times of the gathered particles (no branch on a cell's count in either).
+
+The gather copies a cell's slots with unsigned indices (``_U1``...): Numba wraps a
+negative signed index around (a compare and a select per index), which it cannot rule
+out for a computed one. 2026-11-23, 2 shared cores, load 1.6-1.9, 3D N = 10^4 packing
+0.05, CPU time per queue event, 5 alternating pairs against the commit before (same
+events): periodic 0.909 0.928 0.933 0.903 0.913 (median 0.913), walls (argon) 0.952
+0.893 0.924 0.959 0.974 (0.952). A perf profile (periodic) had the gather 27 % of the
+loop's samples before, 21 % after, a third of it the first read of a cell's row (a cache
+miss: 22,000 cells of 32 bytes beside 10^4 rows, more than the 1 MB of L2). Tried and
+dropped: the scan's read of a partner's row by an unsigned index too (0.963-1.006,
+median 0.988: noise); prefetching the block's cell rows at the start of every gather
+at N = 10^4 (0.967-1.084, median 0.993).
+
+With the pair-time and crossing changes of the same day (interactions.py,
+boundaries.py), against main de31f65, 5 alternating pairs, load 2.0, same events:
+periodic 0.793 0.797 0.784 0.775 0.783 (median 0.784), walls (argon) 0.778 0.809 0.785
+0.774 0.798 (0.785), the dense fluid's lists (packing 0.45) 0.980 0.998 0.984 0.979
+0.976 (0.980). benchmarks/smallenburg.py --variant Cell --gaz-search auto --packing
+0.05 --per-particle 20 --equilibrate 5 --pairs 3 --baseline (main): gaz/C CPU 1.129
+1.124 1.050 (median 1.124; main 0.857 0.853 0.864, 0.857); gaz/main 1.317.
 """
 
 from __future__ import annotations
@@ -20,6 +40,9 @@ from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS,
 from gaz_cli.engine.memory import _alloc
 from gaz_cli.engine.prefetch import _prefetch_block
 from gaz_cli.numba_config import njit
+
+_U1, _U2, _U3 = np.uint64(1), np.uint64(2), np.uint64(3)
+
 
 @_inline
 def _beside(c, nc, PER):
@@ -91,11 +114,14 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
                     cell = (n0 * nc + n1) * nc + n2
                 else:
                     cell = n0 * nc + n1
-                cnt = cells[cell, 0]
-                GB[w] = cells[cell, 1]
-                GB[w + 1] = cells[cell, 2]
-                GB[w + 2] = cells[cell, 3]
-                GB[w + 3] = cells[cell, 4]
+                # unsigned indices: no negative-index wraparound (a compare and a
+                # select per index) on the copy
+                row, at = np.uint64(cell), np.uint64(w)
+                cnt = cells[row, 0]
+                GB[at] = cells[row, 1]
+                GB[at + _U1] = cells[row, 2]
+                GB[at + _U2] = cells[row, 3]
+                GB[at + _U3] = cells[row, 4]
                 if cnt > GATHER_SLOTS:
                     for q in range(GATHER_SLOTS, cnt):
                         GB[w + q] = cells[cell, 1 + q]
