@@ -113,7 +113,8 @@ def child(name: str, scale: float) -> dict:
             "bounces": rs.wall_bounces, "queue_events": ex["queue_events"],
             "pair_tests": ex["pair_tests"], "crossings": ex["cell_crossings"],
             "cells_per_axis": ex["cells_per_axis"],
-            "search": "classes" if ex.get("size_classes") else "cells"}
+            "search": ("classes" if ex.get("size_classes") else "wide" if ex.get("wide_cells")
+                       else "dilute" if ex.get("dilute_scan") else "cells")}
 
 
 def _run_child(tree: str, name: str, scale: float) -> dict:
