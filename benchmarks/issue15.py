@@ -76,6 +76,20 @@ run; quiet host, load 0.1-1.0, nothing beside it):
 | 4, start-up | <= 1.15 / 1.35 | 0.64 / 0.69 wall (0.75 / 0.76 CPU); the old tree 1.28 / 1.38 wall |
 | 5, gaz / C, lists | >= 1.0 | 1.134 CPU (1.143, 1.115, 1.134), 1.151 wall |
 | 6, mixture / small alone | <= 2 | per physical event 2D 1.59, 3D 1.42 (per simulated second 3.73, 4.05: 2.34x, 2.86x the physical events) |
+
+Figures of 2026-11-23, fourth session (``--pairs 3``, new = 3653bb9: 'auto' weighing the
+three walled searches, wide blocks of 16 slots, wide cells below packing 0.02, the cell
+path's root only for a hit, crossing by selects, unsigned gather; load 1.0-1.2, 3 min):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 6.69 (6.50, 6.72, 6.69) |
+| 2, scene (b) | >= 3x | 1.41 (1.65, 1.41, 1.41); 3.62 queue events, 2.36 crossings per physical event |
+| 2, scene (a) | not slower | 1.44 (1.43, 1.44, 1.52) |
+| 3, recording / engine | < 25 % | wall added 64.4 % (rounds 61.6-96.3 %, 3 rounds) of a 0.078 s engine; CPU 137 %; gaz's insert 73.6 ms, SQLite's own 53.2 ms (68 % of the engine) |
+| 4, start-up | <= 1.15 / 1.35 | 0.57 / 0.60 wall; the old tree 1.19 / 1.18 |
+| 5, gaz / C, lists | >= 1.0 | 1.116 CPU (1.088, 1.116, 1.125), 1.132 wall |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.17, 3D 2.29: the small spheres alone now take wide cells (2.0 us a physical event, the dilute scan's 13.1 before), the mixture keeps its size classes (4.5 us) |
 """
 
 from __future__ import annotations
