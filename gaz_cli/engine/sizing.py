@@ -136,7 +136,7 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
     """
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
-    other = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
+    other = _cells_auto_cost(D, n, L, path, sigma)
     if wide:
         other = min(other, _wide_auto_cost(D, n, L, path, sigma, packing))
     return dilute < other
@@ -150,6 +150,12 @@ def _cells_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
     cross = (4.0 / math.pi if D == 2 else 1.5) * path / w
     c = DILUTE_COST
     return c["event"] * (1.0 + cross) + c["pair"] * per_cell * (3 ** D + 3 ** (D - 1) * cross)
+
+
+def _cells_auto_cost(D: int, n: int, L: float, path: float, sigma: float) -> float:
+    """The cost of cells as 'auto' weighs them: :func:`_cells_cost` at the cells of
+    :func:`cells_per_axis` (walls, no lists)."""
+    return _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
 
 
 def _path(D: int, n: int, L: float, packing: float) -> float:
@@ -181,8 +187,8 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
     if choice != "auto" or packing >= WIDE_BELOW:
         return False
     path = _path(D, n, L, packing)
-    cells = _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
-    return _wide_auto_cost(D, n, L, path, sigma, packing) < cells
+    return (_wide_auto_cost(D, n, L, path, sigma, packing)
+            < _cells_auto_cost(D, n, L, path, sigma))
 
 
 WIDE_COST = {"event": 1.46, "slot": 0.00145}

@@ -8,7 +8,8 @@ the cells are wide and each holds its particles as a contiguous block of the row
 ``XS_ROWS`` of :mod:`.dilute` (``XB[cell, row, slot]``, float32, in the box units of ``XC``,
 slot s holding the particle of the cell table's slot s + 1): a scan of a cell is
 :func:`.dilute._reject_pass` over its block, vectorised 8 lanes wide (a block's slots
-beyond its count, up to a multiple of LANES, hold an inert row: x0 = FAR, at rest, radius 0),
+beyond its count, up to a multiple of :data:`.layout.WIDE_LANES`, the pass's vector step,
+hold an inert row: x0 = FAR, at rest, radius 0),
 then the exact float64 pair time (:func:`.interactions._pair_time`, from the rows) of
 the few pairs kept: the exact root decides, as in :mod:`.dilute`.
 
@@ -50,18 +51,15 @@ from gaz_cli.engine.neighbours.cells import _stamp
 from gaz_cli.engine.neighbours.dilute import (FAR, IT, KEEP, REBASE, T0, XS_ROWS, _bounds,
                                               _choose_units, _mirror_to, _reject_pass)
 
-LANES = WIDE_LANES
-"""A block's scan covers its count rounded up to this many slots (:data:`.layout.WIDE_LANES`:
-the pass's vector step, no scalar remainder loop)."""
-
 HORIZON_SLACK = 1e-9
 """Predictions up to the horizon plus this fraction of the time to it are kept (far inside
 the pass's widening MARGIN32, so every pair that the exact root puts there is kept)."""
 
 
 def block_width(cap: int) -> int:
-    """Slots of a block for a cell table of ``cap`` particles a cell: a multiple of LANES."""
-    return LANES * ((cap + LANES - 1) // LANES)
+    """Slots of a block for a cell table of ``cap`` particles a cell: a multiple of
+    WIDE_LANES."""
+    return WIDE_LANES * ((cap + WIDE_LANES - 1) // WIDE_LANES)
 
 
 def empty_blocks(cells: int, cap: int) -> np.ndarray:
@@ -179,7 +177,7 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
                 X = XB[cell]
                 kept = True
                 if ok:
-                    lanes = (cnt + LANES - 1) & ~(LANES - 1)
+                    lanes = (cnt + WIDE_LANES - 1) & ~(WIDE_LANES - 1)
                     scanned += lanes
                     kept = _reject_pass(X, lanes, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2,
                                         thr, D)
