@@ -131,17 +131,6 @@ def test_auto_weighs_a_mixture_by_its_own_packing():
     assert min_gap(scene, stats.final.positions) > -1e-9
 
 
-def test_a_mixture_weighs_the_dilute_scan_against_its_size_classes():
-    # the scene above: its size classes are cells (wide cells do not take them), so 'auto'
-    # weighs the dilute scan against cells alone; weighed against wide cells, it took the
-    # size classes, 1.76x slower than the dilute scan (0.36 against 0.63 M events/s, CPU)
-    from gaz_cli.engine.driver import resolved_search
-
-    scene = Scene(dim=3, length=1.0, duration=0.05, temperature=1.0 / K_B, seed=3,
-                  components=((Species("L", 1.0, 0.1), 10), (Species("S", 1e-6, 0.001), 3000)))
-    assert resolved_search(scene)["neighbours"] == "dilute"
-
-
 def test_unknown_neighbour_search_is_refused():
     """At the one door (scene.validate), naming the choices; the engine assumes a valid scene."""
     from gaz_cli.scene import validate

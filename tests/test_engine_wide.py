@@ -14,7 +14,6 @@ from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, assert_exact_runs
 from test_event_engine import assert_same_events_as_the_exam, min_gap, unit_scene
 
 from gaz_cli import engine
-from gaz_cli.constants import K_B
 from gaz_cli.engine import sizing
 from gaz_cli.engine.boundaries import _crossing
 from gaz_cli.engine.dynamics import _relative_at
@@ -24,8 +23,7 @@ from gaz_cli.engine.neighbours.cells import _assign_cells
 from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
 from gaz_cli.engine.neighbours.wide import _mirror_all, _predict_wide
 from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.scene import initial_state
 
 WIDE = {"neighbours": "wide"}
 
@@ -105,15 +103,6 @@ def test_auto_takes_wide_cells_for_dilute_gases_in_boxes_with_walls(scene, wide)
     assert stats.extras["wide_cells"] is wide
     if wide:
         assert not stats.extras["dilute_scan"] and stats.extras["dilute_scanned"] > 0
-
-
-def test_a_mixture_keeps_its_size_classes():
-    # 10 large spheres among 20000 small ones, walls, packing 0.005: size classes, not wide
-    # cells (whose cells the large ones would size)
-    scene = Scene(dim=3, length=1.0, duration=1e-3, temperature=1.0 / K_B, seed=3,
-                  components=((Species("L", 1.0, 0.02), 10), (Species("S", 1e-6, 0.0003), 20000)))
-    stats = engine.run(scene, initial_state(scene), Recorder())
-    assert stats.extras["size_classes"] and not stats.extras["wide_cells"]
 
 
 # --- the scan: it only filters (module docstring of neighbours.wide) ---

@@ -73,15 +73,14 @@ ratios: it lost 15-37 % on the dilute ones)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
-                    pairs: bool, use_nl: bool, sigma: float, packing: float,
-                    classes: bool = False) -> bool:
+                    pairs: bool, use_nl: bool, sigma: float, packing: float) -> bool:
     """Whether a run scans every particle at each event, without cells
     (:mod:`.neighbours.dilute`): 2D/3D, hard walls, no gravity, no neighbour lists.
 
     ``choice`` 'dilute' forces it where it applies (elsewhere the cells stay);
     'auto' takes it below DILUTE_BELOW when it costs less than the cheaper of cells and
-    wide cells, by the models of :func:`dilute_scan_pays` (``classes``: the scene would
-    have size classes, which wide cells do not take: cells only).
+    wide cells, by the models of :func:`dilute_scan_pays` (a mixture with size classes in
+    a box with walls is weighed by :mod:`.mixture_cost` instead: the driver's _search).
     """
     if not (pairs and D > 1 and not periodic and not gravity and not use_nl):
         return False
@@ -89,7 +88,7 @@ def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravi
         return True
     if choice != "auto" or packing >= DILUTE_BELOW:
         return False
-    return dilute_scan_pays(D, n, L, sigma, packing, not classes)
+    return dilute_scan_pays(D, n, L, sigma, packing)
 
 
 DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0025}
@@ -106,10 +105,9 @@ the README's density (measured: above 10^4) and N = 2150 at scene (b)'s
 one to refine (it overrates cells at the lower density, underrates them at the higher)."""
 
 
-def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
-                     wide: bool = True) -> bool:
-    """Whether scanning all n particles costs less a particle's event than cells and, with
-    ``wide``, than wide cells (:func:`_wide_cost` at :func:`wide_cells_per_axis`).
+def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> bool:
+    """Whether scanning all n particles costs less a particle's event than cells and than
+    wide cells (:func:`_wide_cost` at :func:`wide_cells_per_axis`).
 
     A model of each, per event of a particle: with cells of width w (those of
     :func:`cells_per_axis`), the event, k_D l / w crossings (each a queue event and a
@@ -129,16 +127,12 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float,
     of 3 alternating runs), the fastest forced search over the one 'auto' took: at the
     README's density, N = 4000 and 6000, 1.17x and 1.48x; at packing 0.01, N = 1500 and
     2000, 1.16x and 1.55x; now 'auto' takes them (with WIDE_BELOW and WIDE_LANES it takes
-    the fastest search in all 12 of that script's scenes). A scene with size classes
-    (``wide`` False: wide cells do not take them) weighs cells alone: a mixture of 10 large
-    spheres among 3000 small ones (tests/test_engine_dilute.py) runs the dilute scan 1.76x
-    faster than its size classes.
+    the fastest search in all 12 of that script's scenes).
     """
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
-    other = _cells_auto_cost(D, n, L, path, sigma)
-    if wide:
-        other = min(other, _wide_auto_cost(D, n, L, path, sigma, packing))
+    other = min(_cells_auto_cost(D, n, L, path, sigma),
+                _wide_auto_cost(D, n, L, path, sigma, packing))
     return dilute < other
 
 
