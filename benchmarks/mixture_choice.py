@@ -1,0 +1,141 @@
+"""Does 'auto' take the fastest search for a mixture of very different sizes? Boxes with walls.
+
+Not a test: it prints numbers. Each mixture (small spheres or disks of radius 1/2 and a few
+large ones, radius ratio 10-100, masses in proportion to the volume, seed 3, walls, no
+gravity) runs with each search forced -- size classes ('classes': neighbours 'cells'), wide
+cells ('wide': neighbours 'wide', classes 'off'), the scan of every particle ('dilute') --
+and with 'auto', in turn (``--rounds`` rounds, the order reversed every other round; the
+first also compiles), and the script prints the median CPU time per physical event
+(collisions and wall bounces) of each, the search 'auto' took, and its cost over the
+fastest's. The work counts of each forced search (queue events, crossings, pair tests,
+slots of the float32 pass, per physical event) are printed under it: what the model of
+:mod:`gaz_cli.engine.mixture_cost` predicts. Run from the repository root:
+
+    python benchmarks/mixture_choice.py                  # the 28 mixtures, 2 rounds
+    python benchmarks/mixture_choice.py --only 3A,2B --rounds 3
+
+Each run lasts about ``--events`` physical events (the duration scaled from a short probe).
+The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was fitted on; CHECK,
+12 more it was checked on (names V...); TESTS, the mixtures of the tests that say which
+search 'auto' takes.
+
+Figures (2026-11-24, 2 cores, load 0-1, 2 rounds; before the mixture model, 'auto' took
+size classes for every mixture with walls; a 3D 1:100 mixture at packing 0.4 took neighbour
+lists): the fastest search over that one, FIT: 3A 1.49, 3C 2.02, 3D 1.63, 3E 1.33, 3H 1.27,
+3I 1.41, 2F 1.16 (the other 9 within 5 %); CHECK: V3b 1.68, V3d 1.69, V3e 1.24, V3f 7.46
+(lists), V2c 1.69. With the model (its constants from FIT only): FIT, 14 of 16 within 5 % of
+the fastest (3B 1.10, 2F 1.16); CHECK, 11 of 12 (V2a 1.28, where the model rates wide cells
+and size classes equal).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import statistics
+import sys
+import time
+
+from gaz_cli import engine
+from gaz_cli.constants import K_B
+from gaz_cli.scene import Scene, initial_state
+from gaz_cli.species import Species
+
+SEARCHES = {"classes": {"neighbours": "cells"}, "wide": {"neighbours": "wide", "classes": "off"},
+            "dilute": {"neighbours": "dilute"}, "auto": {}}
+
+FIT = {  # name: (dim, small, large, radius ratio, packing fraction of all)
+    "3A": (3, 9900, 100, 100, 0.2), "3B": (3, 20000, 10, 100, 0.05), "3C": (3, 3000, 10, 100, 0.05),
+    "3D": (3, 3000, 30, 30, 0.1), "3E": (3, 10000, 100, 20, 0.1), "3F": (3, 10000, 100, 10, 0.2),
+    "3G": (3, 10000, 10, 100, 0.3), "3H": (3, 5000, 50, 50, 0.3), "3I": (3, 10000, 100, 10, 0.05),
+    "2A": (2, 9900, 100, 100, 0.3), "2B": (2, 5000, 5, 100, 0.1), "2C": (2, 20000, 20, 100, 0.2),
+    "2D": (2, 10000, 100, 30, 0.3), "2E": (2, 3000, 30, 10, 0.2), "2F": (2, 10000, 10, 100, 0.05),
+    "2G": (2, 10000, 100, 20, 0.5),
+}
+CHECK = {
+    "V3a": (3, 3000, 10, 100, 0.02), "V3b": (3, 6000, 60, 20, 0.05), "V3c": (3, 15000, 15, 50, 0.15),
+    "V3d": (3, 2000, 200, 10, 0.3), "V3e": (3, 8000, 20, 40, 0.1), "V3f": (3, 4000, 40, 100, 0.4),
+    "V2a": (2, 4000, 40, 50, 0.1), "V2b": (2, 15000, 150, 10, 0.1), "V2c": (2, 6000, 6, 100, 0.02),
+    "V2d": (2, 8000, 80, 30, 0.15), "V2e": (2, 2000, 20, 10, 0.2), "V2f": (2, 20000, 200, 50, 0.4),
+}
+
+
+def mixture(dim: int, n_small: int, n_large: int, ratio: float, packing: float) -> Scene:
+    """Small particles of radius 1/2 and mass 1, large ones ``ratio`` times wider and as dense,
+    in a box with walls filled to ``packing``; seed 3, kT = 1 (benchmarks/fingerprint.py's
+    mixtures)."""
+    small, large = Species("S", 1.0, 0.5), Species("L", float(ratio) ** dim, 0.5 * ratio)
+    cell = {2: math.pi / 4.0, 3: math.pi / 6.0}[dim]
+    length = (cell * (n_small + n_large * ratio ** dim) / packing) ** (1.0 / dim)
+    return Scene(dim=dim, length=length, duration=1.0, components=((small, n_small), (large, n_large)),
+                 temperature=1.0 / K_B, seed=3, placement="auto", record="none")
+
+
+def test_scenes() -> dict[str, Scene]:
+    """The mixtures of the tests on 'auto''s choice (tests/test_engine_wide.py,
+    tests/test_engine_dilute.py)."""
+    def two(large, n_large, small, n_small):
+        return Scene(dim=3, length=1.0, duration=1.0, temperature=1.0 / K_B, seed=3,
+                     components=((large, n_large), (small, n_small)))
+    return {"T20000": two(Species("L", 1.0, 0.02), 10, Species("S", 1e-6, 0.0003), 20000),
+            "T3000": two(Species("L", 1.0, 0.1), 10, Species("S", 1e-6, 0.001), 3000)}
+
+
+def took(ex: dict) -> str:
+    return ("classes" if ex.get("size_classes") else "wide" if ex.get("wide_cells")
+            else "dilute" if ex.get("dilute_scan") else "lists" if ex.get("neighbour_lists")
+            else "cells")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--events", type=float, default=6e4, help="physical events a run")
+    ap.add_argument("--only", help="comma-separated names")
+    a = ap.parse_args()
+    every = {**{k: mixture(*v) for k, v in {**FIT, **CHECK}.items()}, **test_scenes()}
+    names = [k for k in every if a.only is None or k in a.only.split(",")]
+    print(f"# cores: {os.cpu_count()}, load at start: "
+          f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}, rounds {a.rounds}", flush=True)
+    scenes = {}
+    for name in names:
+        sc = every[name]
+        st = initial_state(sc)
+        probe = engine.run(dataclasses.replace(sc, duration=sc.duration * 1e-2, extras=SEARCHES["wide"]), st)
+        scale = 1e-2 * a.events / max(probe.events, 1)
+        scenes[name] = (dataclasses.replace(sc, duration=sc.duration * scale), st)
+    res: dict[tuple[str, str], list[dict]] = {}
+    for r in range(a.rounds):
+        for name in names:
+            sc, st = scenes[name]
+            for s in (list(SEARCHES) if r % 2 == 0 else list(SEARCHES)[::-1]):
+                x = dataclasses.replace(sc, extras=SEARCHES[s])
+                if r == 0:  # compile or load the kernels of this search
+                    engine.run(dataclasses.replace(x, duration=x.duration * 1e-2), st)
+                c0 = time.process_time()
+                rs = engine.run(x, st)
+                cpu = time.process_time() - c0
+                ex, ev = rs.extras, max(rs.events, 1)
+                res.setdefault((name, s), []).append({
+                    "us": 1e6 * cpu / ev, "queue": ex["queue_events"] / ev,
+                    "crossings": ex["cell_crossings"] / ev, "pairs": ex["pair_tests"] / ev,
+                    "slots": ex.get("dilute_scanned", 0) / ev, "nc": ex["cells_per_axis"],
+                    "took": took(ex)})
+    for name in names:
+        row = {s: statistics.median(o["us"] for o in res[(name, s)]) for s in SEARCHES}
+        best = min((v, s) for s, v in row.items() if s != "auto")
+        auto = res[(name, "auto")][0]["took"]
+        print(f"{name}: " + ", ".join(f"{s} {row[s]:.2f} us" for s in SEARCHES)
+              + f" | auto took {auto}, fastest {best[1]}: auto / fastest {row['auto'] / best[0]:.2f}")
+        for s in ("classes", "wide", "dilute"):
+            o = res[(name, s)][0]
+            print(f"    {s:8s} took {o['took']:7s} cells/axis {o['nc']:3d}, per physical event: "
+                  f"queue {o['queue']:.2f}, crossings {o['crossings']:.2f}, pairs {o['pairs']:.1f}, "
+                  f"slots {o['slots']:.0f}")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
