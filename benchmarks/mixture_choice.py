@@ -19,13 +19,18 @@ The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was fitted on
 12 more it was checked on (names V...); TESTS, the mixtures of the tests that say which
 search 'auto' takes.
 
-Figures (2026-11-24, 2 cores, load 0-1, 2 rounds; before the mixture model, 'auto' took
-size classes for every mixture with walls; a 3D 1:100 mixture at packing 0.4 took neighbour
-lists): the fastest search over that one, FIT: 3A 1.49, 3C 2.02, 3D 1.63, 3E 1.33, 3H 1.27,
-3I 1.41, 2F 1.16 (the other 9 within 5 %); CHECK: V3b 1.68, V3d 1.69, V3e 1.24, V3f 7.46
-(lists), V2c 1.69. With the model (its constants from FIT only): FIT, 14 of 16 within 5 % of
-the fastest (3B 1.10, 2F 1.16); CHECK, 11 of 12 (V2a 1.28, where the model rates wide cells
-and size classes equal).
+Figures (2026-11-24, 2 cores, load 0-1, 2 rounds each, one session): the fastest search
+forced over the one 'auto' took, CPU per physical event.
+
+* Before the mixture model (1c2ec1f: size classes for every mixture with walls, neighbour
+  lists for V3f at packing 0.4, the dilute scan for T3000), 14 of the 30 ran slower than
+  they could: 3A 1.38, 3C 1.84, 3D 1.63, 3E 1.43, 3H 1.27, 3I 1.41, 2F 1.19, V3b 1.81,
+  V3d 1.65, V3e 1.16, V3f 7.46, V2c 1.88, T20000 2.27, T3000 1.12 (the forced searches of
+  the run below, except V3f: 'auto' on 1c2ec1f, 24.9 us against size classes' 3.34).
+* With the model (its constants fitted on FIT only), ``python benchmarks/mixture_choice.py``
+  on d037ef2: 'auto' within 8 % of the fastest in 28 of the 30, the misses 2F 1.24 and
+  V2a 1.27 (2D; the model rates wide cells and size classes within 11 % of each other there); on
+  the 12 of CHECK, 11 within 8 %.
 """
 
 from __future__ import annotations
