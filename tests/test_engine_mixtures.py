@@ -115,6 +115,19 @@ def test_a_small_and_a_large_particle_in_contact_are_adjacent(dim, rng):
     assert ball._far(2 * mx.bcl) > mx.rint
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_ball_counts_every_fine_cell_adjacent_to_a_large_particle(dim):
+    """ball.ball_cells (counted a column at a time) against every offset within the ball's
+    half-width whose sum of _far is at most RINT, counted one by one."""
+    import itertools
+
+    for rint in list(range(0, 40)) + [97, 400]:
+        b = 1 + math.isqrt(rint)
+        far = [ball._far.py_func(o) for o in range(-b, b + 1)]
+        count = sum(1 for c in itertools.product(far, repeat=dim) if sum(c) <= rint)
+        assert ball.ball_cells(dim, rint) == count, rint
+
+
 @pytest.mark.parametrize("dim, boundary", list(MIXTURES))
 def test_size_classes_give_the_events_of_one_grid(dim, boundary):
     """Same scene, same start, one grid (classes 'off') against size classes: the same events

@@ -18,6 +18,7 @@ up the large ones only where that count is not 0). :func:`_cover_fill` fills the
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -27,13 +28,15 @@ from gaz_cli.engine.layout import C0, PR
 from gaz_cli.numba_config import njit
 
 
+@functools.lru_cache(maxsize=64)
 def ball_cells(D: int, rint: int) -> int:
-    """Fine cells in a large particle's ball (its full scan)."""
+    """Fine cells in a large particle's ball (its full scan): for each offset along the
+    first D - 1 axes with S = sum of _far <= RINT, a column of 3 + 2 isqrt(RINT - S) cells
+    (|o| <= 1 + isqrt(RINT - S) along the last axis)."""
     b = 1 + math.isqrt(rint)
     g = [_far.py_func(x) for x in range(-b, b + 1)]
-    if D == 2:
-        return sum(1 for x in g for y in g if x + y <= rint)
-    return sum(1 for x in g for y in g for z in g if x + y + z <= rint)
+    heads = g if D == 2 else [x + y for x in g for y in g]
+    return sum(3 + 2 * math.isqrt(rint - s) for s in heads if s <= rint)
 
 
 @_inline
