@@ -90,6 +90,20 @@ path's root only for a hit, crossing by selects, unsigned gather; load 1.0-1.2, 
 | 4, start-up | <= 1.15 / 1.35 | 0.57 / 0.60 wall; the old tree 1.19 / 1.18 |
 | 5, gaz / C, lists | >= 1.0 | 1.116 CPU (1.088, 1.116, 1.125), 1.132 wall |
 | 6, mixture / small alone | <= 2 | per physical event 2D 1.17, 3D 2.29: the small spheres alone now take wide cells (2.0 us a physical event, the dilute scan's 13.1 before), the mixture keeps its size classes (4.5 us) |
+
+Figures of 2026-11-24 (``--pairs 3``, new = b1f948b: mixtures with walls take the cheapest
+of size classes, wide cells and the dilute scan by engine/mixture_cost.py; load 0.6-1.0,
+02:09-02:19 UTC, nothing beside it):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 6.76 (6.76, 6.71, 6.78) |
+| 2, scene (b) | >= 3x | 1.54 (1.54, 1.59, 1.52); 2.36 crossings per physical event |
+| 2, scene (a) | not slower | 1.47 (1.46, 1.47, 1.48) |
+| 3, recording / engine | < 25 % | wall added 52.6 % (rounds 48.5-53.8 %) of a 0.074 s engine; CPU 125 %; gaz's insert 69.8 ms, SQLite's own 50.9 ms (69 % of the engine) |
+| 4, start-up | <= 1.15 / 1.35 | 0.55 / 0.65 wall; the old tree 1.20 / 1.19 |
+| 5, gaz / C, lists | >= 1.0 | 1.117 CPU (1.117, 1.142, 1.109), 1.132 wall |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.50, 3D 1.48: the 3D mixture now takes wide cells (6 an axis), 3.0 us a physical event against 4.5 with size classes |
 """
 
 from __future__ import annotations

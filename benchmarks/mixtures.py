@@ -55,6 +55,12 @@ Figures of 2026-11-23, second session ('python benchmarks/mixtures.py --repeat 3
 3D 1.36 (target <= 2); per queue event 2D 1.69, 3D 0.13 (the 3D small-alone scene takes the
 dilute scan: one queue event per physical event, 13.1 us each, a float32 scan of all 9 900);
 per simulated second 2D 1.85, 3D 3.89, of which the physical events alone are 2.35x and 2.86x.
+
+Figures of 2026-11-24 ('python benchmarks/mixtures.py --repeat 3' on b1f948b; load 0.6-1):
+the 3D mixture now takes wide cells (:mod:`gaz_cli.engine.mixture_cost`: 6 an axis, 1.65
+crossings and 2.6 us a physical event, against 9.1 crossings and 3.9 us with size classes),
+the 2D one keeps its size classes; mixture / small alone per physical event 2D 1.43, 3D 1.40
+(rounds 1.46, 1.40, 1.32; before, 2.29: its small spheres alone had gone over to wide cells).
 """
 
 from __future__ import annotations
