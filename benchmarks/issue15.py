@@ -93,7 +93,7 @@ path's root only for a hit, crossing by selects, unsigned gather; load 1.0-1.2, 
 
 Figures of 2026-11-24 (``--pairs 3``, new = b1f948b: mixtures with walls take the cheapest
 of size classes, wide cells and the dilute scan by engine/mixture_cost.py; load 0.6-1.0,
-02:09-02:19 UTC, nothing beside it):
+02:09-02:12 UTC, nothing beside it):
 
 | item | target | this run |
 | --- | --- | --- |
