@@ -446,7 +446,8 @@ def mixture_contact_values(number_densities, diameters):
     """
     _, s, (_, _, x2, x3) = _bmcsl_moments(number_densities, diameters)
     y = 1.0 - x3
-    d = np.outer(s, s) / np.add.outer(s, s)
+    pair = np.add.outer(s, s)
+    d = np.divide(np.outer(s, s), pair, out=np.zeros_like(pair), where=pair > 0)  # points: 0
     return 1.0 / y + 3.0 * x2 * d / y ** 2 + 2.0 * x2 ** 2 * d ** 2 / y ** 3
 
 

@@ -120,3 +120,19 @@ def test_wide_cells_give_a_mixture_the_events_of_one_grid(dim):
     for e1, e2, rt in zip(one[:k], two[:k], tol[:k]):
         assert e1[1:] == e2[1:], (e1, e2)
         assert abs(e1[0] - e2[0]) <= rt * max(1.0, abs(e1[0])), (e1, e2, rt)
+
+
+def test_scenes_beyond_the_contact_values_fits_still_find_their_search():
+    """The cost models estimate a mean free path from the scene's packing; past the contact
+    value's fits (0.55) they take 0.5 (sizing.PATH_PACKING) instead of refusing the scene
+    ("packing fraction must be <= 0.55 for the KLM fit" from a scene with wide cells forced
+    at 0.6, or from two large spheres filling 0.6 of a box among small ones)."""
+    n, eta = 1000, 0.6
+    dense = Scene(dim=3, length=(n * math.pi / 6 / eta) ** (1 / 3), duration=1.0,
+                  components=((Species("X", 1.0, 0.5), n),), temperature=1.0 / K_B, seed=1,
+                  placement="lattice", extras={"neighbours": "wide"})
+    assert resolved_search(dense)["neighbours"] == "wide"
+    two_large = Scene(dim=3, length=120.0, duration=1.0, temperature=1.0 / K_B, seed=1,
+                      components=((Species("L", 1e9, 50.0), 2), (Species("S", 1.0, 0.05), 2000)))
+    assert two_large.packing_fraction > 0.6
+    assert resolved_search(two_large)["neighbours"] in ("cells", "wide", "dilute")

@@ -757,6 +757,13 @@ def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
     assert th.mixture_pressure(3, ns, s, kt_temperature) == pytest.approx(virial, rel=1e-12)
     with pytest.raises(SceneError, match="2D"):
         th.mixture_pressure(2, ns, s, kt_temperature)
+    # point particles beside spheres: d_ij = 0 for any pair with a point (0/0 before), so a
+    # point's contact value with anything is 1/(1 - xi3), and the spheres' own is unchanged
+    g = th.mixture_contact_values([0.3, 0.2], [0.0, 1.0])
+    xi3 = math.pi / 6 * 0.2
+    assert np.isfinite(g).all()
+    np.testing.assert_allclose(g[0], 1 / (1 - xi3), rtol=1e-12)
+    assert g[1, 1] == pytest.approx(th.mixture_contact_values([0.2], [1.0])[0, 0], rel=1e-12)
 
 
 @pytest.mark.parametrize("call", [

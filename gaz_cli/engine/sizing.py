@@ -152,12 +152,19 @@ def _cells_auto_cost(D: int, n: int, L: float, path: float, sigma: float) -> flo
     return _cells_cost(D, n, L, path, cells_per_axis(D, n, L, True, False, sigma, 0.0, False))
 
 
+PATH_PACKING = 0.5
+"""The densest packing :func:`_path` takes (denser scenes: their path at this packing)."""
+
+
 def _path(D: int, n: int, L: float, packing: float) -> float:
     """The mean path between two events of a particle in a box with walls, 1 / (1/lambda +
     D / (2 L)) (collisions at the mean free path lambda of n equal particles filling the
-    scene's ``packing`` fraction, bounces off D pairs of walls)."""
+    scene's ``packing`` fraction, bounces off D pairs of walls). A cost estimate: the
+    packing is taken at most PATH_PACKING (the contact value's fits end at 0.55; a few
+    large spheres can fill a box beyond it)."""
     from gaz_cli import theory  # (numpy only; imported when a scene asks)
 
+    packing = min(packing, PATH_PACKING)
     diameter = 2.0 * (packing * L ** D / (n * UNIT_BALL[D])) ** (1.0 / D)
     lam = float(theory.mean_free_path(D, n / L ** D, diameter))
     return 1.0 / (1.0 / lam + D / (2.0 * L))
