@@ -335,6 +335,26 @@ def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,
     return float(np.mean(wall_momentum) / (scene.duration * scene.length ** (scene.dim - 1)))
 
 
+def partner_search(summary: dict) -> str | None:
+    """How the event engine found collision partners, in words, from a run's summary (its
+    ``neighbour_lists``, ``dilute_scan``, ``wide_cells``, ``size_classes``,
+    ``cells_per_axis``); None for the other engines."""
+    if "cells_per_axis" not in summary:
+        return None
+    if summary["dim"] == 1:
+        return "the two neighbours on the line"
+    if summary.get("neighbour_lists"):
+        return f"neighbour lists, cells {summary['cells_per_axis']} an axis"
+    if summary.get("dilute_scan"):
+        return "the scan of every particle (a dilute gas: no cells)"
+    if summary.get("wide_cells"):
+        return f"wide cells scanned in float32, {summary['cells_per_axis']} an axis"
+    if summary.get("size_classes"):
+        return (f"cells per size class, {summary['cells_per_axis']} fine and "
+                f"{summary.get('coarse_cells_per_axis')} coarse an axis")
+    return f"cells, {summary['cells_per_axis']} an axis"
+
+
 def describe(summary: dict) -> str:
     """A human-readable summary of a run (the non-JSON output of ``gaz simulate``)."""
     lines = []
@@ -343,6 +363,9 @@ def describe(summary: dict) -> str:
                  f"T = {summary['duration']:g} s, engine {summary['engine']}, seed {summary['seed']}")
     if summary.get("engine_reason"):
         lines.append(f"  engine {summary['engine']}: {summary['engine_reason']}")
+    search = partner_search(summary)
+    if search:
+        lines.append(f"  partner search: {search}")
     lines.append(f"  packing fraction {summary['packing_fraction']:.4g}, boundary {summary['boundary']}")
     lines.append(f"  events {summary['events']}  wall bounces {summary['wall_bounces']}  "
                  f"collisions {summary['collisions']}")

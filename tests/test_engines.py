@@ -28,6 +28,10 @@ def _scene(**kw) -> Scene:
     (dict(drag=1e9, dt=1e-13), "step", "drag"),
     (dict(wall_restitution=0.9, dt=1e-13), "step", "damped walls"),
     (dict(engine="reference"), "reference", "asked for"),
+    (dict(duration=1e-13), "reference", "tiny run"),
+    # a few events but 3000 particles: the reference engine's initial catalogue alone is
+    # N^2 / 2 pair times in Python (2.2 s), not tiny
+    (dict(components=((ARGON, 3000),), duration=1e-13), "event", "hard spheres"),
 ])
 def test_auto_takes_the_path_the_scene_needs(kw, engine, words):
     scene, reason = engines.choose(_scene(**kw))

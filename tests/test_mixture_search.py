@@ -136,3 +136,21 @@ def test_scenes_beyond_the_contact_values_fits_still_find_their_search():
                       components=((Species("L", 1e9, 50.0), 2), (Species("S", 1.0, 0.05), 2000)))
     assert two_large.packing_fraction > 0.6
     assert resolved_search(two_large)["neighbours"] in ("cells", "wide", "dilute")
+
+
+def test_the_summary_names_the_partner_search(tmp_path):
+    """`gaz simulate`'s text summary says how partners were found: the README example scans
+    every particle; a mixture of 10 large spheres among 3000 small ones takes wide cells."""
+    from cli_helpers import invoke
+
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "1000", "--length", "3.4e-8",
+                             "--duration", "1e-11", "--seed", "1", "--no-db", "--quiet"])
+    assert code == 0, err
+    assert "partner search: the scan of every particle" in out
+    scene = tmp_path / "mix.toml"
+    scene.write_text('dim = 3\nlength = 1e-6\nduration = 1e-12\ntemperature = 300.0\nseed = 3\n'
+                     '[[species]]\nname = "L"\ncount = 10\nmass = 1e-20\nradius = 1e-7\n'
+                     '[[species]]\nname = "S"\ncount = 3000\nmass = 1e-26\nradius = 1e-9\n')
+    code, out, err = invoke(["simulate", str(scene), "--no-db", "--quiet"])
+    assert code == 0, err
+    assert "partner search: wide cells scanned in float32" in out, out
