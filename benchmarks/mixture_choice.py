@@ -13,8 +13,13 @@ slots of the float32 pass, per physical event) are printed under it: what the mo
 
     python benchmarks/mixture_choice.py                  # the 28 mixtures, 2 rounds
     python benchmarks/mixture_choice.py --only 3A,2B --rounds 3
+    python benchmarks/mixture_choice.py --only FIT --fit      # refit mixture_cost.COST
 
-Each run lasts about ``--events`` physical events (the duration scaled from a short probe).
+``--fit``: after the runs, the constants of :data:`gaz_cli.engine.mixture_cost.COST` fitted
+to them (non-negative least squares on the relative error of each search's CPU time per
+physical event against the model's work counts, :func:`gaz_cli.engine.mixture_cost.work`),
+and how often the refit model would take the fastest search; ``--only FIT`` (or CHECK)
+names a set. Each run lasts about ``--events`` physical events (the duration scaled from a short probe).
 The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was fitted on; CHECK,
 12 more it was checked on (names V...); TESTS, the mixtures of the tests that say which
 search 'auto' takes.
@@ -88,6 +93,56 @@ def test_scenes() -> dict[str, Scene]:
             "T3000": two(Species("L", 1.0, 0.1), 10, Species("S", 1e-6, 0.001), 3000)}
 
 
+def model_work(scene: Scene) -> dict:
+    """:func:`gaz_cli.engine.mixture_cost.work` for ``scene`` (walls, hard spheres), with the
+    plan and the wide cells the driver would size."""
+    from gaz_cli.engine import mixture_cost, sizing
+    from gaz_cli.engine.interactions import pair_reach
+    from gaz_cli.engine.neighbours import classes
+
+    radii = scene.radii()
+
+    def reach(r):
+        return pair_reach(r, ())
+
+    plan = classes.plan(radii, scene.dim, scene.length, False, True, False, reach,
+                        sizing.cells_per_axis)
+    wide_nc = sizing.wide_cells_per_axis(scene.dim, scene.n, scene.length, reach(radii.max()),
+                                         scene.packing_fraction)
+    sp = scene.components
+    return mixture_cost.work(scene.dim, scene.length, [k for _, k in sp], [s.mass for s, _ in sp],
+                             [s.radius for s, _ in sp], reach, plan, wide_nc)
+
+
+def fit(names: list[str], every: dict, measured: dict) -> None:
+    """Print COST refitted to the measured CPU times (us per physical event), and the choices
+    of the refit model against the fastest search measured."""
+    import numpy as np
+    from scipy.optimize import nnls
+
+    from gaz_cli.engine import mixture_cost
+
+    work = {k: model_work(every[k]) for k in names}
+    const = {}
+    for s, units in mixture_cost.COST.items():
+        A = np.array([[work[k][s][u] for u in units] for k in names])
+        y = np.array([measured[k][s] * 1e3 for k in names])  # ns
+        c, _ = nnls(A / y[:, None], np.ones(len(y)))
+        const[s] = dict(zip(units, c))
+        err = np.sqrt(np.mean(np.log(A @ c / y) ** 2))
+        print(f"COST[{s!r}] = {{{', '.join(f'{u!r}: {v:.3g}' for u, v in const[s].items())}}}"
+              f"  (rms error of log time {err:.2f})")
+    hits = 0
+    for k in names:
+        pred = {s: sum(const[s][u] * work[k][s][u] for u in const[s]) for s in const}
+        pick = min(pred, key=pred.get)
+        best = min(const, key=lambda s: measured[k][s])
+        loss = measured[k][pick] / measured[k][best]
+        hits += loss < 1.05
+        print(f"  {k}: refit model takes {pick}, fastest {best}: {loss:.2f}")
+    print(f"refit model within 5 % of the fastest in {hits} of {len(names)}")
+
+
 def took(ex: dict) -> str:
     return ("classes" if ex.get("size_classes") else "wide" if ex.get("wide_cells")
             else "dilute" if ex.get("dilute_scan") else "lists" if ex.get("neighbour_lists")
@@ -98,10 +153,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--events", type=float, default=6e4, help="physical events a run")
-    ap.add_argument("--only", help="comma-separated names")
+    ap.add_argument("--only", help="comma-separated names, or FIT or CHECK")
+    ap.add_argument("--fit", action="store_true", help="refit mixture_cost.COST to the runs")
     a = ap.parse_args()
     every = {**{k: mixture(*v) for k, v in {**FIT, **CHECK}.items()}, **test_scenes()}
-    names = [k for k in every if a.only is None or k in a.only.split(",")]
+    sets = {"FIT": list(FIT), "CHECK": list(CHECK)}
+    wanted = None if a.only is None else [x for w in a.only.split(",") for x in sets.get(w, [w])]
+    names = [k for k in every if wanted is None or k in wanted]
     print(f"# cores: {os.cpu_count()}, load at start: "
           f"{' '.join(f'{x:.2f}' for x in os.getloadavg())}, rounds {a.rounds}", flush=True)
     scenes = {}
@@ -140,6 +198,9 @@ def main() -> None:
                   f"queue {o['queue']:.2f}, crossings {o['crossings']:.2f}, pairs {o['pairs']:.1f}, "
                   f"slots {o['slots']:.0f}")
         sys.stdout.flush()
+    if a.fit:
+        fit(names, every, {k: {s: statistics.median(o["us"] for o in res[(k, s)])
+                               for s in SEARCHES} for k in names})
 
 
 if __name__ == "__main__":
