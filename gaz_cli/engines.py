@@ -37,9 +37,10 @@ CHOICES = ("auto", *ENGINES)
 """What a scene's ``engine`` may say."""
 
 TINY_WORK = 2e4
-"""A run of at most this many events x particles plus particles^2 (estimated) is tiny: ``auto`` gives it to the
-exam's engine, which needs no compiled code -- loading the event engine's costs about a
-second, the reference engine spends about 1e-5 s per event and particle."""
+"""A run of at most this many events x particles plus particles^2 (estimated: its catalogue
+of all pairs) is tiny: ``auto`` gives it to the exam's engine, which needs no compiled code
+-- loading the event engine's costs about a second, the reference engine spends about
+1e-5 s per event and particle."""
 
 STEPS_PER_FLIGHT = 50
 """Steps per mean free time, box crossing or diameter crossing (the shortest) when ``auto``
@@ -81,8 +82,7 @@ def choose(scene):
     if tiny is not None:
         return replace(scene, engine="reference"), (
             f"a tiny run (about {tiny:.0f} events x particles, with the initial catalogue): "
-            "the exam's exact engine, "
-            "no compiled code to load")
+            "the exam's exact engine, no compiled code to load")
     if scene.dim == 1:
         return replace(scene, engine="event"), "hard rods: exact events, each rod against its two neighbours"
     return replace(scene, engine="event"), "hard spheres: exact event-driven dynamics"

@@ -147,7 +147,8 @@ def classes_work(D: int, L: float, rt: Rates, small, plan) -> dict:
     fine_scan = np.where(small, _window(plan.nc) ** D, ball)
     fine_cross = np.where(small, _window(plan.nc) ** (D - 1), ball / (2 * plan.bcl + 1))
     cells = rt.rescans @ (fine_scan + coarse) + cross @ fine_cross
-    pairs = rt.rescans @ (fine_scan * per_fine + coarse * per_coarse) + cross @ fine_cross * per_fine
+    pairs = (rt.rescans @ (fine_scan * per_fine + coarse * per_coarse)
+             + cross @ fine_cross * per_fine)
     return {"crossing": float(cross.sum()), "cell": float(cells), "pair": float(pairs)}
 
 
