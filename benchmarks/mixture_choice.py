@@ -18,11 +18,12 @@ slots of the float32 pass, per physical event) are printed under it: what the mo
 ``--fit``: after the runs, the constants of :data:`gaz_cli.engine.mixture_cost.COST` fitted
 to them (non-negative least squares on the relative error of each search's CPU time per
 physical event against the model's work counts, :func:`gaz_cli.engine.mixture_cost.work`),
-and how often the refit model would take the fastest search; ``--only FIT`` (or CHECK)
-names a set. Each run lasts about ``--events`` physical events (the duration scaled from a short probe).
-The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was fitted on; CHECK,
-12 more it was checked on (names V...); TESTS, the mixtures of the tests that say which
-search 'auto' takes.
+and how often the refit model would take the fastest search; ``--only FIT`` (or CHECK,
+RANDOM) names a set. Each run lasts about ``--events`` physical events (the duration scaled
+from a short probe). The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was
+fitted on; CHECK, 12 more it was checked on (names V...); RANDOM, 10 drawn at random after
+the model was written (names R...); the tests' (T...), the mixtures of the tests that say
+which search 'auto' takes.
 
 Figures (2026-11-24, 2 cores, load 0-1, 2 rounds each, one session): the fastest search
 forced over the one 'auto' took, CPU per physical event.
@@ -36,6 +37,9 @@ forced over the one 'auto' took, CPU per physical event.
   on d037ef2: 'auto' within 8 % of the fastest in 28 of the 30, the misses 2F 1.24 and
   V2a 1.27 (2D; the model rates wide cells and size classes within 11 % of each other there); on
   the 12 of CHECK, 11 within 8 %.
+* RANDOM (``--only RANDOM``, on e923943, load 0.1): 'auto' within 2 % of the fastest in 9
+  of 10; the miss R2c 1.15 (2D, packing 0.04: wide cells faster, as in 2F at 0.05). Size
+  classes everywhere would have run R3b 1.45, R3d 1.31, R3e 1.42 and R2c 1.13 slower.
 """
 
 from __future__ import annotations
@@ -69,6 +73,14 @@ CHECK = {
     "V3d": (3, 2000, 200, 10, 0.3), "V3e": (3, 8000, 20, 40, 0.1), "V3f": (3, 4000, 40, 100, 0.4),
     "V2a": (2, 4000, 40, 50, 0.1), "V2b": (2, 15000, 150, 10, 0.1), "V2c": (2, 6000, 6, 100, 0.02),
     "V2d": (2, 8000, 80, 30, 0.15), "V2e": (2, 2000, 20, 10, 0.2), "V2f": (2, 20000, 200, 50, 0.4),
+}
+RANDOM = {  # drawn with random.Random(2026): ratio 10-100 and packing 0.02-0.4 log-uniform,
+    # 2000-15000 small, 0.1-2 % large by number (log-uniform); R3d's packing 0.4 lowered to
+    # 0.3 (157 large spheres at 0.4 is beyond random placement's reach)
+    "R3a": (3, 8500, 39, 13, 0.263), "R2a": (2, 4900, 30, 13, 0.106), "R3b": (3, 9100, 81, 61, 0.2),
+    "R2b": (2, 9600, 20, 56, 0.126), "R3c": (3, 12600, 48, 13, 0.23), "R2c": (2, 10800, 20, 48, 0.042),
+    "R3d": (3, 14100, 157, 95, 0.3), "R2d": (2, 3000, 8, 33, 0.106), "R3e": (3, 7900, 109, 20, 0.165),
+    "R2e": (2, 2300, 19, 38, 0.059),
 }
 
 
@@ -153,11 +165,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--events", type=float, default=6e4, help="physical events a run")
-    ap.add_argument("--only", help="comma-separated names, or FIT or CHECK")
+    ap.add_argument("--only", help="comma-separated names, or FIT, CHECK or RANDOM")
     ap.add_argument("--fit", action="store_true", help="refit mixture_cost.COST to the runs")
     a = ap.parse_args()
-    every = {**{k: mixture(*v) for k, v in {**FIT, **CHECK}.items()}, **test_scenes()}
-    sets = {"FIT": list(FIT), "CHECK": list(CHECK)}
+    every = {**{k: mixture(*v) for k, v in {**FIT, **CHECK, **RANDOM}.items()}, **test_scenes()}
+    sets = {"FIT": list(FIT), "CHECK": list(CHECK), "RANDOM": list(RANDOM)}
     wanted = None if a.only is None else [x for w in a.only.split(",") for x in sets.get(w, [w])]
     names = [k for k in every if wanted is None or k in wanted]
     print(f"# cores: {os.cpu_count()}, load at start: "
