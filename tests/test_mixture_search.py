@@ -93,8 +93,9 @@ def test_wide_cells_give_a_mixture_the_events_of_one_grid(dim):
     """Same scene, same start, one grid of cells (the large reach wide) against wide cells:
     the same events (kind, particles) in the same order, times within the round-off model
     of test_event_engine.time_tolerances, up to where that model allows 1e-6 (as
-    test_engine_mixtures does for size classes; measured here: the whole runs agree, times
-    to 1e-14); after the whole run nobody overlaps or is out, and the energy is kept."""
+    test_engine_mixtures does for size classes; measured here: the whole runs give the same
+    events, 1330 in 2D and 2485 in 3D, times within 1e-11 and 1e-6); after the whole run
+    nobody overlaps or is out, and the energy is kept."""
     scene = dataclasses.replace(mixture(dim, 600, 6, 20, 0.1), duration=30.0 if dim == 2 else 60.0)
     state = initial_state(scene)
     seqs = []
