@@ -1,11 +1,11 @@
 """Does 'auto' take the fastest search for a mixture of very different sizes? Boxes with walls.
 
-Not a test: it prints numbers. Each mixture (small spheres or disks of radius 1/2 and a few
-large ones, radius ratio 10-100, masses in proportion to the volume, seed 3, walls, no
-gravity) runs with each search forced -- size classes ('classes': neighbours 'cells'), wide
-cells ('wide': neighbours 'wide', classes 'off'), the scan of every particle ('dilute') --
-and with 'auto', in turn (``--rounds`` rounds, the order reversed every other round; the
-first also compiles), and the script prints the median CPU time per physical event
+Not a test: it prints numbers. Each mixture (benchmarks/fingerprint.py's ``mixture``: small
+spheres or disks of radius 1/2 and a few large ones, radius ratio 10-100, masses in
+proportion to the volume, seed 3, walls, no gravity) runs with each search forced -- size
+classes ('classes': neighbours 'cells'), wide cells ('wide': neighbours 'wide', classes
+'off'), the scan of every particle ('dilute') -- and with 'auto', in turn (``--rounds``
+rounds, the order reversed every other round; the first also compiles), and the script prints the median CPU time per physical event
 (collisions and wall bounces) of each, the search 'auto' took, and its cost over the
 fastest's. The work counts of each forced search (queue events, crossings, pair tests,
 slots of the float32 pass, per physical event) are printed under it: what the model of
@@ -46,11 +46,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import os
 import statistics
 import sys
 import time
+
+from fingerprint import mixture  # (this directory: the script's own)
 
 from gaz_cli import engine
 from gaz_cli.constants import K_B
@@ -84,17 +85,6 @@ RANDOM = {  # drawn with random.Random(2026): ratio 10-100 and packing 0.02-0.4 
 }
 
 
-def mixture(dim: int, n_small: int, n_large: int, ratio: float, packing: float) -> Scene:
-    """Small particles of radius 1/2 and mass 1, large ones ``ratio`` times wider and as dense,
-    in a box with walls filled to ``packing``; seed 3, kT = 1 (benchmarks/fingerprint.py's
-    mixtures)."""
-    small, large = Species("S", 1.0, 0.5), Species("L", float(ratio) ** dim, 0.5 * ratio)
-    cell = {2: math.pi / 4.0, 3: math.pi / 6.0}[dim]
-    length = (cell * (n_small + n_large * ratio ** dim) / packing) ** (1.0 / dim)
-    return Scene(dim=dim, length=length, duration=1.0, components=((small, n_small), (large, n_large)),
-                 temperature=1.0 / K_B, seed=3, placement="auto", record="none")
-
-
 def test_scenes() -> dict[str, Scene]:
     """The mixtures of the tests on 'auto''s choice (tests/test_engine_wide.py,
     tests/test_engine_dilute.py)."""
@@ -121,9 +111,8 @@ def model_work(scene: Scene) -> dict:
                         sizing.cells_per_axis)
     wide_nc = sizing.wide_cells_per_axis(scene.dim, scene.n, scene.length, reach(radii.max()),
                                          scene.packing_fraction)
-    sp = scene.components
-    return mixture_cost.work(scene.dim, scene.length, [k for _, k in sp], [s.mass for s, _ in sp],
-                             [s.radius for s, _ in sp], reach, plan, wide_nc)
+    return mixture_cost.work(scene.dim, scene.length, *mixture_cost.species_of(scene), reach,
+                             plan, wide_nc)
 
 
 def fit(names: list[str], every: dict, measured: dict) -> None:
@@ -168,7 +157,8 @@ def main() -> None:
     ap.add_argument("--only", help="comma-separated names, or FIT, CHECK or RANDOM")
     ap.add_argument("--fit", action="store_true", help="refit mixture_cost.COST to the runs")
     a = ap.parse_args()
-    every = {**{k: mixture(*v) for k, v in {**FIT, **CHECK, **RANDOM}.items()}, **test_scenes()}
+    every = {**{k: mixture(*v, 1.0) for k, v in {**FIT, **CHECK, **RANDOM}.items()},
+             **test_scenes()}
     sets = {"FIT": list(FIT), "CHECK": list(CHECK), "RANDOM": list(RANDOM)}
     wanted = None if a.only is None else [x for w in a.only.split(",") for x in sets.get(w, [w])]
     names = [k for k in every if wanted is None or k in wanted]

@@ -78,9 +78,7 @@ def test_the_model_counts_collisions_and_bounces_as_a_run_does():
     1/sqrt(collisions) (measured: model 0.0189, a run of 9.7 million events 0.0189).
     Tolerance: 4 of those standard errors plus 1 %."""
     scene = few_large(20000, 0.0003, duration=0.01)
-    sp = scene.components
-    rt = mixture_cost.rates(3, scene.length, [k for _, k in sp], [s.mass for s, _ in sp],
-                            [s.radius for s, _ in sp], lambda r: 2.0 * r)
+    rt = mixture_cost.rates(3, scene.length, *mixture_cost.species_of(scene), lambda r: 2.0 * r)
     stats = engine.run(scene, initial_state(scene))
     assert stats.collisions > 3000, stats.collisions
     share = stats.collisions / stats.events

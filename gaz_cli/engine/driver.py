@@ -164,10 +164,8 @@ def _mixture_search(scene: Scene, plan, sigma: float, h: float, PP: tuple) -> tu
     :func:`.mixture_cost.cheapest` rates cheapest."""
     D, n, L = int(scene.dim), scene.n, float(scene.length)
     wide_nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction)
-    species = scene.components
-    pick = mixture_cost.cheapest(D, L, [k for _, k in species], [s.mass for s, _ in species],
-                                 [s.radius for s, _ in species], lambda r: pair_reach(r, PP),
-                                 plan, wide_nc)
+    pick = mixture_cost.cheapest(D, L, *mixture_cost.species_of(scene),
+                                 lambda r: pair_reach(r, PP), plan, wide_nc)
     if pick == "dilute":
         return False, True, None, 1, h, False
     if pick == "wide":

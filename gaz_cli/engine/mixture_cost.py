@@ -66,6 +66,12 @@ densities density, pair reaches reach; physical events a unit time (collisions a
 bounces), of which collisions."""
 
 
+def species_of(scene) -> tuple[list, list, list]:
+    """(counts, masses, radii) of a scene's species: the model's first arguments."""
+    return ([k for _, k in scene.components], [s.mass for s, _ in scene.components],
+            [s.radius for s, _ in scene.components])
+
+
 def rates(D: int, L: float, counts, masses, radii, reach) -> Rates:
     """The mixture's event rates (kT = 1, masses over the lightest): see the module's doc.
 
