@@ -18,6 +18,10 @@ auto       rapid in 1D; rejection while the packing is comfortably below the
            random-sequential-addition jamming limit; grow up to the random
            limit; lattice above it.
 
+A mixture of sizes far apart (2D/3D, radii at least 8 times apart: :mod:`.mixture`) is
+placed in two steps, by rejection or growth: the large particles alone, then the small ones
+around them, held fixed, on a grid sized for the small ones.
+
 Beyond what a method can reach the answer is an error naming the way out,
 after a bounded effort, never a hang.
 
@@ -34,6 +38,7 @@ import numpy as np
 
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.geometry import packing_fraction
+from gaz_cli.placement import mixture
 from gaz_cli.placement.lattice import LATTICE_LIMIT, lattice
 from gaz_cli.placement.rsa import INTERPRETED_MAX, INTERPRETED_PACKING, rapid_1d, rejection
 
@@ -108,11 +113,27 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
         return rapid_1d(radii, length, rng, periodic)
     if method == "lattice":
         return lattice(dim, radii, length, rng, periodic)
-    if method == "grow":
-        from gaz_cli.placement.growth import grow
+    small = mixture.split(dim, radii, length)
+    if method == "rejection" and n <= INTERPRETED_MAX and eta <= INTERPRETED_PACKING:
+        small = None  # a tiny dilute scene: one grid, interpreted, no compiled code to load
+    if small is not None or method == "grow":
         from gaz_cli.placement.overlaps import first_overlap
 
-        positions = grow(dim, radii, length, rng, periodic)
+        positions = None
+        if small is not None:  # sizes far apart: the large ones first, then the small ones
+            try:
+                positions = mixture.place(dim, radii, length, rng, method, periodic, small,
+                                          chosen_by_auto)
+            except PlacementError:
+                if not chosen_by_auto:
+                    raise
+                method = "grow" if eta > RSA_COMFORT[dim] else "rejection"  # all in one step
+        if positions is None and method == "rejection":
+            return rejection(dim, radii, length, rng, periodic)
+        if positions is None:
+            from gaz_cli.placement.growth import grow
+
+            positions = grow(dim, radii, length, rng, periodic)
         if first_overlap(positions, radii, length, periodic) < 0:
             return positions
         if chosen_by_auto:

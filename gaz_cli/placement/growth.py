@@ -17,6 +17,7 @@ from gaz_cli.engine.neighbours.cells import _cell_entered, _cross_face, _gather_
 from gaz_cli.errors import PlacementError
 from gaz_cli.geometry import packing_fraction
 from gaz_cli.numba_config import njit
+from gaz_cli.placement import obstacles
 from gaz_cli.placement.overlaps import _cell_table, _gather_buffers
 from gaz_cli.placement.rsa import rapid_1d, rejection
 
@@ -25,7 +26,7 @@ GROWTH_RATE = 0.1
 
 
 @njit
-def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D):
+def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D, OH, OS, og, oncg):
     """Particle k's next event (its row at time t) under growth r_m(t) = R_m gamma t: its time,
     written to k's row of I as the engine writes a prediction (PART: the partner, PCNT: the
     partner's counter; -1 and CODE: a wall or cell face, coded as the engine's crossings).
@@ -34,6 +35,9 @@ def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D):
     the 3^D cells around (the engine's gather, each with its image), each pair's time the
     engine's contact root with the sum of radii growing (interactions._contact_dt): a pair
     touching and closing in collides now, one parting faster than it grows is left alone.
+    The fixed spheres of k's cell in the table OH, OS (:class:`.obstacles.Table` on these
+    cells, og of them an axis to its cells, oncg an axis) likewise, at their full radius
+    (partner n + the entry).
     """
     f = gamma * t
     rk = P[k, PR]
@@ -88,8 +92,20 @@ def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D):
         if tm < best:
             best = tm
             part = m
+    if OS.shape[0] > 0:
+        cell = I[k, C0] // og
+        if D > 1:
+            cell = cell * oncg + I[k, C0 + 1] // og
+        if D > 2:
+            cell = cell * oncg + I[k, C0 + 2] // og
+        for e in range(OH[cell], OH[cell + 1]):
+            tm = t + _contact_dt(OS[e, 0] - xk0, OS[e, 1] - xk1, OS[e, 2] - xk2, -vk0, -vk1, -vk2,
+                                 OS[e, 3] + rk * f, rg, D)
+            if tm < best:
+                best = tm
+                part = P.shape[0] + e
     I[k, PART] = part
-    I[k, PCNT] = I[part, CNT] if part >= 0 else 0
+    I[k, PCNT] = I[part, CNT] if 0 <= part < P.shape[0] else 0
     I[k, CODE] = code
     return best
 
@@ -117,8 +133,25 @@ def _ls_collide(P, i, j, L, periodic, gamma, D):
 
 
 @njit
+def _ls_bounce(P, i, OS, e, gamma, D):
+    """Particle i, its row at its contact with the fixed sphere OS[e], leaves with its normal
+    velocity mirrored about its growth speed (the sphere neither moves nor grows)."""
+    n0 = P[i, 0] - OS[e, 0]
+    n1 = P[i, 1] - OS[e, 1] if D > 1 else 0.0
+    n2 = P[i, 2] - OS[e, 2] if D > 2 else 0.0
+    rr = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    if rr > 0.0:
+        n0, n1, n2 = n0 / rr, n1 / rr, n2 / rr
+        du = P[i, PR] * gamma - (P[i, PV] * n0 + (P[i, PV + 1] * n1 if D > 1 else 0.0)
+                                 + (P[i, PV + 2] * n2 if D > 2 else 0.0))
+        if du > 0.0:
+            for d in range(D):
+                P[i, PV + d] += 2.0 * du * (n0 if d == 0 else (n1 if d == 1 else n2))
+
+
+@njit
 def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_end, nc,
-             max_events, rescale_every):
+             max_events, rescale_every, OH, OS, og, oncg):
     """Lubachevsky-Stillinger growth, event by event, on the engine's rows, cells and heap.
 
     P (N, P_WIDTH) rows at time 0: start positions (points: f = 0 at t = 0), velocities,
@@ -131,7 +164,8 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
     Radii grow as R gamma t; a colliding pair leaves with its normal relative velocity
     mirrored about the growth speed (elastic in the growing frame), a wall likewise;
     every ``rescale_every`` events the speeds are scaled back to unit mean square per
-    component and every event predicted afresh. The rows are moved to time f_end / gamma.
+    component and every event predicted afresh. OH, OS, og, oncg: fixed spheres
+    (:func:`_ls_next`), off which a particle bounces as off a wall. The rows are moved to time f_end / gamma.
     Returns (status, f reached, events): status DONE, 1 event budget spent (jammed
     below f_end) or CELL_FULL: the next event, a crossing, would overflow a cell; nothing of
     it is done: widen the table (:func:`.engine.neighbours.cells.wider`), take gather
@@ -150,7 +184,8 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
             for k in range(n):
                 _advance(P, k, t, 0.0, D, False)
             for k in range(n):
-                tk = _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D)
+                tk = _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D, OH, OS, og,
+                              oncg)
                 hsize = _heap_push(HK, HI, Q, hsize, tk, k)
             fresh = False
         te = HK[0]
@@ -170,7 +205,10 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
         j = -1
         _advance(P, i, t, 0.0, D, False)
         m = I[i, PART]
-        if m >= 0:
+        if m >= n:
+            _ls_bounce(P, i, OS, m - n, gamma, D)
+            I[i, CNT] += 1
+        elif m >= 0:
             if I[m, CNT] == I[i, PCNT]:
                 j = m
                 _advance(P, j, t, 0.0, D, False)
@@ -211,7 +249,8 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
             continue
         for p in (i, j):
             if p >= 0:
-                tk = _ls_next(P, I, cells, GB, GS, edges, p, t, nc, L, periodic, gamma, D)
+                tk = _ls_next(P, I, cells, GB, GS, edges, p, t, nc, L, periodic, gamma, D, OH, OS,
+                              og, oncg)
                 hsize = _heap_remove(HK, HI, Q, hsize, Q[p, HP])
                 hsize = _heap_push(HK, HI, Q, hsize, tk, p)
     for k in range(n):
@@ -221,7 +260,7 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
 
 def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
          periodic: bool = False, rate: float = GROWTH_RATE,
-         max_events: int | None = None) -> np.ndarray:
+         max_events: int | None = None, fixed: tuple | None = None) -> np.ndarray:
     """Lubachevsky-Stillinger growth (Lubachevsky & Stillinger, J. Stat. Phys. 60, 561, 1990).
 
     Points scattered at random grow into spheres of ``radii`` while moving
@@ -230,7 +269,8 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     non-overlapping state, up to the liquid's limit (2D 0.70, 3D 0.50; a
     lattice goes further). The event budget (default 4000 N + 10^6) bounds
     the effort; a box that jams first raises :class:`PlacementError`.
-    Deterministic from ``rng``.
+    Deterministic from ``rng``. ``fixed``: (centres (K, D), radii (K,)) of spheres already in
+    the box, which the particles grow around (their points start outside them).
     """
     radii = np.ascontiguousarray(radii, dtype=np.float64)
     n = radii.size
@@ -242,10 +282,15 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     # units of the largest diameter; velocities of unit mean square
     Ls = length / sigma
     R = radii / sigma
+    nc = max(1, int(math.floor(Ls / (1.0 + 1e-9))))
+    spheres = obstacles.empty(dim)
     x = rng.random((n, dim)) * Ls
+    if fixed is not None and len(fixed[1]):
+        spheres = obstacles.table(np.asarray(fixed[0]) / sigma, np.asarray(fixed[1]) / sigma, Ls,
+                                  periodic, float(R.max()), nc)
+        _outside(spheres, x, Ls, rng)
     v = rng.standard_normal((n, dim))
     v -= v.mean(axis=0)
-    nc = max(1, int(math.floor(Ls / (1.0 + 1e-9))))
     P = np.zeros((n, P_WIDTH))
     P[:, :dim] = x
     P[:, PV:PV + dim] = v
@@ -260,7 +305,8 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     while True:
         status, f, events = _ls_grow(P, I, cells, *_gather_buffers(cells, dim), edges, HK, HI, Q,
                                      C, dim, float(Ls), bool(periodic), float(rate), 1.0, nc,
-                                     int(budget), int(2 * n))
+                                     int(budget), int(2 * n), spheres.heads, spheres.spheres,
+                                     spheres.g, spheres.ncg)
         if status != CELL_FULL:
             break
         cells = wider(cells)  # a crossing into a full cell: room, and on
@@ -276,3 +322,16 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     else:
         np.clip(x, radii[:, None], length - radii[:, None], out=x)
     return x
+
+
+def _outside(spheres: "obstacles.Table", x: np.ndarray, length: float, rng: np.random.Generator,
+             tries: int = 1000) -> None:
+    """Draw again, uniformly in the box, the points of ``x`` inside a fixed sphere, until none is
+    (the spheres fill at most the densest random packing: a few draws)."""
+    for _ in range(tries):
+        inside = np.flatnonzero(obstacles.touching(spheres, x, 1e-9))
+        if not inside.size:
+            return
+        x[inside] = rng.random((inside.size, x.shape[1])) * length
+    raise PlacementError("the fixed particles leave no room for the others; use --method lattice, "
+                         "lower --n or raise --length")

@@ -10,6 +10,7 @@ import numpy as np
 from gaz_cli.engine.layout import C0, DONE, GATHER_SLOTS, I_WIDTH
 from gaz_cli.engine.neighbours.cells import _assign_cells, _gather_cells
 from gaz_cli.engine.sizing import _cell_width
+from gaz_cli.placement import mixture
 from gaz_cli.numba_config import njit
 
 
@@ -53,7 +54,7 @@ def _cell_table(P, I, nc: int, a: float, dim: int) -> np.ndarray:
 def first_overlap(positions: np.ndarray, radii: np.ndarray, length: float,
                   periodic: bool = False) -> int:
     """Index of a particle that overlaps another (beyond 1e-9 relative), or -1; O(N) (1D: the
-    rods in line order, O(N log N))."""
+    rods in line order, O(N log N); sizes far apart: :func:`.mixture.first_overlap`)."""
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     radii = np.ascontiguousarray(radii, dtype=np.float64)
     n, dim = positions.shape
@@ -66,6 +67,9 @@ def first_overlap(positions: np.ndarray, radii: np.ndarray, length: float,
         gap = np.diff(x, append=x[0] + length if periodic else np.inf)
         bad = np.flatnonzero(gap < (r + np.roll(r, -1)) * (1.0 - 1e-9))
         return int(order[bad[0]]) if bad.size else -1
+    small = mixture.split(dim, radii, length)
+    if small is not None:  # sizes far apart: class by class, not on cells sized by the largest
+        return mixture.first_overlap(positions, radii, length, periodic, small, first_overlap)
     rmax = float(np.max(radii))
     by_size = int(length / (2.0 * rmax)) if rmax > 0 else n
     nc = max(1, min(by_size, int(math.ceil(n ** (1.0 / dim)))))

@@ -50,9 +50,12 @@ def rapid_1d(radii: np.ndarray, length: float, rng: np.random.Generator,
 
 
 def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt,
-         max_tries, cell, x):
+         max_tries, cell, x, oh, osp, oa, onc, og, oncg):
     """Place particles ``placed..N-1`` from candidate points ``cand`` (M, D) in [0,1)^D.
 
+    ``oh``, ``osp``, ``oa``, ``onc``, ``og``, ``oncg``: a table of fixed spheres a
+    candidate must not overlap either (:class:`.obstacles.Table`; no sphere: none, and the
+    table is not looked at, so that the interpreted kernel calls no compiled code).
     ``cell`` (3,) int64 and ``x`` (D,) are scratch (a kernel that allocates
     makes Numba import its array-allocation modules at every start, ~10 ms).
     Its cells are linked lists of its own (``head``, ``nxt``), not the engine's table: this
@@ -113,6 +116,10 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
                     break
             if not ok:
                 break
+        if ok and osp.shape[0] > 0:
+            key = _key(x[0], x[1] if dim > 1 else 0.0, x[2] if dim > 2 else 0.0, oa, onc, og, oncg, dim)
+            ok = not _touches(oh, osp, key, x[0], x[1] if dim > 1 else 0.0,
+                              x[2] if dim > 2 else 0.0, r, dim)
         if ok:
             for d in range(dim):
                 pos[placed, d] = x[d]
@@ -128,17 +135,43 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
     return placed, c, 0
 
 
+def _no_spheres():
+    """An empty table of fixed spheres (:class:`.obstacles.Table`'s fields), built without
+    importing Numba."""
+    return np.zeros(2, dtype=np.int64), np.zeros((0, 4)), 1.0, 1, 1, 1
+
+
+def _key(*args):
+    """:func:`.obstacles._key` (the interpreted kernel looks at a table only when it holds
+    spheres, which a run placed interpreted never has; the compiled one takes the compiled
+    function: :func:`_compiled_rsa`)."""
+    from gaz_cli.placement.obstacles import _key as key
+
+    return key(*args)
+
+
+def _touches(*args):
+    """:func:`.obstacles._touches` (see :func:`_key`)."""
+    from gaz_cli.placement.obstacles import _touches as touches
+
+    return touches(*args)
+
+
 @functools.cache
 def _compiled_rsa():
-    """:func:`_rsa` compiled (Numba's disk cache: loaded, not compiled, after the first run)."""
+    """:func:`_rsa` compiled (Numba's disk cache: loaded, not compiled, after the first run),
+    its table lookups the compiled ones of :mod:`.obstacles` (Numba reads a kernel's globals
+    when it compiles it)."""
     from gaz_cli.numba_config import njit
+    from gaz_cli.placement import obstacles
 
+    globals().update(_key=obstacles._key, _touches=obstacles._touches)
     return njit(_rsa)
 
 
 def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
               periodic: bool = False, max_tries: int = 100_000,
-              budget: int | None = None) -> np.ndarray:
+              budget: int | None = None, fixed: "Table | None" = None) -> np.ndarray:
     """Random sequential addition on a cell grid. O(N) expected below jamming.
 
     The largest particles go first (a stable sort of the radii, so that one size keeps
@@ -148,16 +181,20 @@ def rejection(dim: int, radii: np.ndarray, length: float, rng: np.random.Generat
     Gives up with :class:`PlacementError` when one particle is refused
     ``max_tries`` times in a row or ``budget`` candidates (default 1000 N +
     10^6) are spent: the exam's Q7 situation ends with an error, never a hang.
+    ``fixed``: spheres already in the box (:func:`.obstacles.table`, for radii up to these
+    particles' largest), which no particle may overlap either.
     """
     order = np.argsort(-np.asarray(radii, dtype=np.float64), kind="stable")
-    placed_sorted = _rejection_in_order(dim, radii[order], length, rng, periodic, max_tries, budget)
+    placed_sorted = _rejection_in_order(dim, radii[order], length, rng, periodic, max_tries, budget,
+                                        fixed)
     pos = np.empty_like(placed_sorted)
     pos[order] = placed_sorted
     return pos
 
 
 def _rejection_in_order(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
-                        periodic: bool, max_tries: int, budget: int | None) -> np.ndarray:
+                        periodic: bool, max_tries: int, budget: int | None,
+                        fixed: "Table | None" = None) -> np.ndarray:
     """:func:`rejection`'s addition, the particles taken in the order given."""
     n = radii.size
     rmax = float(radii.max())
@@ -174,13 +211,16 @@ def _rejection_in_order(dim: int, radii: np.ndarray, length: float, rng: np.rand
     placed, spent = 0, 0
     batch = max(1024, min(4 * n, 1 << 20))
     # dilute and small: interpreted (no compiled code to load); else, or if it is slow going, compiled
-    small = n <= INTERPRETED_MAX and packing_fraction(dim, radii, length) <= INTERPRETED_PACKING
+    small = (n <= INTERPRETED_MAX and packing_fraction(dim, radii, length) <= INTERPRETED_PACKING
+             and fixed is None)
     rsa = _rsa if small else _compiled_rsa()
+    if fixed is None:
+        fixed = _no_spheres()
     while placed < n:
         cand = rng.random((batch, dim))
         placed, used, status = rsa(cand, radii, float(length), bool(periodic), pos, placed,
                                     float(cell_size), ncell, head, nxt, max_tries,
-                                    np.zeros(3, dtype=np.int64), np.empty(dim))
+                                    np.zeros(3, dtype=np.int64), np.empty(dim), *fixed)
         spent += used
         if status == 2 or spent >= budget:
             eta = packing_fraction(dim, radii, length)
