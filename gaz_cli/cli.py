@@ -200,7 +200,9 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
               help="What goes to the database: nothing but the summary, wall bounces (REBOND), "
                    "or also particle collisions (table CHOC).  [default: bounces]")
 @click.option("--method", "placement", type=click.Choice(["auto", "rejection", "rapid", "lattice", "grow"]),
-              default=None, help="Placement method (see gaz place --help).  [default: auto]")
+              default=None, help="Placement method (see gaz place --help); a mixture of sizes far "
+                                 "apart places its large particles first, then the small ones "
+                                 "among them.  [default: auto]")
 @click.option("--dt", type=float, default=None, help="Time step, s (--engine step).")
 @click.option("--drag", type=float, default=None, help="Linear friction gamma, 1/s (--engine step).  [default: 0]")
 @click.option("--pair-gravity", type=float, default=None,
