@@ -19,7 +19,7 @@ from gaz_cli.engine import driver, sizing
 from gaz_cli.engine.interactions import pair_reach
 from gaz_cli.engine.neighbours import ball, classes
 from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, initial_state
+from gaz_cli.scene import Scene, State, initial_state
 from gaz_cli.species import Species
 
 from test_event_engine import HORIZON, assert_inside, event_sequence, time_tolerances
@@ -31,6 +31,9 @@ SMALL = Species("small", 1.0, 1.0)
 MIXTURES = {
     (2, "walls"): (1000, 10, 20.0, 300.0, 40.0),
     (3, "periodic"): (4000, 40, 20.0, 200.0, 40.0),
+    # a box of 3.5 large reaches: three coarse cells an axis, whose scans carry image codes
+    (2, "periodic, 3 coarse"): (200, 6, 10.0, 70.0, 40.0),
+    (3, "periodic, 3 coarse"): (2000, 12, 10.0, 70.0, 40.0),
 }
 
 
@@ -38,7 +41,7 @@ def mixture(dim, boundary, seed=1, classes_mode="auto", duration=None):
     ns, nl, rl, length, dur = MIXTURES[(dim, boundary)]
     comps = ((Species("large", 1.0, rl), nl), (SMALL, ns))  # large first: placed first
     return Scene(dim=dim, length=length, duration=dur if duration is None else duration,
-                 components=comps, temperature=1.0 / K_B, seed=seed, boundary=boundary,
+                 components=comps, temperature=1.0 / K_B, seed=seed, boundary=boundary.split(",")[0],
                  extras={"classes": classes_mode})
 
 
@@ -180,7 +183,7 @@ def test_size_classes_miss_no_collision_and_conserve(dim, boundary):
         m = scene.masses()
         e0 = state.kinetic_energy(m)
         assert abs(stats.final.kinetic_energy(m) - e0) <= 1e-12 * e0
-        if boundary == "periodic":
+        if scene.boundary == "periodic":
             p0 = (m[:, None] * state.velocities).sum(0)
             p1 = (m[:, None] * stats.final.velocities).sum(0)
             assert np.abs(p1 - p0).max() <= 1e-12 * (m[:, None] * np.abs(state.velocities)).sum()
@@ -206,6 +209,37 @@ def test_the_counts_of_large_particles_near_follow_their_crossings(dim, boundary
     kept = sim.CV.copy()
     mx = sim.mix
     ball._cover_fill(sim.P, sim.I, sim.CV, mx.nc, mx.bcl, mx.rint, mx.rcut, dim,
-                        boundary == "periodic")
+                        scene.boundary == "periodic")
     assert kept.sum() > 0
     np.testing.assert_array_equal(kept, sim.CV)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_three_coarse_cells_take_the_blocks_image_not_the_nearest(dim):
+    """A periodic box three coarse cells wide (30, cells of 10; large spheres of radius 4.5):
+    large ones at x = 2 and x = 18, closing in at speed 2, meet at t = 3.5 without leaving
+    their coarse cells. From either, the other is 16 away in the scan's block and 14 away in
+    the nearest image (the other way, parting): a scan that took the nearest image would
+    miss the collision (they would pass through each other). 100 small ones rest far off."""
+    big, small = Species("large", 1.0, 4.5), Species("small", 1.0, 0.45)
+    scene = Scene(dim=dim, length=30.0, duration=5.0, components=((big, 2), (small, 100)),
+                  temperature=1.0 / K_B, seed=1, boundary="periodic")
+    x = np.zeros((102, dim))
+    x[0, 0], x[1, 0] = 2.0, 18.0
+    x[:2, 1:] = 15.0
+    g = np.arange(100)
+    if dim == 2:  # a band of 20 x 5 at rest, y 22..28
+        x[2:, 0], x[2:, 1] = 1.5 * (g % 20), 22.0 + 1.5 * (g // 20)
+    else:  # a layer of 10 x 10 at rest, z = 25
+        x[2:, 0], x[2:, 1], x[2:, 2] = 3.0 * (g % 10), 3.0 * (g // 10), 25.0
+    v = np.zeros((102, dim))
+    v[0, 0], v[1, 0] = 1.0, -1.0
+    state = State(x, v, np.r_[0, 0, np.ones(100, dtype=int)])
+    rec = MemoryRecorder(collisions=True)
+    stats = engine.run(scene, state, rec)
+    assert stats.extras["size_classes"] and stats.extras["coarse_cells_per_axis"] == 3
+    c = rec.collisions()
+    assert len(c["t"]) >= 1 and {int(c["i"][0]), int(c["j"][0])} == {0, 1}
+    assert c["t"][0] == pytest.approx(3.5, rel=1e-12)
+    assert stats.extras["overlapping_collisions"] == 0
+    assert min_gap(scene, stats.final.positions) > -1e-9

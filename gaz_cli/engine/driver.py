@@ -241,8 +241,9 @@ class _Simulation(Rows):
         self.PP = pair_params(scene)
         use_nl, self.dilute, self.mix, nc, h, self.wide = _search(scene, radii, self.PP)
         self.nc, self.use_nl, self.h = nc, use_nl, h
-        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, periodic and nc < 4,
-                          self.mix is not None, self.dilute, self.wide)
+        images = periodic and (nc < 4 or (self.mix is not None and self.mix.ncl < 4))
+        self.kern = build(D, periodic, g > 0.0, pairs, use_nl, images, self.mix is not None,
+                          self.dilute, self.wide)
         self.edges = np.arange(nc + 1) * (L / nc)
         self.edges[-1] = L
         self.restart_every = RESTART_EVERY * n if (pairs and D > 1 and n >= RESTART_FROM_N) else 0

@@ -110,8 +110,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
     along axis D-1; PAIRS some radius > 0; NL neighbour lists (2D/3D,
     PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
-    four cells an axis (cell scans carry each cell's image shift instead of
-    taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
+    four cells an axis, or with MIX of three coarse cells (cell scans carry each cell's
+    image shift instead of taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
     the coarse table ``T.CL`` beside the fine one, the counts ``T.CV``); DIL a dilute gas
     in a box with walls, no gravity: every particle scans all the others
     (:mod:`.neighbours.dilute`, one cell, no crossings); WIDE the same gas in wide cells
@@ -124,7 +124,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     DIL = bool(DIL and PAIRS and D > 1 and not NL and not PER and not GRAV)
     CELLS = bool(PAIRS and D > 1 and not NL and not DIL)  # cell lists with crossing events
     WIDE = bool(WIDE and CELLS and not PER and not GRAV)
-    MIX = bool(MIX and CELLS and not IMG and not WIDE)
+    MIX = bool(MIX and CELLS and not WIDE)
     SOURCES = _sources_digest()
 
     @njit
@@ -338,7 +338,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     if MIX:
                         ng = _gather_classes(P, I, cells, CL, CV, GB, GS, base, p, full, xd,
                                              xup, moved, lo0, hi0, lo1, hi1, lo2, hi2, nc, ncl,
-                                             fcl, bcl, rint, rcut, D, PER)
+                                             fcl, bcl, rint, rcut, D, PER, IMG)
                     else:
                         ng = _gather_cells(P, I, cells, GB, GS, base, I[p, C0], I[p, C0 + 1],
                                            I[p, C0 + 2], lo0, hi0, lo1, hi1, lo2, hi2, nc, D,

@@ -81,16 +81,33 @@ def _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER):
 
 
 @_inline
-def _visit(cells, GB, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, COUNT, delta):
+def _image(u, n):
+    """The image of an unwrapped cell coordinate u (one wrap at most) of a periodic grid of n
+    cells an axis: 0, 1, 2 for a shift of -L, 0, +L (the code of :func:`.cells._gather_cells`)."""
+    if u < 0:
+        return 0
+    if u >= n:
+        return 2
+    return 1
+
+
+@_inline
+def _visit(cells, GB, GS, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, IMG, COUNT, delta):
     """The fine cell c + o, if there is one: CV[cell] += delta (COUNT), or its particles
-    appended to GB at w. The new end of GB."""
+    appended to GB at w (IMG: with the image code of the cell in GS). The new end of GB."""
     cell, there = _cell_at(c0, c1, c2, o0, o1, o2, nc, D, PER)
     if there:
         if COUNT:
             CV[cell] += delta
         else:
+            code = 0
+            if IMG:
+                code = 9 * _image(c0 + o0, nc) + 3 * _image(c1 + o1, nc)
+                code += _image(c2 + o2, nc) if D > 2 else 1
             for s in range(1, cells[cell, 0] + 1):
                 GB[w] = cells[cell, s]
+                if IMG:
+                    GS[w] = code
                 w += 1
     return w
 
@@ -106,10 +123,11 @@ def _column(d, p, q, od):
 
 
 @_inline
-def _ball_walk(cells, GB, w, CV, c0, c1, c2, whole, d, up, nc, bcl, rint, D, PER, COUNT):
+def _ball_walk(cells, GB, GS, w, CV, c0, c1, c2, whole, d, up, nc, bcl, rint, D, PER, IMG, COUNT):
     """Walk a large particle's ball around fine cell c, column by column: the whole ball
     (``whole``), or its front after a move into c along axis d (up: from below). Each cell
-    walked has its particles appended to GB at w, or (COUNT) one more large particle counted
+    walked has its particles appended to GB at w (IMG: their image codes in GS, for a
+    periodic coarse grid of three cells an axis), or (COUNT) one more large particle counted
     in CV, and the front's walk then counts one fewer in the ball's back (with COUNT, cells and
     GB are not read). The new end of GB.
 
@@ -131,13 +149,13 @@ def _ball_walk(cells, GB, w, CV, c0, c1, c2, whole, d, up, nc, bcl, rint, D, PER
             if whole:
                 for od in range(-m, m + 1):
                     o0, o1, o2 = _column(d, p, q, od)
-                    w = _visit(cells, GB, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, COUNT, 1)
+                    w = _visit(cells, GB, GS, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, IMG, COUNT, 1)
                 continue
             o0, o1, o2 = _column(d, p, q, sgn * m)
-            w = _visit(cells, GB, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, COUNT, 1)
+            w = _visit(cells, GB, GS, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, IMG, COUNT, 1)
             if COUNT:
                 o0, o1, o2 = _column(d, p, q, -sgn * (m + 1))
-                w = _visit(cells, GB, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, COUNT, -1)
+                w = _visit(cells, GB, GS, w, CV, c0, c1, c2, o0, o1, o2, nc, D, PER, IMG, COUNT, -1)
     return w
 
 
@@ -148,5 +166,5 @@ def _cover_fill(P, I, CV, nc, bcl, rint, rcut, D, PER):
     CV[:] = 0
     for k in range(P.shape[0]):
         if P[k, PR] > rcut:
-            _ball_walk(CV, CV, 0, CV, I[k, C0], I[k, C0 + 1], I[k, C0 + 2] if D > 2 else 0, True,
-                       0, True, nc, bcl, rint, D, PER, True)
+            _ball_walk(CV, CV, CV, 0, CV, I[k, C0], I[k, C0 + 1], I[k, C0 + 2] if D > 2 else 0, True,
+                       0, True, nc, bcl, rint, D, PER, False, True)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import C0, CELL, PR
-from gaz_cli.engine.neighbours.ball import _ball_walk, _far
+from gaz_cli.engine.neighbours.ball import _ball_walk, _far, _image
 from gaz_cli.engine.neighbours.cells import _face_beyond, _gather_cells, _move, _stride
 
 
@@ -38,10 +38,12 @@ def _coarse_span(c, lo, hi, nc, f, PER):
 
 
 @_inline
-def _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, rint, D, PER):
+def _gather_large_near(I, CL, GB, GS, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, rint, D, PER,
+                       IMG):
     """A small particle in fine cell c: the large particles adjacent to it (full), or those
     that became adjacent when it crossed into c along axis d (up: from below), appended to
-    GB at w; the new end. Looks in the coarse cells holding the fine ones within bcl."""
+    GB at w (IMG: their image codes in GS); the new end. Looks in the coarse cells holding
+    the fine ones within bcl."""
     lo0, hi0, lo1, hi1, lo2, hi2 = -bcl, bcl, -bcl, bcl, -bcl, bcl
     if not full:
         # a large particle that just became adjacent lies ahead along d
@@ -64,6 +66,9 @@ def _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, r
             for q2 in range(a2, b2 + 1):
                 n2 = q2 % ncl if PER else q2
                 cell = (n0 * ncl + n1) * ncl + n2 if D > 2 else n0 * ncl + n1
+                code = 0
+                if IMG:
+                    code = 9 * _image(q0, ncl) + 3 * _image(q1, ncl) + (_image(q2, ncl) if D > 2 else 1)
                 for s in range(1, CL[cell, 0] + 1):
                     m = CL[cell, s]
                     e0 = _apart(I[m, C0] - c0, nc, PER)
@@ -83,13 +88,15 @@ def _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, r
                         if so <= rint:
                             continue
                     GB[w] = m
+                    if IMG:
+                        GS[w] = code
                     w += 1
     return w
 
 
 @_inline
 def _gather_classes(P, I, cells, CL, CV, GB, GS, base, p, full, d, up, moved, lo0, hi0, lo1,
-                    hi1, lo2, hi2, nc, ncl, f, bcl, rint, rcut, D, PER):
+                    hi1, lo2, hi2, nc, ncl, f, bcl, rint, rcut, D, PER, IMG):
     """Particle p's partners to scan, gathered into GB[base:]; their number.
 
     A full scan (after a collision, a bounce, a stale prediction) or, after p crossed into
@@ -99,22 +106,25 @@ def _gather_classes(P, I, cells, CL, CV, GB, GS, base, p, full, d, up, moved, lo
     become adjacent, looked up only where some large particle is near (CV). Large p: the
     large particles of that coarse block (at a crossing, only
     when p changed coarse cell: ``moved``), the small ones of its ball or of the ball's front.
+    IMG (a periodic coarse grid of three cells an axis, where the block's image of a particle
+    need not be the nearest): every particle gathered with its image code in GS.
     """
     c0 = I[p, C0]
     c1 = I[p, C0 + 1]
     c2 = I[p, C0 + 2] if D > 2 else 0
     if P[p, PR] <= rcut:
         w = base + _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1,
-                                 lo2, hi2, nc, D, PER, False, False)
+                                 lo2, hi2, nc, D, PER, IMG, False)
         if CV[I[p, CELL]] > 0:
-            w = _gather_large_near(I, CL, GB, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl, rint,
-                                   D, PER)
+            w = _gather_large_near(I, CL, GB, GS, w, c0, c1, c2, full, d, up, nc, ncl, f, bcl,
+                                   rint, D, PER, IMG)
     else:
         w = base
         if full or moved:
             w += _gather_cells(P, I, CL, GB, GS, base, c0 // f, c1 // f, c2 // f, lo0, hi0, lo1,
-                               hi1, lo2, hi2, ncl, D, PER, False, False)
-        w = _ball_walk(cells, GB, w, CV, c0, c1, c2, full, d, up, nc, bcl, rint, D, PER, False)
+                               hi1, lo2, hi2, ncl, D, PER, IMG, False)
+        w = _ball_walk(cells, GB, GS, w, CV, c0, c1, c2, full, d, up, nc, bcl, rint, D, PER, IMG,
+                       False)
     return w - base
 
 
@@ -156,6 +166,6 @@ def _cross_face_classes(P, I, cells, CL, CV, edges, k, d, up, nc, f, ncl, bcl, r
             moved = True
         I[k, C0 + d] = cn
         if P[k, PR] > rcut:
-            _ball_walk(cells, CV, 0, CV, I[k, C0], I[k, C0 + 1], I[k, C0 + 2] if D > 2 else 0,
-                       False, d, up, nc, bcl, rint, D, PER, True)
+            _ball_walk(cells, CV, CV, 0, CV, I[k, C0], I[k, C0 + 1], I[k, C0 + 2] if D > 2 else 0,
+                       False, d, up, nc, bcl, rint, D, PER, False, True)
     return moved
