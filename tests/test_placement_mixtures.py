@@ -172,3 +172,21 @@ def test_two_steps_that_jam_fall_back_to_one_under_auto_only(monkeypatch):
     assert_valid(x, radii, length, True)
     with pytest.raises(PlacementError, match="jammed"):
         placement.place(3, radii, length, np.random.default_rng(1), "grow", True)
+
+
+@pytest.mark.parametrize("dim, packing", [(3, 0.54), (2, 0.74)])
+def test_a_mixture_denser_than_one_random_step_reaches_is_placed_in_two(dim, packing):
+    """Beyond the densest random state of one size (3D 0.50, 2D 0.70) a 1:10 mixture is still
+    placed at random: the large ones grown alone to ~0.49 (2D ~0.67), the small ones grown in
+    the room they leave (it was refused: a lattice of 20-diameter sites holds 32 of 4040)."""
+    radii, length = _mixture(dim, 3000, 30, 10.0, packing)
+    x = placement.place(dim, radii, length, np.random.default_rng(3), "auto", True)
+    assert_valid(x, radii, length, True)
+    one_size = np.full(1000, 1.0)
+    with pytest.raises(PlacementError, match="densest random state"):
+        placement.place(dim, one_size, _box(dim, one_size, packing), np.random.default_rng(3), "grow")
+
+
+def _box(dim, radii, packing):
+    unit = {2: math.pi, 3: 4.0 * math.pi / 3.0}[dim]
+    return (unit * float(np.sum(radii ** dim)) / packing) ** (1.0 / dim)
