@@ -18,9 +18,11 @@ auto       rapid in 1D; rejection while the packing is comfortably below the
            random-sequential-addition jamming limit; grow up to the random
            limit; lattice above it.
 
-A mixture of sizes far apart (2D/3D, radii at least 8 times apart: :mod:`.mixture`) is
-placed in two steps, by rejection or growth: the large particles alone, then the small ones
-around them, held fixed, on a grid sized for the small ones.
+A mixture of sizes far apart (2D/3D, radii at least 8 times apart, or 3 when the large
+ones are not dense: :mod:`.mixture`) is placed in two steps, by rejection or growth: the
+large particles alone, then the small ones around them, held fixed, on a grid sized for the
+small ones; ``auto`` (and ``grow``) then also go past RANDOM_LIMIT when each step stays
+within it.
 
 Beyond what a method can reach the answer is an error naming the way out,
 after a bounded effort, never a hang.
