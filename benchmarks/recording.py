@@ -43,6 +43,12 @@ the engine's run time. Measured 2026-11-23 at load 3.5-4 on 2 cores (no core fre
 gaz_cli.staging's docstring. ``--buffer-rows N``: an experiment, the event engine's
 chunk of bounces (gaz_cli.engine.driver.BUFFER_ROWS) set to N.
 
+``--insert`` also times, in wall seconds, the COMMIT and close of those rows (WAL, the
+writer's synchronous FULL, and OFF for comparison): what the user waits for after the
+engine however early the rows go in. Measured 2026-11-24 (``/tmp/s27/commit.py``, load
+0.3): 24 ms with FULL (commit 21, close 3), 11 ms with OFF (no fsync), against a 75 ms
+engine.
+
 ``--insert``: only :func:`gaz_cli.staging.insert_rows` of the example's REBOND rows (the
 engine's chunks of 65536) into a new file, in one transaction, CPU per round (run it with PYTHONPATH at an older tree, alternating, to compare commits), and
 beside it SQLite's own cost for the same rows: one ``INSERT ... SELECT`` from a TEMP copy
@@ -292,6 +298,30 @@ def insert_only(rounds: int) -> None:
             con.execute("COMMIT")
             plain.append(time.process_time() - c)
             con.close()
+    # what no overlap with the engine can hide: the COMMIT (its WAL frames and, past
+    # wal_autocheckpoint, the checkpoint into the file) and the close (the last checkpoint),
+    # wall seconds, with the writer's settings (synchronous FULL, SQLite's default) and,
+    # for comparison only, with no fsync at all (synchronous OFF, unsafe: not used)
+    tail = {"FULL": [], "OFF": []}
+    with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:
+        for r in range(rounds):
+            for sync in tail:
+                con = sqlite3.connect(os.path.join(tmp, f"c{r}{sync}.db"), isolation_level=None)
+                con.execute("PRAGMA journal_mode = WAL")
+                con.execute(f"PRAGMA synchronous = {sync}")
+                for statement in sqlite_writer.layout().statements:
+                    con.execute(statement)
+                con.execute("BEGIN IMMEDIATE")
+                con.execute("INSERT INTO simulation (si_num, si_deb, si_dur, si_dim, si_n, si_l) "
+                            "VALUES (1, '2026-01-01 00:00:00', 1e-8, 3, 1000, 3.4e-8)")
+                for start in range(0, k, 1 << 16):
+                    part = slice(start, start + (1 << 16))
+                    staging.insert_rows(con, "rebond", names, [a[part] for a in columns],
+                                        {"si_num": 1, "pa_num": 1})
+                w = time.perf_counter()
+                con.execute("COMMIT")
+                con.close()
+                tail[sync].append(time.perf_counter() - w)
     print(f"insert_rows of {k:,} REBOND rows: median {statistics.median(cpu) * 1e3:.1f} ms CPU "
           f"({statistics.median(cpu) / k * 1e6:.2f} us a row); rounds {[round(x * 1e3) for x in cpu]} ms")
     print(f"SQLite alone (INSERT ... SELECT of the same rows from a TEMP copy, no binding): median "
@@ -300,6 +330,9 @@ def insert_only(rounds: int) -> None:
     print(f"SQLite alone into a plain table (rowid, no key, no journal): median "
           f"{statistics.median(plain) * 1e3:.1f} ms CPU ({statistics.median(plain) / k * 1e6:.2f} us a "
           f"row); rounds {[round(x * 1e3) for x in plain]} ms")
+    for sync, walls in tail.items():
+        print(f"COMMIT + close of those rows (WAL, synchronous {sync}{', unsafe' if sync == 'OFF' else ''}): "
+              f"median {statistics.median(walls) * 1e3:.1f} ms wall; rounds {[round(x * 1e3, 1) for x in walls]} ms")
 
 
 def main():
