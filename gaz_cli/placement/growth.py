@@ -36,8 +36,8 @@ def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D, OH, OS
     engine's contact root with the sum of radii growing (interactions._contact_dt): a pair
     touching and closing in collides now, one parting faster than it grows is left alone.
     The fixed spheres of k's cell in the table OH, OS (:class:`.obstacles.Table` on these
-    cells, og of them an axis to its cells, oncg an axis) likewise, at their full radius
-    (partner n + the entry).
+    cells, og of them an axis to its cells, oncg an axis; None: none) likewise, at their
+    full radius (partner n + the entry).
     """
     f = gamma * t
     rk = P[k, PR]
@@ -92,7 +92,7 @@ def _ls_next(P, I, cells, GB, GS, edges, k, t, nc, L, periodic, gamma, D, OH, OS
         if tm < best:
             best = tm
             part = m
-    if OS.shape[0] > 0:
+    if OS is not None:  # (None: no fixed sphere; Numba compiles this block out)
         cell = I[k, C0] // og
         if D > 1:
             cell = cell * oncg + I[k, C0 + 1] // og
@@ -206,7 +206,8 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
         _advance(P, i, t, 0.0, D, False)
         m = I[i, PART]
         if m >= n:
-            _ls_bounce(P, i, OS, m - n, gamma, D)
+            if OS is not None:
+                _ls_bounce(P, i, OS, m - n, gamma, D)
             I[i, CNT] += 1
         elif m >= 0:
             if I[m, CNT] == I[i, PCNT]:
@@ -283,12 +284,14 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     Ls = length / sigma
     R = radii / sigma
     nc = max(1, int(math.floor(Ls / (1.0 + 1e-9))))
-    spheres = obstacles.empty(dim)
     x = rng.random((n, dim)) * Ls
+    heads = spheres = None  # no fixed sphere: the kernels' compiled code has no look for one
+    og = oncg = 1
     if fixed is not None and len(fixed[1]):
-        spheres = obstacles.table(np.asarray(fixed[0]) / sigma, np.asarray(fixed[1]) / sigma, Ls,
-                                  periodic, float(R.max()), nc)
-        _outside(spheres, x, Ls, rng)
+        table = obstacles.table(np.asarray(fixed[0]) / sigma, np.asarray(fixed[1]) / sigma, Ls,
+                                periodic, float(R.max()), nc)
+        _outside(table, x, Ls, rng)
+        heads, spheres, og, oncg = table.heads, table.spheres, table.g, table.ncg
     v = rng.standard_normal((n, dim))
     v -= v.mean(axis=0)
     P = np.zeros((n, P_WIDTH))
@@ -305,8 +308,7 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     while True:
         status, f, events = _ls_grow(P, I, cells, *_gather_buffers(cells, dim), edges, HK, HI, Q,
                                      C, dim, float(Ls), bool(periodic), float(rate), 1.0, nc,
-                                     int(budget), int(2 * n), spheres.heads, spheres.spheres,
-                                     spheres.g, spheres.ncg)
+                                     int(budget), int(2 * n), heads, spheres, og, oncg)
         if status != CELL_FULL:
             break
         cells = wider(cells)  # a crossing into a full cell: room, and on

@@ -63,11 +63,6 @@ def table(centres: np.ndarray, radii: np.ndarray, length: float, periodic: bool,
     return Table(heads, spheres, float(a), int(nc), int(g), int(ncg))
 
 
-def empty(dim: int) -> Table:
-    """A table without spheres (what the kernels take when nothing is held fixed)."""
-    return Table(np.zeros(2, dtype=np.int64), np.zeros((0, 4)), 1.0, 1, 1, 1)
-
-
 def _estimate(radii, reach, w, dim) -> float:
     """An upper bound on the entries for table cells of width w (every image ignored)."""
     return float(np.sum((np.floor(2.0 * (radii + reach) / w) + 2.0) ** dim))

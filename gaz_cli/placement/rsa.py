@@ -54,8 +54,8 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
     """Place particles ``placed..N-1`` from candidate points ``cand`` (M, D) in [0,1)^D.
 
     ``oh``, ``osp``, ``oa``, ``onc``, ``og``, ``oncg``: a table of fixed spheres a
-    candidate must not overlap either (:class:`.obstacles.Table`; no sphere: none, and the
-    table is not looked at, so that the interpreted kernel calls no compiled code).
+    candidate must not overlap either (:class:`.obstacles.Table`; ``osp`` None: none, and
+    the interpreted kernel calls no compiled code).
     ``cell`` (3,) int64 and ``x`` (D,) are scratch (a kernel that allocates
     makes Numba import its array-allocation modules at every start, ~10 ms).
     Its cells are linked lists of its own (``head``, ``nxt``), not the engine's table: this
@@ -116,10 +116,12 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
                     break
             if not ok:
                 break
-        if ok and osp.shape[0] > 0:
-            key = _key(x[0], x[1] if dim > 1 else 0.0, x[2] if dim > 2 else 0.0, oa, onc, og, oncg, dim)
-            ok = not _touches(oh, osp, key, x[0], x[1] if dim > 1 else 0.0,
-                              x[2] if dim > 2 else 0.0, r, dim)
+        if osp is not None:  # (None: no fixed sphere; Numba compiles this block out)
+            if ok:
+                key = _key(x[0], x[1] if dim > 1 else 0.0, x[2] if dim > 2 else 0.0, oa, onc, og,
+                           oncg, dim)
+                ok = not _touches(oh, osp, key, x[0], x[1] if dim > 1 else 0.0,
+                                  x[2] if dim > 2 else 0.0, r, dim)
         if ok:
             for d in range(dim):
                 pos[placed, d] = x[d]
@@ -136,14 +138,13 @@ def _rsa(cand, radii, length, periodic, pos, placed, cell_size, ncell, head, nxt
 
 
 def _no_spheres():
-    """An empty table of fixed spheres (:class:`.obstacles.Table`'s fields), built without
-    importing Numba."""
-    return np.zeros(2, dtype=np.int64), np.zeros((0, 4)), 1.0, 1, 1, 1
+    """No table of fixed spheres (in place of :class:`.obstacles.Table`'s fields)."""
+    return None, None, 1.0, 1, 1, 1
 
 
 def _key(*args):
-    """:func:`.obstacles._key` (the interpreted kernel looks at a table only when it holds
-    spheres, which a run placed interpreted never has; the compiled one takes the compiled
+    """:func:`.obstacles._key` (the interpreted kernel looks at a table only when there is
+    one, which a run placed interpreted never has; the compiled one takes the compiled
     function: :func:`_compiled_rsa`)."""
     from gaz_cli.placement.obstacles import _key as key
 
