@@ -190,3 +190,12 @@ def test_a_mixture_denser_than_one_random_step_reaches_is_placed_in_two(dim, pac
 def _box(dim, radii, packing):
     unit = {2: math.pi, 3: 4.0 * math.pi / 3.0}[dim]
     return (unit * float(np.sum(radii ** dim)) / packing) ** (1.0 / dim)
+
+
+def test_a_mixture_too_dense_for_random_placement_is_refused_naming_why():
+    """A 1:10 mixture at 0.6 in 3D: the large ones alone fill 0.545, past the densest random
+    state, and a lattice spaced by the largest diameter holds 32 sites: refused, the message
+    saying the lattice is spaced by the largest diameter (not only "lower --n")."""
+    radii, length = _mixture(3, 4000, 40, 10.0, 0.6)
+    with pytest.raises(PlacementError, match="spaces every particle by the largest diameter"):
+        placement.place(3, radii, length, np.random.default_rng(1), "auto", True)

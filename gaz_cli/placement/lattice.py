@@ -90,6 +90,13 @@ def lattice(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator
     sites = _lattice_sites(dim, closest, lo, hi, periodic, length)
     if sites is None or len(sites) < n:
         have = 0 if sites is None else len(sites)
+        if float(radii.min()) < rmax:  # a mixture: the sites are as far apart as the largest
+            raise PlacementError(
+                f"only {have} lattice sites fit for {n} particles in a box of side {length:g} m: a "
+                f"lattice spaces every particle by the largest diameter ({sigma:g} m), and this "
+                "mixture is denser than random placement reaches (the large particles alone, or the "
+                "small ones in the room they leave, above the densest random state); lower --n or "
+                "raise --length")
         raise PlacementError(f"only {have} lattice sites fit for {n} particles of diameter {sigma:g} m "
                              f"in a box of side {length:g} m; lower --n or raise --length")
     # grow the spacing while N sites still fit: bisection on the spacing
