@@ -111,12 +111,33 @@ def test_beyond_reach_is_a_clear_error():
         placement.place(2, r, box_for(2, 400, 0.5, 0.75), np.random.default_rng(1), method="grow")
     with pytest.raises(PlacementError, match="close packing"):
         placement.place(3, r, box_for(3, 400, 0.5, 0.76), np.random.default_rng(1), method="lattice")
-    with pytest.raises(PlacementError, match="lattice"):
+    with pytest.raises(PlacementError, match="stuck"):
         placement.place(3, r, box_for(3, 400, 0.5, 0.60), np.random.default_rng(1), method="rejection")
     with pytest.raises(SceneError, match="1D only"):
         placement.place(2, r, 100.0, np.random.default_rng(1), method="rapid")
     with pytest.raises(SceneError, match="not one of"):
         placement.place(2, r, 100.0, np.random.default_rng(1), method="magic")
+
+
+@pytest.mark.parametrize("periodic, holds", [(True, True), (False, False)])
+def test_the_lattice_is_named_as_a_way_out_only_when_it_holds_every_particle(periodic, holds):
+    """400 spheres at 0.55 in 3D, past random placement: a periodic box holds an FCC lattice
+    of 500 sites, a box with walls only 365 (its centres keep a radius from each wall), where
+    ``--method lattice`` fails too and is not offered."""
+    r = np.full(400, 0.5)
+    L = box_for(3, 400, 0.5, 0.55)
+    assert placement.holds(3, r, L, periodic) is holds
+    for method in ("grow", "rejection"):
+        with pytest.raises(PlacementError) as refused:
+            placement.place(3, r, L, np.random.default_rng(1), method=method, periodic=periodic)
+        assert ("--method lattice" in str(refused.value)) is holds
+        assert "lower --n or raise --length" in str(refused.value)
+    if holds:
+        assert_valid(placement.place(3, r, L, np.random.default_rng(1), "lattice", periodic), r, L,
+                     periodic)
+    else:
+        with pytest.raises(PlacementError, match="only 365 lattice sites"):
+            placement.place(3, r, L, np.random.default_rng(1), "lattice", periodic)
 
 
 def test_growth_that_jams_reports_instead_of_hanging():

@@ -199,3 +199,6 @@ def test_a_mixture_too_dense_for_random_placement_is_refused_naming_why():
     radii, length = _mixture(3, 4000, 40, 10.0, 0.6)
     with pytest.raises(PlacementError, match="spaces every particle by the largest diameter"):
         placement.place(3, radii, length, np.random.default_rng(1), "auto", True)
+    with pytest.raises(PlacementError) as refused:  # and forced growth does not offer the lattice
+        placement.place(3, radii, length, np.random.default_rng(1), "grow", True)
+    assert "densest random state" in str(refused.value) and "lattice" not in str(refused.value)

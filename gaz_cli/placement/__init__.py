@@ -41,7 +41,7 @@ import numpy as np
 from gaz_cli.errors import PlacementError, SceneError
 from gaz_cli.geometry import packing_fraction
 from gaz_cli.placement import mixture
-from gaz_cli.placement.lattice import LATTICE_LIMIT, lattice
+from gaz_cli.placement.lattice import LATTICE_LIMIT, holds, lattice
 from gaz_cli.placement.rsa import INTERPRETED_MAX, INTERPRETED_PACKING, rapid_1d, rejection
 
 _COMPILED = {"GROWTH_RATE": "growth", "grow": "growth", "first_overlap": "overlaps",
@@ -59,8 +59,8 @@ def __getattr__(name: str):
 
 
 __all__ = ["METHODS", "RSA_COMFORT", "RANDOM_LIMIT", "LATTICE_LIMIT", "GROWTH_RATE",
-           "INTERPRETED_MAX", "INTERPRETED_PACKING", "place", "first_overlap", "rapid_1d",
-           "rejection", "lattice", "grow"]
+           "INTERPRETED_MAX", "INTERPRETED_PACKING", "place", "place_unhinted", "first_overlap",
+           "rapid_1d", "rejection", "lattice", "holds", "grow"]
 
 METHODS = ("auto", "rejection", "rapid", "lattice", "grow")
 
@@ -77,8 +77,24 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     """(N, D) float64 centres, m, of particles of ``radii`` in [0, length]^D.
 
     With hard walls every centre is at least its radius from each wall; with
-    ``periodic`` the box wraps and distances are minimum-image.
+    ``periodic`` the box wraps and distances are minimum-image. A
+    :class:`PlacementError` names ``--method lattice`` as a way out only when a lattice
+    holds every particle (:func:`.lattice.holds`: a mixture's lattice is spaced by its
+    largest diameter, and often holds too few sites).
     """
+    try:
+        return place_unhinted(dim, radii, length, rng, method, periodic)
+    except PlacementError as e:
+        radii = np.asarray(radii, dtype=np.float64)
+        if method == "lattice" or not holds(dim, radii, length, periodic):
+            raise
+        raise PlacementError(f"{e}, or use --method lattice (its sites hold all {radii.size})") from None
+
+
+def place_unhinted(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
+                   method: str = "auto", periodic: bool = False) -> np.ndarray:
+    """:func:`place`, its errors without the lattice's way out (for a mixture's large
+    particles, whose lattice says nothing of the whole mixture's)."""
     radii = np.ascontiguousarray(radii, dtype=np.float64)
     n = radii.size
     if method not in METHODS:
@@ -109,8 +125,7 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     if method == "grow" and eta > RANDOM_LIMIT[dim] * (1 + 1e-9) and not in_two:
         raise PlacementError(
             f"packing fraction {eta:.3g} is above {RANDOM_LIMIT[dim]}, the densest random state "
-            f"offered in {dim}D; use --method lattice (up to {LATTICE_LIMIT[dim]}), lower --n or "
-            "raise --length")
+            f"offered in {dim}D; lower --n or raise --length")
     if method == "lattice" and eta > LATTICE_LIMIT[dim] * (1 + 1e-9):
         raise PlacementError(
             f"packing fraction {eta:.3g} is above {LATTICE_LIMIT[dim]}, close packing in {dim}D; "
@@ -145,5 +160,5 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
             # a rare growth failure must not reach an engine: a lattice start is always valid
             return lattice(dim, radii, length, rng, periodic)
         raise PlacementError("growth left overlapping particles (a known rare failure of --method "
-                             "grow); use another --seed or --method lattice")
+                             "grow); use another --seed")
     return rejection(dim, radii, length, rng, periodic)

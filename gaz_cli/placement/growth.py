@@ -316,7 +316,7 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
         eta = packing_fraction(dim, radii, length)
         raise PlacementError(
             f"growth jammed at {f ** dim * eta:.3g} of packing fraction {eta:.3g} after {events} "
-            f"events; use --method lattice, lower --n or raise --length")
+            f"events; lower --n or raise --length")
     x = P[:, :dim] * sigma
     if periodic:
         x -= length * np.floor(x / length)
@@ -335,5 +335,5 @@ def _outside(spheres: "obstacles.Table", x: np.ndarray, length: float, rng: np.r
         if not inside.size:
             return
         x[inside] = rng.random((inside.size, x.shape[1])) * length
-    raise PlacementError("the fixed particles leave no room for the others; use --method lattice, "
-                         "lower --n or raise --length")
+    raise PlacementError(f"the large particles leave no room for the small ones ({tries} draws of "
+                         "each point fell inside one); lower --n or raise --length")

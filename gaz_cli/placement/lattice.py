@@ -73,6 +73,24 @@ def _lattice_sites(dim: int, spacing: float, lo: float, hi: float, periodic: boo
     return best
 
 
+def _closest(dim: int, radii: np.ndarray, length: float, periodic: bool):
+    """(lo, hi, the closest spacing, the sites at it): the region of the centres, the
+    spacing of touching spheres of the largest radius (points: n + 1 a side leave n sites
+    or more) and the lattice's sites at that spacing (None: none fits)."""
+    rmax = float(radii.max())
+    lo, hi = (0.0, length) if periodic else (rmax, length - rmax)
+    closest = 2.0 * rmax if rmax > 0.0 else length / (radii.size + 1)
+    return lo, hi, closest, _lattice_sites(dim, closest, lo, hi, periodic, length)
+
+
+def holds(dim: int, radii: np.ndarray, length: float, periodic: bool = False) -> bool:
+    """Whether a lattice start (:func:`lattice`) can place particles of ``radii``: its sites,
+    spaced by the largest diameter, are at least as many as the particles."""
+    radii = np.asarray(radii, dtype=np.float64)
+    sites = _closest(dim, radii, length, periodic)[3]
+    return sites is not None and len(sites) >= radii.size
+
+
 def lattice(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
             periodic: bool = False) -> np.ndarray:
     """Particles on lattice sites (random choice of sites and of who sits where).
@@ -84,10 +102,7 @@ def lattice(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator
     n = radii.size
     rmax = float(radii.max())
     sigma = 2.0 * rmax
-    lo, hi = (0.0, length) if periodic else (rmax, length - rmax)
-    # the closest spacing allowed: touching spheres; points: n + 1 a side leave n sites or more
-    closest = sigma if sigma > 0.0 else length / (n + 1)
-    sites = _lattice_sites(dim, closest, lo, hi, periodic, length)
+    lo, hi, closest, sites = _closest(dim, radii, length, periodic)
     if sites is None or len(sites) < n:
         have = 0 if sites is None else len(sites)
         if float(radii.min()) < rmax:  # a mixture: the sites are as far apart as the largest

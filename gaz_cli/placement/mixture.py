@@ -102,7 +102,8 @@ def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator, 
 
     pos = np.empty((radii.size, dim))
     large_radii = radii[~small]
-    pos[~small] = placement.place(dim, large_radii, length, rng, "auto" if auto else method, periodic)
+    pos[~small] = placement.place_unhinted(dim, large_radii, length, rng, "auto" if auto else method,
+                                           periodic)
     small_radii = radii[small]
     if auto:
         method = ("rejection" if room_packing(dim, radii, small, length) <= placement.RSA_COMFORT[dim]

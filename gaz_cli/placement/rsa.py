@@ -227,5 +227,5 @@ def _rejection_in_order(dim: int, radii: np.ndarray, length: float, rng: np.rand
             eta = packing_fraction(dim, radii, length)
             raise PlacementError(
                 f"random placement stuck after {spent} candidates with {placed} of {n} particles "
-                f"placed (packing fraction {eta:.3g}); use --method lattice, lower --n or raise --length")
+                f"placed (packing fraction {eta:.3g}); lower --n or raise --length")
     return pos
