@@ -187,6 +187,23 @@ def test_a_mixture_denser_than_one_random_step_reaches_is_placed_in_two(dim, pac
         placement.place(dim, one_size, _box(dim, one_size, packing), np.random.default_rng(3), "grow")
 
 
+@pytest.mark.parametrize("periodic", [True, False])
+@pytest.mark.parametrize("dim, n_small, n_large, packing", [(3, 10_800, 108, 0.6), (2, 267, 100, 0.7703)])
+def test_large_ones_past_the_random_limit_sit_on_a_lattice_that_holds_them(dim, n_small, n_large,
+                                                                          packing, periodic):
+    """1:10, the large ones alone past the densest random state (3D 0.545, 2D 0.75) but
+    held by a lattice (FCC 3^3 cells, 108 sites; hexagonal 10 x 10): under auto they sit on
+    it and the small ones are added at random among them (refused before: "only 108 lattice
+    sites fit for 10908 particles"). A lattice that does not hold them is refused:
+    test_a_mixture_too_dense_for_random_placement_is_refused_naming_why."""
+    radii, length = _mixture(dim, n_small, n_large, 10.0, packing)
+    large = radii > 1.0
+    alone = _box(dim, radii[large], 1.0) ** dim / length ** dim
+    assert alone > placement.RANDOM_LIMIT[dim] and placement.holds(dim, radii[large], length, periodic)
+    x = placement.place(dim, radii, length, np.random.default_rng(5), "auto", periodic)
+    assert_valid(x, radii, length, periodic)
+
+
 def _box(dim, radii, packing):
     unit = {2: math.pi, 3: 4.0 * math.pi / 3.0}[dim]
     return (unit * float(np.sum(radii ** dim)) / packing) ** (1.0 / dim)

@@ -22,7 +22,8 @@ A mixture of sizes far apart (2D/3D, radii at least 8 times apart, or 3 when the
 ones are not dense: :mod:`.mixture`) is placed in two steps, by rejection or growth: the
 large particles alone, then the small ones around them, held fixed, on a grid sized for the
 small ones; ``auto`` (and ``grow``) then also go past RANDOM_LIMIT when each step stays
-within it.
+within it, and ``auto`` when the large ones alone, past it, fit a lattice (the small ones
+then placed at random among the lattice's large ones).
 
 Beyond what a method can reach the answer is an error naming the way out,
 after a bounded effort, never a hang.
@@ -114,7 +115,7 @@ def place_unhinted(dim: int, radii: np.ndarray, length: float, rng: np.random.Ge
     small = mixture.split(dim, radii, length)
     # two steps reach further than one when the large ones pack alone and the small ones
     # grow in the room they leave (a 1:10 mixture at 0.55 in 3D)
-    in_two = small is not None and mixture.two_steps_fit(dim, radii, small, length, method)
+    in_two = small is not None and mixture.two_steps_fit(dim, radii, small, length, method, periodic)
     if method == "auto":
         if eta <= RSA_COMFORT[dim]:
             method = "rejection"

@@ -11,7 +11,8 @@ large 1:5 at packing 0.45, periodic, 160 s. Here:
 1. :func:`split`: a particle is small when its radius is at most rmax / :data:`SPLIT_RATIO`
    (or :data:`CLOSE_RATIO`, when the large ones are not dense);
 2. the large ones are placed alone (:func:`gaz_cli.placement.place`, by the method their
-   own packing needs, or the one asked for);
+   own packing needs, or the one asked for: a lattice, under ``auto``, when they alone are
+   denser than random placement reaches);
 3. the small ones are placed among them on a grid sized for the small ones, the large ones
    held fixed: each cell lists the large spheres a small particle in it could touch
    (:mod:`.obstacles`), which random sequential addition (:func:`.rsa.rejection`) and
@@ -77,17 +78,25 @@ def room_packing(dim: int, radii: np.ndarray, small: np.ndarray, length: float) 
     return float(np.sum(ball_volume(dim, radii[small]))) / length ** dim / max(1.0 - closed, 0.01)
 
 
-def two_steps_fit(dim: int, radii: np.ndarray, small: np.ndarray, length: float, method: str) -> bool:
-    """Whether two steps can reach a packing one random step cannot: the large ones alone,
-    and the small ones in their room (:func:`room_packing`), each within the densest random
-    state (a lattice of few large ones in a small box holds fewer sites than its packing
-    promises: 32 for 40 spheres at 0.55 in a box 3.4 diameters wide)."""
+def two_steps_fit(dim: int, radii: np.ndarray, small: np.ndarray, length: float, method: str,
+                  periodic: bool = False) -> bool:
+    """Whether two steps can reach a packing one random step cannot: the small ones in the
+    room the large ones leave (:func:`room_packing`) within the densest random state, and
+    the large ones alone within it too, or, under ``auto``, beyond it on a lattice that holds
+    them (what ``auto`` gives one size there; a lattice of few large ones in a small box holds
+    fewer sites than its packing promises: 32 for 40 spheres at 0.55 in a box 3.4 diameters
+    wide, and such a mixture stays refused)."""
     from gaz_cli.placement import RANDOM_LIMIT
+    from gaz_cli.placement.lattice import holds
 
     if method not in ("auto", "grow"):
         return False
+    if room_packing(dim, radii, small, length) > RANDOM_LIMIT[dim]:
+        return False
     alone = float(np.sum(ball_volume(dim, radii[~small]))) / length ** dim
-    return alone <= RANDOM_LIMIT[dim] and room_packing(dim, radii, small, length) <= RANDOM_LIMIT[dim]
+    if alone <= RANDOM_LIMIT[dim]:
+        return True
+    return method == "auto" and holds(dim, radii[~small], length, periodic)
 
 
 def place(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator, method: str,
