@@ -34,6 +34,9 @@ MIXTURES = {
     # a box of 3.5 large reaches: three coarse cells an axis, whose scans carry image codes
     (2, "periodic, 3 coarse"): (200, 6, 10.0, 70.0, 40.0),
     (3, "periodic, 3 coarse"): (2000, 12, 10.0, 70.0, 40.0),
+    # a box of 2.5 large reaches: two coarse cells an axis, each scanned at two images
+    (2, "periodic, 2 coarse"): (200, 3, 10.0, 50.0, 40.0),
+    (3, "periodic, 2 coarse"): (1000, 6, 10.0, 50.0, 40.0),
 }
 
 

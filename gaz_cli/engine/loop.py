@@ -110,7 +110,7 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     D dimension; PER periodic box (else hard walls); GRAV uniform gravity
     along axis D-1; PAIRS some radius > 0; NL neighbour lists (2D/3D,
     PAIRS) instead of cell-crossing events; IMG a periodic box of fewer than
-    four cells an axis, or with MIX of three coarse cells (cell scans carry each cell's
+    four cells an axis, or with MIX of fewer than four coarse cells (cell scans carry each cell's
     image shift instead of taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
     the coarse table ``T.CL`` beside the fine one, the counts ``T.CV``); DIL a dilute gas
     in a box with walls, no gravity: every particle scans all the others
