@@ -32,10 +32,11 @@ Here (a two-level hierarchical grid, after Ogarko & Luding, Comput. Phys. Commun
   is taken as one grid of so few cells is: every gathered particle carries the image its
   cell has in the block scanned (the loop's IMG), for the nearest image need not be it (two
   large spheres 16 apart in the block of a box 30 wide are 14 apart the other way); with two
-  coarse cells (or one) an axis, the block holds the same cell at two (three) images, each
-  scanned. Measured: 4000 small and 40 large spheres 1:10 at packing 0.4, a box 3.9 large
-  reaches wide (three coarse cells), 4.2 us an event, against 67 us on one grid of three
-  cells (the same 14,577 events); 8000 small and 8 large, a box 2.76 large reaches wide
+  coarse cells an axis, the block holds the same cell at two images, each scanned (one
+  coarse cell an axis keeps one grid). Measured: 4000 small and 40 large spheres 1:10 at
+  packing 0.4, a box 3.9 large reaches wide (three coarse cells), 4.2 us an event, against
+  67 us on one grid of three cells (the same 14,577 events); 8000 small and 8 large, a box
+  2.76 large reaches wide
   (two), 2.15 us against 405 us on one grid of two cells (the same 31,074 events;
   benchmarks/periodic_mixture.py --n-small 8000 --n-large 8 --duration 1).
 
@@ -80,7 +81,7 @@ def plan(radii: np.ndarray, D: int, L: float, periodic: bool, pairs: bool, use_n
     radii (N,) m; ``reach(r)`` the pair reach of two particles of radius r
     (:func:`.interactions.pair_reach`); ``cells_per_axis`` sizing's rule for one grid. None
     in 1D, with neighbour lists, without pairs, when the radii span less than MIN_RATIO,
-    or when a periodic box is too small for the fine ball or for one coarse cell.
+    or when a periodic box is too small for the fine ball or for two coarse cells.
     """
     if not pairs or D == 1 or use_nl:
         return None
@@ -107,7 +108,7 @@ def plan(radii: np.ndarray, D: int, L: float, periodic: bool, pairs: bool, use_n
     rint, bcl, f = bounds(nc)
     if periodic:
         ncl = nc // f
-        if ncl < 1:
+        if ncl < 2:  # (one: untested, keeps one grid)
             return None
         nc = ncl * f  # whole coarse cells around the box (wider fine cells: f, B hold)
         rint, bcl, _ = bounds(nc)
