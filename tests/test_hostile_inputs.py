@@ -106,6 +106,10 @@ CASES = [
     ("place: radius 0", ["place", "--dim", "2", "--n", "5", "--radius", "0", "--length", "1"], 2, "--radius"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
+    ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,
+     "64-bit"),
+    ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
+                                         "--db", "{tmp}/gaz.db"], 1, "64-bit"),
 ]
 
 
