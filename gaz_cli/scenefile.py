@@ -124,6 +124,9 @@ def parse(text: str, name: str = "scene") -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise SceneError(f"{name} is not valid TOML: {err}") from None
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise SceneError(f"{name}: arrays or tables nested too deeply for a scene file "
+                         "(a scene nests two levels at most)") from None
 
 
 def check(doc: dict, where: str = "") -> None:

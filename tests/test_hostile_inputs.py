@@ -110,6 +110,7 @@ CASES = [
      "64-bit"),
     ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
                                          "--db", "{tmp}/gaz.db"], 1, "64-bit"),
+    ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
 ]
 
 
@@ -135,6 +136,7 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     scene = 'dim = 2\nlength = 1e-7\nduration = 1e-10\n{}\n[[species]]\nname = "Ar"\ncount = 10\n'
     (tmp_path / "bad.toml").write_text(scene.format("colour = 3"))
     (tmp_path / "range.toml").write_text(scene.format("restitution = 2.0"))
+    (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]
