@@ -111,6 +111,10 @@ CASES = [
     ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
                                          "--db", "{tmp}/gaz.db"], 1, "64-bit"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
+    ("--save-state onto the database", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                        "--save-state", "{tmp}/gaz.db"], 1, "--db"),
+    ("--write-scene onto the database", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                         "--write-scene", "{tmp}/gaz.db"], 1, "--db"),
 ]
 
 
