@@ -1211,7 +1211,12 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
     """
     from gaz_cli import store as st
 
-    store = st.Store(db, create=False)
+    with st.Store(db, create=False) as store:  # closed: SQLite then removes its -wal and -shm files
+        return _report(store, db, sim, plot_dir)
+
+
+def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
+    """:func:`report` on an open store."""
     numbers = store.simulation_numbers()
     if not numbers:
         raise StoreError(f"{db!r} holds no simulation yet; run 'gaz simulate --db {db}' first")
