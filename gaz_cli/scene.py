@@ -461,10 +461,19 @@ def _check_initial(scene: Scene) -> None:
         pos, r = np.asarray(init["positions"], dtype=float), scene.radii()[:, None]
         if np.any(pos < r) or np.any(pos > scene.length - r):
             raise field_error("`initial` positions put a particle outside the box [R, L - R]")
+        # the largest speed bounded without squaring (|v| <= sqrt(D) max |v_k|): no overflow
+        fastest = float(np.max(np.abs(np.asarray(init["velocities"], dtype=float)))) * math.sqrt(scene.dim)
+        scale = "velocities"
     else:
         sd = init.get("velocity_sd")
         if not _real("velocity_sd", sd) or not math.isfinite(sd) or sd < 0:
             raise field_error(f"`initial` velocity_sd {sd!r} is outside [0, inf) m/s")
+        fastest, scale = SPEED_TAIL * sd * math.sqrt(scene.dim), "velocity_sd"
+    vhi = speed_range(scene.length, [sp.radius for sp, _ in scene.components])[1]
+    if fastest > vhi:
+        raise field_error(f"`initial` {scale} reach {fastest:.3g} m/s, above the {vhi:.2g} m/s where the "
+                          f"particles' speeds (times the box, {scene.length:.3g} m) stay within double "
+                          f"precision; lower the `initial` {scale}")
 
 
 # --- the checks validate() composes --------------------------------------------------------------
