@@ -730,6 +730,9 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     snapshots and a file smaller than the free space of its disk.
     """
     if not trajectory:
+        if every is not None:
+            raise field_error(f"`every` {every!r} applies to `trajectory` only (no snapshot would be "
+                              "written); add `trajectory` FILE, or drop `every`")
         return
     from gaz_cli.trajectory import FORMATS
 
