@@ -49,6 +49,15 @@ BLOCKS = 16
 
 
 # --- placement (gaz place) --------------------------------------------------------
+MAX_BINS = 10 ** 7
+"""Most histogram bins of ``gaz place --repeat`` (three arrays of 80 MB)."""
+MAX_PLACE_WORK = 1e11
+"""Most particle placements of ``gaz place --repeat`` (repeat x (n + PLACE_OVERHEAD)): a few
+hours (measured: 10^6 rods in 0.1 s, 10^5 repetitions of 2 rods in 2 s)."""
+PLACE_OVERHEAD = 200
+"""A repetition's own cost, in particle placements (about 20 us against 0.1 us a rod)."""
+
+
 def _check_place_args(dim, n, radius, length):
     if dim not in (1, 2, 3):
         raise SceneError(f"--dim {dim} is not 1, 2 or 3")
@@ -89,6 +98,13 @@ def placement_histogram(dim: int, n: int, radius: float, length: float, method: 
     from gaz_cli import placement, plots
 
     _check_place_args(dim, n, radius, length)
+    if bins > MAX_BINS:
+        raise SceneError(f"--bins {bins} is more than the {MAX_BINS:.0e} a histogram holds; lower --bins")
+    work = repeat * (n + PLACE_OVERHEAD)
+    if work > MAX_PLACE_WORK:
+        raise SceneError(f"--repeat {repeat} placements of {n} particles would take about {work:.3g} "
+                         f"particle placements, beyond the {MAX_PLACE_WORK:.0e} allowed (hours of work); "
+                         "lower --repeat")
     rng = np.random.default_rng(seed)
     radii = np.full(n, float(radius))
     edges = np.linspace(0.0, length, bins + 1)
@@ -1195,7 +1211,12 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
     """
     from gaz_cli import store as st
 
-    store = st.Store(db, create=False)
+    with st.Store(db, create=False) as store:  # closed: SQLite then removes its -wal and -shm files
+        return _report(store, db, sim, plot_dir)
+
+
+def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
+    """:func:`report` on an open store."""
     numbers = store.simulation_numbers()
     if not numbers:
         raise StoreError(f"{db!r} holds no simulation yet; run 'gaz simulate --db {db}' first")

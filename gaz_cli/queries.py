@@ -74,6 +74,9 @@ def parse_parameters(query: Query, pairs) -> dict:
             takes = (f"takes {', '.join(query.parameters)}" if query.parameters else "takes no parameter")
             raise QueryError(f"query {query.name} has no parameter {key!r}; it {takes}")
         params[key] = _number(value.strip())
+        if isinstance(params[key], int) and not -2 ** 63 <= params[key] < 2 ** 63:
+            raise QueryError(f"--param {pair!r}: {key} is beyond a 64-bit integer, the largest the "
+                             "database holds; no stored value matches it")
     missing = [p for p in query.parameters if p not in params]
     if missing:
         raise QueryError(f"query {query.name} needs {' '.join(f'--param {p}=VALUE' for p in missing)}")

@@ -134,6 +134,29 @@ def _check_writable(path: str | None, option: str) -> None:
             raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
 
 
+def _check_distinct(db: str | None, outputs: dict) -> None:
+    """No two of a run's files the same: an output written over the SQLite database (or over
+    another output) would destroy it. ``outputs``: option -> path (None when not given)."""
+    taken = []
+    if db is not None:
+        from gaz_cli.sqlite_writer import is_file_path
+
+        path = db if is_file_path(db) else (db[len("sqlite:///"):].split("?", 1)[0]
+                                            if db.startswith("sqlite:///") else None)
+        if path:
+            taken.append(("--db", db, Path(path).expanduser().resolve()))
+    for option, path in outputs.items():
+        if not path:
+            continue
+        resolved = Path(path).expanduser().resolve()
+        for other, given, where in taken:
+            if resolved == where:
+                what = "the database" if other == "--db" else f"the {other} file"
+                raise SceneError(f"{option} {path!r} is also {other} {given!r}: writing it would destroy "
+                                 f"{what}; give {option} another file")
+        taken.append((option, path, resolved))
+
+
 @dataclass
 class Run:
     """What :func:`run_scene` returns: the summary (a dict, JSON-ready; what ``gaz simulate
@@ -191,6 +214,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_writable(save_state, "--save-state")
     _check_writable(trajectory, "--trajectory")
     _check_writable(write_scene, "--write-scene")
+    _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
     check_outputs(scene, trajectory, every)
     if write_scene:
         from gaz_cli import scenefile

@@ -461,10 +461,45 @@ def _check_initial(scene: Scene) -> None:
         pos, r = np.asarray(init["positions"], dtype=float), scene.radii()[:, None]
         if np.any(pos < r) or np.any(pos > scene.length - r):
             raise field_error("`initial` positions put a particle outside the box [R, L - R]")
+        pair = _overlapping_pair(pos, scene.radii(), scene.length, scene.boundary == "periodic")
+        if pair is not None:
+            raise field_error(f"`initial` positions overlap: particles {pair[0]} and {pair[1]} are closer "
+                              "than the sum of their radii; move them apart")
+        # the largest speed bounded without squaring (|v| <= sqrt(D) max |v_k|): no overflow
+        fastest = float(np.max(np.abs(np.asarray(init["velocities"], dtype=float)))) * math.sqrt(scene.dim)
+        scale = "velocities"
     else:
         sd = init.get("velocity_sd")
         if not _real("velocity_sd", sd) or not math.isfinite(sd) or sd < 0:
             raise field_error(f"`initial` velocity_sd {sd!r} is outside [0, inf) m/s")
+        fastest, scale = SPEED_TAIL * sd * math.sqrt(scene.dim), "velocity_sd"
+    vhi = speed_range(scene.length, [sp.radius for sp, _ in scene.components])[1]
+    if fastest > vhi:
+        raise field_error(f"`initial` {scale} reach {fastest:.3g} m/s, above the {vhi:.2g} m/s where the "
+                          f"particles' speeds (times the box, {scene.length:.3g} m) stay within double "
+                          f"precision; lower the `initial` {scale}")
+
+
+def _overlapping_pair(pos: np.ndarray, radii: np.ndarray, length: float, periodic: bool):
+    """Two particles of an explicit state that overlap (beyond 1e-9 relative), or None: all
+    pairs in numpy up to 1000 particles (no compiled code to load), else the placement's
+    cell scan (:func:`gaz_cli.placement.first_overlap`)."""
+    n = len(pos)
+    if n < 2 or not np.any(radii > 0):
+        return None
+    if n > 1000:
+        from gaz_cli.placement import first_overlap
+
+        k = first_overlap(pos, radii, length, periodic)
+        return None if k < 0 else (k, "another")
+    d = pos[:, None, :] - pos[None, :, :]
+    if periodic:
+        d -= length * np.round(d / length)
+    contact = (radii[:, None] + radii[None, :]) * (1.0 - 1e-9)
+    close = np.sum(d * d, axis=2) < contact * contact
+    np.fill_diagonal(close, False)
+    i, j = np.unravel_index(int(np.argmax(close)), close.shape)
+    return (int(min(i, j)), int(max(i, j))) if close[i, j] else None
 
 
 # --- the checks validate() composes --------------------------------------------------------------
@@ -721,6 +756,9 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     snapshots and a file smaller than the free space of its disk.
     """
     if not trajectory:
+        if every is not None:
+            raise field_error(f"`every` {every!r} applies to `trajectory` only (no snapshot would be "
+                              "written); add `trajectory` FILE, or drop `every`")
         return
     from gaz_cli.trajectory import FORMATS
 

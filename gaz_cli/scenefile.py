@@ -93,13 +93,19 @@ def _type_ok(kind: str, value) -> bool:
     return isinstance(value, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
 
 
+def _shown(value, width: int = 60) -> str:
+    """``repr(value)``, cut to ``width`` characters: a message stays one short line."""
+    text = repr(value)
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
 def _check_keys(table: dict, allowed: dict, where: str) -> None:
     for key, value in table.items():
         if key not in allowed:
-            raise SceneError(f"{where}unknown key {key!r} (= {value!r}); allowed: {', '.join(allowed)}")
+            raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); allowed: {', '.join(allowed)}")
         kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
         if not _type_ok(kind, value):
-            raise SceneError(f"{where}{key} = {value!r} must be {kind}")
+            raise SceneError(f"{where}{key} = {_shown(value)} must be {kind}")
 
 
 def read(path) -> dict:
@@ -124,6 +130,9 @@ def parse(text: str, name: str = "scene") -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise SceneError(f"{name} is not valid TOML: {err}") from None
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise SceneError(f"{name}: arrays or tables nested too deeply for a scene file "
+                         "(a scene nests two levels at most)") from None
 
 
 def check(doc: dict, where: str = "") -> None:

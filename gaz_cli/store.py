@@ -285,6 +285,9 @@ class Store(RunStore):
         self.path = _sqlite_path(url) if self.is_sqlite else None
         if self.is_sqlite and not create and not (self.path and self.path.is_file()):
             raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
+        if self.is_sqlite and self.path is None:
+            raise StoreError(f"--db {self.shown!r} is a SQLite database in memory, gone when gaz exits; "
+                             "give a file path, or --no-db to store nothing")
         self.engine = None
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
         try:

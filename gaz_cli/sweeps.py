@@ -60,6 +60,9 @@ def parse_vary(text: str) -> tuple[str, list]:
                              "(e.g. packing=0.1:0.6:6)") from None
         if len(parts) != 3 or count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
             raise SceneError(f"--vary {text!r}: START:STOP:COUNT needs finite ends and COUNT >= 1")
+        if count > MAX_POINTS:
+            raise SceneError(f"--vary {text!r}: COUNT {count} makes more than {MAX_POINTS} runs; "
+                             "vary fewer values")
         if count == 1:
             return key, [start]
         step = (stop - start) / (count - 1)
@@ -313,7 +316,7 @@ class _client:
         if self.scheduler:
             try:
                 self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
-            except (OSError, TimeoutError) as err:
+            except (OSError, TimeoutError, ValueError) as err:  # ValueError: a malformed address
                 raise GazError(f"--scheduler {self.scheduler!r}: cannot reach the Dask scheduler "
                                f"({' '.join(str(err).split()) or type(err).__name__}); "
                                "check the address, or leave --scheduler out to run here") from None

@@ -18,6 +18,7 @@ import pytest
 
 from gaz_cli import analysis, errorbars, theory
 from gaz_cli.constants import K_B
+from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats
 from gaz_cli.scene import Scene, State
 from gaz_cli.species import Species
@@ -104,8 +105,7 @@ def write_synthetic(db, dim=2, n=400, length=2e-7, duration=2e-9, seed=1, gravit
                   temperature=TEMPERATURE, seed=seed, gravity=gravity)
     t, wall, speed, vperp = ideal_hits(rng, dim, n, length, duration, TEMPERATURE, sp.mass, sp.radius, gravity)
     ke = 0.5 * dim * n * K_B * TEMPERATURE
-    store = Store(db)
-    with store.simulation(scene) as writer:
+    with Store(db) as store, store.simulation(scene) as writer:
         particle = rng.integers(0, n, size=t.size)
         for chunk in np.array_split(np.arange(t.size), 3):
             writer.add_bounces(t[chunk], particle[chunk], wall[chunk], speed[chunk], vperp[chunk])
@@ -294,6 +294,17 @@ def test_unknown_simulation_is_one_line(synthetic_db):
     code, out, err = invoke(["analyse", "--db", synthetic_db, "--sim", "9"])
     assert code != 0 and out == ""
     assert err.strip().count("\n") == 0 and "simulation 9 is not in" in err and "1-2" in err
+
+
+def test_report_closes_the_database(synthetic_db):
+    """gaz analyse left the SQLite file's -wal and -shm files beside it, on success and on a
+    refusal (--sim 99): the store was never closed (measured from the command line)."""
+    import os
+
+    analysis.report(synthetic_db)
+    with pytest.raises(StoreError):
+        analysis.report(synthetic_db, sim=99)
+    assert [f for f in os.listdir(os.path.dirname(synthetic_db)) if f != "synthetic.db"] == []
 
 
 def test_overview_without_sim_has_one_row_per_simulation(synthetic_db):

@@ -68,6 +68,9 @@ CASES = [
      "does not exist"),
     ("--trajectory without --every", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
                                       "--trajectory", "{tmp}/t.h5"], 1, "--every"),
+    ("--every without --trajectory", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--every", "1e-12"],
+     1, "--trajectory"),
+    ("--no-db with --db", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--no-db"], 2, "--no-db"),
     ("--every -1", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--trajectory", "{tmp}/t.h5",
                     "--every", "-1"], 1, "--every"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
@@ -104,8 +107,23 @@ CASES = [
     ("place: histogram h.txt", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                                 "--repeat", "3", "--histogram", "{tmp}/h.txt"], 2, ".png"),
     ("place: radius 0", ["place", "--dim", "2", "--n", "5", "--radius", "0", "--length", "1"], 2, "--radius"),
+    ("place: --bins 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
+                             "--repeat", "2", "--bins", "100000000000000"], 1, "--bins"),
+    ("place: --repeat 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
+                               "--repeat", "100000000000000"], 1, "--repeat"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
+    ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,
+     "64-bit"),
+    ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
+                                         "--db", "{tmp}/gaz.db"], 1, "64-bit"),
+    ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
+    ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
+    ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
+    ("--save-state onto the database", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                        "--save-state", "{tmp}/gaz.db"], 1, "--db"),
+    ("--write-scene onto the database", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7",
+                                         "--write-scene", "{tmp}/gaz.db"], 1, "--db"),
 ]
 
 
@@ -131,6 +149,15 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     scene = 'dim = 2\nlength = 1e-7\nduration = 1e-10\n{}\n[[species]]\nname = "Ar"\ncount = 10\n'
     (tmp_path / "bad.toml").write_text(scene.format("colour = 3"))
     (tmp_path / "range.toml").write_text(scene.format("restitution = 2.0"))
+    (tmp_path / "deep.toml").write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    (tmp_path / "fast.toml").write_text(
+        'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\ncount = 2\n'
+        '[initial]\nkind = "explicit"\npositions = [[1e-8, 1e-8], [5e-8, 5e-8]]\n'
+        'velocities = [[1e300, 1.0], [1.0, 1.0]]\n')
+    (tmp_path / "overlap.toml").write_text(
+        'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\ncount = 2\n'
+        '[initial]\nkind = "explicit"\npositions = [[1e-8, 1e-8], [1e-8, 1.01e-8]]\n'
+        'velocities = [[1.0, 1.0], [1.0, 1.0]]\n')
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]

@@ -154,6 +154,16 @@ def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line,
     assert_refused_in_one_line(path, f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n", words)
 
 
+def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
+    """An unknown key holding 200,000 numbers was echoed whole: one line of 1.2 MB on stderr."""
+    path = tmp_path / "huge.toml"
+    body = "dim = 2\nduration = 1e-10\nlength = 1e-7\nx = [" + ", ".join(["1.0"] * 200_000) + "]\n"
+    assert_refused_in_one_line(path, body + '[[species]]\nname = "Ar"\ncount = 10\n',
+                               ["unknown key 'x' (= [1.0, 1.0", "...", "allowed: dim"])
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    assert len(err) < 1000, len(err)
+
+
 # --- presets ----------------------------------------------------------------------------------
 def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
     """`--preset marbles --n 10 --dim 2` ran 300 marbles in 3D, silently."""

@@ -274,6 +274,15 @@ FOREIGN = ["CREATE TABLE simulation (id INTEGER PRIMARY KEY, name TEXT)",
            "INSERT INTO simulation VALUES (1, 'theirs')"]
 
 
+@pytest.mark.parametrize("db", [":memory:", "sqlite://", "sqlite:///:memory:"])
+def test_a_sqlite_database_in_memory_is_refused_for_writing(db):
+    """gaz simulate --db :memory: (or sqlite://) took the PostgreSQL writer and ended in
+    "database ':memory:': no such function: current_setting", naming no fix."""
+    with pytest.raises(StoreError) as err:
+        st.Store(db)
+    assert "in memory" in str(err.value) and "--no-db" in str(err.value) and "\n" not in str(err.value)
+
+
 def test_foreign_sqlite_file_is_refused_and_untouched(tmp_path):
     path = tmp_path / "theirs.db"
     con = sqlite3.connect(path)

@@ -58,6 +58,14 @@ def test_vary_refuses_malformed_text_in_one_line(text):
     assert "\n" not in str(err.value) and "--vary" in str(err.value)
 
 
+def test_a_range_of_too_many_values_is_refused_before_it_is_built():
+    """temperature=1:2:100000000000 built 10^11 floats before the plan counted them (the
+    command hung past 120 s); it is refused as the plan refuses more than MAX_POINTS runs."""
+    with pytest.raises(SceneError, match="more than 100000") as err:
+        sweep.parse_vary("temperature=1:2:100000000000")
+    assert "\n" not in str(err.value) and "--vary" in str(err.value)
+
+
 def test_plan_is_the_product_of_the_values_times_the_seeds():
     points = sweep.plan([("n", [10, 20, 30]), ("temperature", [100.0, 300.0])], seeds=4, base_seed=7)
     assert len(points) == 3 * 2 * 4 and len(set(points)) == len(points)
@@ -128,6 +136,15 @@ def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
     with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
         sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
                   scheduler="tcp://127.0.0.1:9", progress=False)
+
+
+def test_a_malformed_scheduler_address_is_one_line(tmp_path):
+    """--scheduler nonsense ended in 'internal error: ValueError: missing port number in
+    address 'nonsense'', exit 3."""
+    with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler") as err:
+        sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
+                  scheduler="nonsense", progress=False)
+    assert "\n" not in str(err.value) and "missing port number" in str(err.value)
 
 
 # --- from the command line ------------------------------------------------------------
