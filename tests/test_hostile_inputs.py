@@ -73,6 +73,9 @@ CASES = [
     ("--no-db with --db", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--no-db"], 2, "--no-db"),
     ("--every -1", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--trajectory", "{tmp}/t.h5",
                     "--every", "-1"], 1, "--every"),
+    ("one argon atom in a box 2e-12 m wider than it (1e12 bounces)",
+     ["simulate", "--dim", "1", "--n", "1", "--length", "3.6e-10", "--duration", "1e-2", "--seed", "1",
+      "--record", "none"], 1, "9.97e+11 events"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
@@ -178,6 +181,42 @@ def test_a_hostile_input_is_one_line_and_leaves_the_database(populated_db, tmp_p
     assert out["stdout"] == ""
     assert out["db_unchanged"]
     assert out["new_files"] == []  # no empty trajectory, no image, no journal left behind
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 1 MiB tmpfs mounted under tmp_path (root only; skipped where mounting is not permitted)."""
+    import subprocess
+
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], capture_output=True)
+
+
+def test_rows_beyond_the_free_space_of_the_database_disk_are_refused(populated_db, tiny_disk):
+    """About 80,000 wall bounces (3.7 MB of REBOND rows) into a database on a 1 MiB disk: one line
+    naming the estimate and the fixes, the database untouched; with --record none the run goes.
+    (It used to run, then end in 'no space left' after the engine's work, or fill the disk.)"""
+    db = tiny_disk / "gaz.db"
+    shutil.copyfile(populated_db, db)
+    before = _digest(db)
+    args = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-6", "--seed", "2",
+            "--db", str(db)]
+    res = invoke(args)
+    lines = [ln for ln in res.stderr.splitlines() if ln]
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert "would grow by about 3." in lines[0] and "MB" in lines[0] and "free" in lines[0], lines[0]
+    assert "--record none" in lines[0] and "--duration" in lines[0] and "--db" in lines[0], lines[0]
+    assert _digest(db) == before and sorted(p.name for p in tiny_disk.iterdir()) == ["gaz.db"]
+    res = invoke([*args, "--record", "none"])
+    assert res.exit_code == 0, res.stderr
 
 
 # --- the table of docs/stability.md -------------------------------------------------------------
