@@ -35,6 +35,27 @@ def test_simulate_then_analyse(db, engine):
     assert set(out) >= {"Q34 simulations per dimension", "pressure against the ideal gas"}
 
 
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("engine", ["auto", "event"])
+def test_one_particle_in_a_periodic_box(db, dim, engine):
+    """No wall, no collision: the particle keeps its momentum (removing it would stop it), so its
+    kinetic temperature counts D degrees of freedom and the pressure is 2K/(D L^D). The run used
+    to end after the engine in 'kinetic temperature needs at least 2 particle(s), got 1', exit 1."""
+    res = invoke(["simulate", "--dim", str(dim), "--n", "1", "--boundary", "periodic", "--length", "3.4e-8",
+                  "--duration", "1e-9", "--seed", "3", "--engine", engine, "--db", db, "--json"])
+    assert res.exit_code == 0 and res.stderr == "", res.output
+    summary = json.loads(res.stdout)
+    assert summary["events"] == summary["wall_bounces"] == summary["collisions"] == 0
+    ke = summary["kinetic_energy_start"]
+    assert ke > 0 and summary["kinetic_energy_end"] == pytest.approx(ke, rel=1e-12)
+    assert summary["pressure"] == pytest.approx(2 * ke / (dim * 3.4e-8 ** dim), rel=1e-12)
+    res = invoke(["analyse", "--db", db, "--format", "json"])
+    assert res.exit_code == 0, res.output
+    row, = json.loads(res.stdout)["pressure against the ideal gas"]
+    assert row["P_MEASURED"] == pytest.approx(summary["pressure"], rel=1e-12)
+    assert row["T_KIN_K"] == pytest.approx(2 * ke / (dim * 1.380649e-23), rel=1e-12)
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):
