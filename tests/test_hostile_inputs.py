@@ -76,6 +76,8 @@ CASES = [
     ("one argon atom in a box 2e-12 m wider than it (1e12 bounces)",
      ["simulate", "--dim", "1", "--n", "1", "--length", "3.6e-10", "--duration", "1e-2", "--seed", "1",
       "--record", "none"], 1, "9.97e+11 events"),
+    ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
+     1, "not a key a sweep can vary"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
