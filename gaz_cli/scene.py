@@ -813,8 +813,10 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
 def check_database_space(scene: Scene, path) -> None:
     """Refuse, unless ``scene.force``, a run whose rows (:func:`work_estimate`'s wall bounces,
     and collisions with ``record`` all, times :data:`BYTES_PER_ROW`) would not fit in the free
-    space of the disk of SQLite file ``path``."""
-    if scene.record == "none" or scene.force:
+    space of the disk of SQLite file ``path``. Exact engines from a Maxwell state only: the
+    estimate's rates assume speeds at ``temperature`` (a preset's state has its own; the
+    step engine's bounces against damped walls and planes are not estimated)."""
+    if scene.record == "none" or scene.force or scene.engine == "step" or scene.initial is not None:
         return
     est = work_estimate(scene)
     size = est["bounces"] * BYTES_PER_ROW["bounces"]
