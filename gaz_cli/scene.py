@@ -250,7 +250,15 @@ on another scene they used to give way to cells in silence; they are refused ins
 1D run ignores ``[search]`` whatever it holds: rods only meet their two neighbours.)"""
 
 
+def search_given(extras: dict) -> list[str]:
+    """The search settings of ``extras`` (:data:`SEARCH`) set to something other than 'auto'."""
+    return [key for key in SEARCH if key in extras and extras[key] != "auto"]
+
+
 def _check_search(scene: Scene) -> None:
+    """The event engine's search settings (a scene file's ``[search]`` table): each in its range,
+    and only with ``engine`` event, the one engine that searches for partners (``auto`` takes
+    it when one is set, :func:`gaz_cli.engines.choose`)."""
     extras = scene.extras
     for key, allowed in SEARCH.items():
         if key not in extras:
@@ -258,9 +266,15 @@ def _check_search(scene: Scene) -> None:
         value = extras[key]
         if key == "skin":
             if not _real("skin", value) or not math.isfinite(value) or value <= 0:
-                raise field_error(f"`skin` {value!r} must be a positive number ({allowed})")
-        else:
-            _one_of(key, value, allowed)
+                raise field_error(f"[search] `skin` {value!r} must be a positive number ({allowed})")
+        elif value not in allowed:
+            raise field_error(f"[search] `{key}` {value!r} is not one of {', '.join(allowed)}")
+    given = search_given(extras)
+    if given and scene.engine != "event":
+        key = given[0]
+        raise field_error(f"[search] `{key}` {extras[key]!r} applies to `engine` event only (the {scene.engine} "
+                          f"engine does not search for partners and would ignore it); set `engine` event, "
+                          f"or drop `{key}` from [search]")
     chosen = extras.get("neighbours")
     if chosen in WALLED_SEARCHES:
         unfit = [why for why, bad in (("periodic", scene.boundary == "periodic"),
