@@ -24,8 +24,16 @@ FORMATS = ("table", "csv", "json")
 
 
 # --- shared options -----------------------------------------------------------
+def _not_empty(ctx, param, value):
+    """--db '' would quietly mean the default file (simulate) or a database named ''."""
+    if value is not None and not value.strip():
+        raise click.BadParameter(f"{value!r} names no database; give a file path or a URL, or leave "
+                                 "--db out for gaz.db", param_hint="--db")
+    return value
+
+
 def db_option(default: str | None = "gaz.db", note: str = ""):
-    return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL",
+    return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL", callback=_not_empty,
                         help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 

@@ -278,6 +278,8 @@ class Store(RunStore):
     """
 
     def __init__(self, db: str, create: bool = True):
+        if not isinstance(db, str) or not db.strip():
+            raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
         self.db = db
         self.shown = shown(db)
         url = url_for(db)

@@ -56,6 +56,31 @@ def test_one_particle_in_a_periodic_box(db, dim, engine):
     assert row["T_KIN_K"] == pytest.approx(2 * ke / (dim * 1.380649e-23), rel=1e-12)
 
 
+@pytest.mark.parametrize("command", [
+    ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "1e-11"],
+    ["simulate", "{tmp}/out.toml"],
+    ["analyse"], ["query", "q34"], ["scene", "1"],
+    ["sweep", "{tmp}/s.toml", "--vary", "temperature=100,200", "--quiet"],
+])
+@pytest.mark.parametrize("db", ["", "  "])
+def test_an_empty_db_is_refused(tmp_path, monkeypatch, command, db):
+    """gaz simulate --db '' wrote gaz.db in the current folder, exit 0 (an empty --db read as
+    none given); analyse and query said "database '' does not exist; run 'gaz simulate --db '
+    first", sweep "cannot open database ''". Now one line naming --db, and no file written. A
+    scene file's [output] db = "" likewise."""
+    monkeypatch.chdir(tmp_path)
+    scene = 'dim = 2\nlength = 1e-7\nduration = 1e-11\n{}[[species]]\nname = "Ar"\ncount = 10\n'
+    (tmp_path / "s.toml").write_text(scene.format(""))
+    (tmp_path / "out.toml").write_text(scene.format(f'[output]\ndb = "{db}"\n'))
+    files = sorted(tmp_path.iterdir())
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in command]
+    res = invoke(argv if argv[-1].endswith("out.toml") else [*argv, "--db", db])
+    lines = res.stderr.splitlines()
+    assert res.exit_code in (1, 2) and len(lines) == 1 and res.stdout == "", res.output
+    assert ("--db" in lines[0] and "names no database" in lines[0]) or "output: db = " in lines[0], lines[0]
+    assert sorted(tmp_path.iterdir()) == files
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):

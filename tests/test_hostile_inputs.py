@@ -78,6 +78,7 @@ CASES = [
       "--record", "none"], 1, "9.97e+11 events"),
     ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
      1, "not a key a sweep can vary"),
+    ("analyse: --db ''", ["analyse", "--db", ""], 2, "names no database"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
