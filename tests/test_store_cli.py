@@ -210,13 +210,21 @@ def test_a_failing_state_file_commits_nothing(tmp_path):
     assert os.path.exists("/dev/full")  # only regular files of the failed run are removed
 
 
-def test_a_failing_summary_commits_nothing(tmp_path):
-    """A periodic box of one particle has no kinetic temperature: the summary fails, and
-    it comes before the commit (it used to exit 1 with the simulation committed)."""
+def test_a_failing_summary_commits_nothing(tmp_path, monkeypatch):
+    """The summary comes before the commit: when it fails, nothing is committed (it used to
+    exit 1 with the simulation committed). It failed for one particle in a periodic box, which
+    now runs; a pressure that cannot be computed stands in for it."""
+    from gaz_cli import runner
+    from gaz_cli.errors import SceneError
+
+    def fails(*args, **kwargs):
+        raise SceneError("no pressure")
+
+    monkeypatch.setattr(runner, "run_pressure", fails)
     db = tmp_path / "gaz.db"
     res = invoke(["simulate", "--dim", "2", "--n", "1", "--length", "1e-7", "--duration", "1e-11",
                   "--boundary", "periodic", "--seed", "1", "--db", str(db)])
-    assert res.exit_code == 1 and res.stderr.count("\n") == 1
+    assert res.exit_code == 1 and res.stderr == "gaz: error: no pressure\n"
     assert check_consistent(db) == []
 
 
