@@ -239,10 +239,15 @@ def table(rows) -> str:
              "byte-identical (SHA-256). A full disk under a trajectory and Ctrl-C in the step engine need a real "
              "process: `tests/test_trajectory.py::test_a_full_disk_is_one_line_and_exit_1` (a 1 MiB tmpfs: "
              "refused at the door, and with `--force` ENOSPC gives exit 1, was SIGSEGV, exit 139) and "
-             "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130).", "",
+             "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130). Two need a file of their "
+             "own: rows beyond the free space of the database's disk "
+             "(`test_rows_beyond_the_free_space_of_the_database_disk_are_refused`, a 1 MiB tmpfs) and a SQLite "
+             "file of another application (`tests/test_store_cli.py::"
+             "test_another_applications_sqlite_file_is_refused_untouched`): one line each, the file untouched.",
+             "",
              "| bad input | command | exit | message | database |", "| --- | --- | --- | --- | --- |"]
     for what, out, tmp in rows:
-        command = " ".join(["gaz", *out["argv"]]).replace(str(tmp), "TMP")
+        command = " ".join(["gaz", *(a or "''" for a in out["argv"])]).replace(str(tmp), "TMP")
         message = out["lines"][0].replace(str(tmp), "TMP") if out["lines"] else out["stderr"]
         db = ("unchanged" if out["db_unchanged"] else "CHANGED") if out["argv"][0] == "simulate" else "(not used)"
         lines.append(f"| {_cell(what)} | `{_cell(command)}` | {out['exit']} | {_cell(message)} | {db} |")
