@@ -241,7 +241,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
                    "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
-                   "(reference engine), 1e6 snapshots, or a trajectory or a SQLite file's rows larger "
+                   "(reference engine), 1e4 snapshots, or a trajectory or a SQLite file's rows larger "
                    "than their disk's free space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
 def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
