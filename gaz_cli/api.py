@@ -99,8 +99,9 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str = "gaz.db", worke
     Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed)."""
     from gaz_cli import sweeps
 
-    scene_of, base_seed = sweeps.scenes_of_file(scene_file)
-    points = sweeps.plan([sweeps.parse_vary(v) for v in vary], seeds, base_seed)
+    varies = [sweeps.parse_vary(v) for v in vary]
+    scene_of, base_seed = sweeps.scenes_of_file(scene_file, [k for k, _ in varies])
+    points = sweeps.plan(varies, seeds, base_seed)
     return sweeps.run(points, scene_of, None, db, workers=workers, scheduler=scheduler, progress=progress)
 
 

@@ -24,8 +24,16 @@ FORMATS = ("table", "csv", "json")
 
 
 # --- shared options -----------------------------------------------------------
+def _not_empty(ctx, param, value):
+    """--db '' would quietly mean the default file (simulate) or a database named ''."""
+    if value is not None and not value.strip():
+        raise click.BadParameter(f"{value!r} names no database; give a file path or a URL, or leave "
+                                 "--db out for gaz.db", param_hint="--db")
+    return value
+
+
 def db_option(default: str | None = "gaz.db", note: str = ""):
-    return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL",
+    return click.option("--db", default=default, show_default=True, metavar="PATH_OR_URL", callback=_not_empty,
                         help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 
@@ -233,8 +241,8 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
                    "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
-                   "(reference engine), 1e6 snapshots, or a trajectory larger than its disk's free "
-                   "space. The refusal prints the estimate. Memory and double-precision ranges are "
+                   "(reference engine), 1e4 snapshots, or a trajectory or a SQLite file's rows larger "
+                   "than their disk's free space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
 def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.

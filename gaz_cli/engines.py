@@ -15,7 +15,9 @@
 4. ``event`` otherwise: hard spheres, with at most uniform gravity, exactly
    (in 1D it follows each rod's two neighbours only).
 
-The choice and its reason go to the run's summary (``engine``, ``engine_reason``).
+A scene that sets the event engine's partner search (a scene file's ``[search]``, not
+'auto') takes ``event`` unless it needs ``step`` (which refuses the search, as every engine
+but ``event`` does). The choice and its reason go to the run's summary (``engine``, ``engine_reason``).
 """
 
 from __future__ import annotations
@@ -75,6 +77,12 @@ def choose(scene):
             scene = replace(scene, dt=dt)
             reason += f"; dt = {dt:.3g} s, {basis}"
         return replace(scene, engine="step"), reason
+    from gaz_cli.scene import search_given
+
+    given = search_given(scene.extras)
+    if given:
+        settings = ", ".join(f"{k} {scene.extras[k]!r}" for k in given)
+        return replace(scene, engine="event"), f"a partner search set ({settings}): the event engine's"
     if ideal.reason_not(scene) is None:
         why = "one particle" if scene.n == 1 else "point particles"
         return replace(scene, engine="ideal"), f"{why} never collide: wall bounces in closed form, no event queue"

@@ -25,7 +25,7 @@ import numpy as np
 from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
-from gaz_cli.scene import Scene, State, check_outputs, fresh_seed, initial_state, validate
+from gaz_cli.scene import Scene, State, check_database_space, check_outputs, fresh_seed, initial_state, validate
 
 from gaz_cli.engines import engine_run
 
@@ -134,17 +134,24 @@ def _check_writable(path: str | None, option: str) -> None:
             raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
 
 
+def sqlite_file(db: str | None) -> str | None:
+    """The file a ``--db`` path or ``sqlite:///`` URL names; None for anything else."""
+    if db is None:
+        return None
+    from gaz_cli.sqlite_writer import is_file_path
+
+    path = db if is_file_path(db) else (db[len("sqlite:///"):].split("?", 1)[0]
+                                        if db.startswith("sqlite:///") else None)
+    return path or None
+
+
 def _check_distinct(db: str | None, outputs: dict) -> None:
     """No two of a run's files the same: an output written over the SQLite database (or over
     another output) would destroy it. ``outputs``: option -> path (None when not given)."""
     taken = []
-    if db is not None:
-        from gaz_cli.sqlite_writer import is_file_path
-
-        path = db if is_file_path(db) else (db[len("sqlite:///"):].split("?", 1)[0]
-                                            if db.startswith("sqlite:///") else None)
-        if path:
-            taken.append(("--db", db, Path(path).expanduser().resolve()))
+    path = sqlite_file(db)
+    if path:
+        taken.append(("--db", db, Path(path).expanduser().resolve()))
     for option, path in outputs.items():
         if not path:
             continue
@@ -216,6 +223,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_writable(write_scene, "--write-scene")
     _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
     check_outputs(scene, trajectory, every)
+    if sqlite_file(db):
+        check_database_space(scene, sqlite_file(db))
     if write_scene:
         from gaz_cli import scenefile
 

@@ -152,6 +152,10 @@ def check(doc: dict, where: str = "") -> None:
             raise SceneError(f"{where}{key} must be a table ([{key}])")
         elif key == "output":
             _check_keys(value, OUTPUT_KEYS, f"{where}output: ")
+            for name, path in value.items():
+                if OUTPUT_KEYS[name] == STR and not path.strip():
+                    raise SceneError(f"{where}output: {name} = {path!r} names no file; give a path, "
+                                     f"or drop {name}")
         elif key == "search":
             _check_keys(value, SEARCH_KEYS, f"{where}search: ")
 

@@ -138,13 +138,14 @@ def use_wal(conn: sqlite3.Connection) -> None:
 
 
 def _state(conn: sqlite3.Connection) -> str | None:
-    """_NEW (none of gaz's tables), _CURRENT (every one, with exactly this layout's columns,
-    at this version), or None: anything else, left to :class:`gaz_cli.store.Store`."""
+    """_NEW (no table at all), _CURRENT (every one of gaz's, with exactly this layout's columns,
+    at this version), or None: anything else -- an older gaz database, another application's
+    (which the store refuses) -- left to :class:`gaz_cli.store.Store`."""
     ours = layout().columns
     found = {r[0].lower(): r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     present = [t for t in ours if t in found]
     if not present:
-        return _NEW
+        return None if any(not t.startswith("sqlite_") for t in found) else _NEW
     if len(present) < len(ours):
         return None
     for table, columns in ours.items():

@@ -278,6 +278,8 @@ class Store(RunStore):
     """
 
     def __init__(self, db: str, create: bool = True):
+        if not isinstance(db, str) or not db.strip():
+            raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
         self.db = db
         self.shown = shown(db)
         url = url_for(db)
@@ -358,8 +360,8 @@ class Store(RunStore):
             self._create_or_migrate(conn, self._schema_state(conn))
 
     def _schema_state(self, conn) -> int:
-        """The schema version found: 0 for none of gaz's tables; StoreError for a foreign
-        or newer layout."""
+        """The schema version found: 0 for none of gaz's tables (and, in SQLite, no other);
+        StoreError for a foreign or newer layout, or a SQLite file of another application."""
         insp = sa.inspect(conn)
         names = {n.lower() for n in insp.get_table_names()}
         tables = [metadata.tables[t] for t in EXAM_TABLES]
@@ -376,6 +378,11 @@ class Store(RunStore):
                     "point --db at a new file or a gaz database")
         present = [t for t in EXAM_TABLES if t in names]
         if not present:
+            others = sorted(n for n in names if not n.startswith("sqlite_"))
+            if self.is_sqlite and others:  # a PostgreSQL database may hold other schemas' tables
+                shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
+                raise StoreError(f"{self.shown!r} is not a gaz database: it holds other tables ({shown}) and "
+                                 "none of gaz's; nothing was written; give --db a new file or a gaz database")
             return 0
         if len(present) < len(EXAM_TABLES):
             missing = next(t for t in EXAM_TABLES if t not in names)

@@ -118,18 +118,34 @@ def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = Non
 
 
 # --- a scene file's points -----------------------------------------------------
-def scenes_of_file(path) -> tuple[Callable[[dict], Any], int | None]:
+def varied_keys() -> list[str]:
+    """What ``--vary`` may name: a top-level key of a scene file but ``seed`` (``--seeds``), or
+    ``count`` / ``count.NAME``."""
+    from gaz_cli import scenefile
+
+    return [k for k in scenefile.SCALARS if k != "seed"] + ["count", "count.NAME"]
+
+
+def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None]:
     """The scene builder of a sweep over the scene file ``path``, and the file's seed.
 
     A point's overrides set top-level keys of the file (``packing``, ``temperature``,
     ``length``, ``duration``, ``seed``...), or ``count`` -- the count of the file's one
     species (several species: ``count.NAME``). Each scene goes through the same door as
-    ``gaz simulate FILE`` (:func:`gaz_cli.scenefile.build`).
+    ``gaz simulate FILE`` (:func:`gaz_cli.scenefile.build`). ``keys``: the keys the sweep
+    varies, refused here, before any run, unless :func:`varied_keys` allows them (and a
+    count names a species of the file).
     """
     from gaz_cli import scenefile
 
     doc = scenefile.read(path)
     where = f"{path}: "
+    allowed = varied_keys()
+    for key in keys:
+        if key == "count" or key.startswith("count."):
+            _set_count([dict(t) for t in doc.get("species", []) if isinstance(t, dict)], key, 0, where)
+        elif key not in allowed and key != "seed":  # seed: plan() says to use --seeds
+            raise SceneError(f"--vary {key}: not a key a sweep can vary; vary one of {', '.join(allowed)}")
 
     def scene_of(overrides: dict):
         point = {k: v for k, v in doc.items() if k != "output"}

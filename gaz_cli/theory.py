@@ -1035,13 +1035,14 @@ def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False
     """Temperature (K) from the total kinetic energy K (J): k_B T = 2K/(D N).
 
     With ``periodic`` (total momentum fixed at zero) the D momentum degrees of
-    freedom are removed: k_B T = 2K/(D (N - 1)).
+    freedom are removed: k_B T = 2K/(D (N - 1)); except for a single particle, whose
+    momentum gaz keeps (:func:`gaz_cli.scene.initial_state`: removing it would stop the
+    particle), so N = 1 counts its D degrees of freedom, periodic or not.
     """
     dim = _dim(dim)
     k = _nonnegative("kinetic energy", kinetic_energy, "J")
     n = np.asarray(number, dtype=float)
-    dof_n = n - 1.0 if periodic else n
-    if not np.all(dof_n > 0.0):
-        need = 2 if periodic else 1
-        raise SceneError(f"kinetic temperature needs at least {need} particle(s), got {_show(number)}")
+    if not np.all(n >= 1.0):
+        raise SceneError(f"kinetic temperature needs at least 1 particle, got {_show(number)}")
+    dof_n = np.where(n > 1.0, n - 1.0, n) if periodic else n
     return _out(2.0 * k / (dim * dof_n * K_B))

@@ -35,6 +35,52 @@ def test_simulate_then_analyse(db, engine):
     assert set(out) >= {"Q34 simulations per dimension", "pressure against the ideal gas"}
 
 
+@pytest.mark.parametrize("dim", [1, 2, 3])
+@pytest.mark.parametrize("engine", ["auto", "event"])
+def test_one_particle_in_a_periodic_box(db, dim, engine):
+    """No wall, no collision: the particle keeps its momentum (removing it would stop it), so its
+    kinetic temperature counts D degrees of freedom and the pressure is 2K/(D L^D). The run used
+    to end after the engine in 'kinetic temperature needs at least 2 particle(s), got 1', exit 1."""
+    res = invoke(["simulate", "--dim", str(dim), "--n", "1", "--boundary", "periodic", "--length", "3.4e-8",
+                  "--duration", "1e-9", "--seed", "3", "--engine", engine, "--db", db, "--json"])
+    assert res.exit_code == 0 and res.stderr == "", res.output
+    summary = json.loads(res.stdout)
+    assert summary["events"] == summary["wall_bounces"] == summary["collisions"] == 0
+    ke = summary["kinetic_energy_start"]
+    assert ke > 0 and summary["kinetic_energy_end"] == pytest.approx(ke, rel=1e-12)
+    assert summary["pressure"] == pytest.approx(2 * ke / (dim * 3.4e-8 ** dim), rel=1e-12)
+    res = invoke(["analyse", "--db", db, "--format", "json"])
+    assert res.exit_code == 0, res.output
+    row, = json.loads(res.stdout)["pressure against the ideal gas"]
+    assert row["P_MEASURED"] == pytest.approx(summary["pressure"], rel=1e-12)
+    assert row["T_KIN_K"] == pytest.approx(2 * ke / (dim * 1.380649e-23), rel=1e-12)
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "1e-11"],
+    ["simulate", "{tmp}/out.toml"],
+    ["analyse"], ["query", "q34"], ["scene", "1"],
+    ["sweep", "{tmp}/s.toml", "--vary", "temperature=100,200", "--quiet"],
+])
+@pytest.mark.parametrize("db", ["", "  "])
+def test_an_empty_db_is_refused(tmp_path, monkeypatch, command, db):
+    """gaz simulate --db '' wrote gaz.db in the current folder, exit 0 (an empty --db read as
+    none given); analyse and query said "database '' does not exist; run 'gaz simulate --db '
+    first", sweep "cannot open database ''". Now one line naming --db, and no file written. A
+    scene file's [output] db = "" likewise."""
+    monkeypatch.chdir(tmp_path)
+    scene = 'dim = 2\nlength = 1e-7\nduration = 1e-11\n{}[[species]]\nname = "Ar"\ncount = 10\n'
+    (tmp_path / "s.toml").write_text(scene.format(""))
+    (tmp_path / "out.toml").write_text(scene.format(f'[output]\ndb = "{db}"\n'))
+    files = sorted(tmp_path.iterdir())
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in command]
+    res = invoke(argv if argv[-1].endswith("out.toml") else [*argv, "--db", db])
+    lines = res.stderr.splitlines()
+    assert res.exit_code in (1, 2) and len(lines) == 1 and res.stdout == "", res.output
+    assert ("--db" in lines[0] and "names no database" in lines[0]) or "output: db = " in lines[0], lines[0]
+    assert sorted(tmp_path.iterdir()) == files
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):

@@ -73,6 +73,12 @@ CASES = [
     ("--no-db with --db", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--no-db"], 2, "--no-db"),
     ("--every -1", [*SIM, "--dim", "2", "--n", "10", "--length", "1e-7", "--trajectory", "{tmp}/t.h5",
                     "--every", "-1"], 1, "--every"),
+    ("one argon atom in a box 2e-12 m wider than it (1e12 bounces)",
+     ["simulate", "--dim", "1", "--n", "1", "--length", "3.6e-10", "--duration", "1e-2", "--seed", "1",
+      "--record", "none"], 1, "9.97e+11 events"),
+    ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
+     1, "not a key a sweep can vary"),
+    ("analyse: --db ''", ["analyse", "--db", ""], 2, "names no database"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
@@ -180,6 +186,42 @@ def test_a_hostile_input_is_one_line_and_leaves_the_database(populated_db, tmp_p
     assert out["new_files"] == []  # no empty trajectory, no image, no journal left behind
 
 
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 1 MiB tmpfs mounted under tmp_path (root only; skipped where mounting is not permitted)."""
+    import subprocess
+
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], capture_output=True)
+
+
+def test_rows_beyond_the_free_space_of_the_database_disk_are_refused(populated_db, tiny_disk):
+    """About 80,000 wall bounces (3.7 MB of REBOND rows) into a database on a 1 MiB disk: one line
+    naming the estimate and the fixes, the database untouched; with --record none the run goes.
+    (It used to run, then end in 'no space left' after the engine's work, or fill the disk.)"""
+    db = tiny_disk / "gaz.db"
+    shutil.copyfile(populated_db, db)
+    before = _digest(db)
+    args = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-6", "--seed", "2",
+            "--db", str(db)]
+    res = invoke(args)
+    lines = [ln for ln in res.stderr.splitlines() if ln]
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert "would grow by about 3." in lines[0] and "MB" in lines[0] and "free" in lines[0], lines[0]
+    assert "--record none" in lines[0] and "--duration" in lines[0] and "--db" in lines[0], lines[0]
+    assert _digest(db) == before and sorted(p.name for p in tiny_disk.iterdir()) == ["gaz.db"]
+    res = invoke([*args, "--record", "none"])
+    assert res.exit_code == 0, res.stderr
+
+
 # --- the table of docs/stability.md -------------------------------------------------------------
 BEGIN, END = "<!-- hostile-inputs:begin -->", "<!-- hostile-inputs:end -->"
 DOC = Path(__file__).resolve().parent.parent / "docs" / "stability.md"
@@ -197,10 +239,15 @@ def table(rows) -> str:
              "byte-identical (SHA-256). A full disk under a trajectory and Ctrl-C in the step engine need a real "
              "process: `tests/test_trajectory.py::test_a_full_disk_is_one_line_and_exit_1` (a 1 MiB tmpfs: "
              "refused at the door, and with `--force` ENOSPC gives exit 1, was SIGSEGV, exit 139) and "
-             "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130).", "",
+             "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130). Two need a file of their "
+             "own: rows beyond the free space of the database's disk "
+             "(`test_rows_beyond_the_free_space_of_the_database_disk_are_refused`, a 1 MiB tmpfs) and a SQLite "
+             "file of another application (`tests/test_store_cli.py::"
+             "test_another_applications_sqlite_file_is_refused_untouched`): one line each, the file untouched.",
+             "",
              "| bad input | command | exit | message | database |", "| --- | --- | --- | --- | --- |"]
     for what, out, tmp in rows:
-        command = " ".join(["gaz", *out["argv"]]).replace(str(tmp), "TMP")
+        command = " ".join(["gaz", *(a or "''" for a in out["argv"])]).replace(str(tmp), "TMP")
         message = out["lines"][0].replace(str(tmp), "TMP") if out["lines"] else out["stderr"]
         db = ("unchanged" if out["db_unchanged"] else "CHANGED") if out["argv"][0] == "simulate" else "(not used)"
         lines.append(f"| {_cell(what)} | `{_cell(command)}` | {out['exit']} | {_cell(message)} | {db} |")

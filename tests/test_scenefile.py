@@ -289,10 +289,28 @@ def test_a_search_given_explicitly_is_kept_and_the_skin_of_lists_stored():
     ('classes = "on"', ["classes 'on' is not one of auto, off"]),
     ('kd = "tree"', ["search: unknown key 'kd'", "allowed: neighbours, classes, skin"]),
     ("skin = \"wide\"", ["search: skin = 'wide' must be a number"]),
+    ('engine = "step"', ["search: unknown key 'engine' (= 'step')", "allowed: neighbours, classes, skin"]),
 ])
 def test_a_bad_search_is_one_line_naming_key_value_and_choices(tmp_path, line, words):
     assert_refused_in_one_line(tmp_path / "bad.toml", "dim = 2\nduration = 1e-10\nlength = 1e-7\n\n[[species]]\n"
                           f"name = \"Ar\"\ncount = 10\n\n[search]\n{line}\n", words)
+
+
+@pytest.mark.parametrize("top", ['engine = "step"\ndt = 1e-14', 'engine = "reference"',
+                                 "drag = 0.5"])
+def test_a_search_given_to_an_engine_that_does_not_search_is_refused(tmp_path, top):
+    """[search] neighbours = "lists" with engine = "step" (or reference, or drag, which takes the
+    step engine) ran, exit 0, the search ignored in silence; now one line naming the table, the
+    key and the engine it applies to. Left on auto, a scene with a search takes the event engine
+    (a tiny run went to the reference engine and ignored it too)."""
+    path = tmp_path / "bad.toml"
+    assert_refused_in_one_line(path, f"dim = 2\nduration = 1e-11\nlength = 1e-7\n{top}\n\n[[species]]\n"
+                               'name = "Ar"\ncount = 2\n\n[search]\nneighbours = "lists"\n',
+                               ["[search] neighbours 'lists' applies to engine event only", "set engine event"])
+    path.write_text(path.read_text().replace(top, ""))
+    code, out, err = invoke(["simulate", str(path), "--no-db", "--json"])
+    assert code == 0, err
+    assert json.loads(out)["engine"] == "event" and json.loads(out)["neighbour_lists"]
 
 
 @pytest.mark.parametrize("top, search, words", [

@@ -198,6 +198,38 @@ def test_foreign_database_is_refused_untouched(tmp_path):
     assert leftovers(tmp_path, {"theirs.db"}) == []
 
 
+@pytest.mark.parametrize("url", [False, True])
+def test_another_applications_sqlite_file_is_refused_untouched(tmp_path, url):
+    """A SQLite file holding other tables and none of gaz's got gaz's nine tables added beside
+    them, exit 0 (--db path and sqlite:/// URL alike); now one line naming the file and the fix,
+    the file byte for byte as it was, for simulate, sweep and analyse. An empty file (0 bytes)
+    and a gaz database stay accepted."""
+    db = tmp_path / "theirs.db"
+    con = sqlite3.connect(db)
+    con.execute("CREATE TABLE users (id INTEGER PRIMARY KEY, name TEXT)")
+    con.execute("INSERT INTO users VALUES (1, 'bob')")
+    con.commit()
+    con.close()
+    before = db.read_bytes()
+    given = f"sqlite:///{db}" if url else str(db)
+    (tmp_path / "s.toml").write_text('dim = 2\nlength = 1e-7\nduration = 1e-11\n[[species]]\nname = "Ar"\n'
+                                     'count = 10\n')
+    for args in ([*QUICK, "--seed", "1"], ["sweep", str(tmp_path / "s.toml"), "--vary", "temperature=100,200",
+                                          "--quiet"], ["analyse"]):
+        res = invoke([*args, "--db", given])
+        assert res.exit_code == 1 and res.stdout == "", res.output
+        assert res.stderr.count("\n") == 1, res.stderr
+        assert f"{given!r} is not a gaz database: it holds other tables (users) and none of gaz's" in res.stderr
+        assert "give --db a new file or a gaz database" in res.stderr
+        assert db.read_bytes() == before
+        assert leftovers(tmp_path, {"theirs.db", "s.toml"}) == []
+    empty = tmp_path / "empty.db"
+    empty.touch()
+    for _ in range(2):  # a 0-byte file becomes a gaz database, then takes a second run
+        res = invoke([*QUICK, "--seed", "1", "--db", f"sqlite:///{empty}" if url else str(empty)])
+        assert res.exit_code == 0, res.stderr
+
+
 @pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (a disk always full)")
 def test_a_failing_state_file_commits_nothing(tmp_path):
     """--save-state that cannot be written fails the run before its commit (it used to
@@ -210,13 +242,21 @@ def test_a_failing_state_file_commits_nothing(tmp_path):
     assert os.path.exists("/dev/full")  # only regular files of the failed run are removed
 
 
-def test_a_failing_summary_commits_nothing(tmp_path):
-    """A periodic box of one particle has no kinetic temperature: the summary fails, and
-    it comes before the commit (it used to exit 1 with the simulation committed)."""
+def test_a_failing_summary_commits_nothing(tmp_path, monkeypatch):
+    """The summary comes before the commit: when it fails, nothing is committed (it used to
+    exit 1 with the simulation committed). It failed for one particle in a periodic box, which
+    now runs; a pressure that cannot be computed stands in for it."""
+    from gaz_cli import runner
+    from gaz_cli.errors import SceneError
+
+    def fails(*args, **kwargs):
+        raise SceneError("no pressure")
+
+    monkeypatch.setattr(runner, "run_pressure", fails)
     db = tmp_path / "gaz.db"
     res = invoke(["simulate", "--dim", "2", "--n", "1", "--length", "1e-7", "--duration", "1e-11",
                   "--boundary", "periodic", "--seed", "1", "--db", str(db)])
-    assert res.exit_code == 1 and res.stderr.count("\n") == 1
+    assert res.exit_code == 1 and res.stderr == "gaz: error: no pressure\n"
     assert check_consistent(db) == []
 
 

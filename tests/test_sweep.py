@@ -195,3 +195,24 @@ def test_gaz_sweep_reports_an_impossible_point_and_exits_1(tmp_path, cluster):
                                       "--db", str(tmp_path / "r.db"), "--quiet"])
     assert result.exit_code == 1
     assert "stored" in result.output and "failed" in result.output
+
+
+@pytest.mark.parametrize("vary, fragment", [
+    ("colour=1,2", "--vary colour: not a key a sweep can vary; vary one of dim, length, packing"),
+    ("species=1,2", "--vary species: not a key a sweep can vary"),
+    ("count.Ne=10,20", "--vary count.Ne: no species named 'Ne'"),
+])
+def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, fragment):
+    """--vary colour=1,2 started the sweep, opened (created) the database and failed every run
+    with the scene file's 'unknown key', exit 1; now one line at the door listing the keys, no
+    database, no cluster."""
+    from cli_helpers import invoke
+
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    db = tmp_path / "r.db"
+    res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and fragment in lines[0], res.stderr
+    assert "count.NAME" in lines[0] or "count." in vary
+    assert res.stdout == "" and not db.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rods.toml"]
