@@ -186,23 +186,6 @@ def test_a_hostile_input_is_one_line_and_leaves_the_database(populated_db, tmp_p
     assert out["new_files"] == []  # no empty trajectory, no image, no journal left behind
 
 
-@pytest.fixture
-def tiny_disk(tmp_path):
-    """A 1 MiB tmpfs mounted under tmp_path (root only; skipped where mounting is not permitted)."""
-    import subprocess
-
-    mount = tmp_path / "small"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
-                          capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
-    try:
-        yield mount
-    finally:
-        subprocess.run(["umount", str(mount)], capture_output=True)
-
-
 def test_rows_beyond_the_free_space_of_the_database_disk_are_refused(populated_db, tiny_disk):
     """About 80,000 wall bounces (3.7 MB of REBOND rows) into a database on a 1 MiB disk: one line
     naming the estimate and the fixes, the database untouched; with --record none the run goes.

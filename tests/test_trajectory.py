@@ -274,23 +274,6 @@ def test_cli_names_the_flags_and_every_format(tmp_path):
 
 
 # --- a full disk ------------------------------------------------------------------------
-@pytest.fixture
-def tiny_disk(tmp_path):
-    """A 1 MiB tmpfs mounted under tmp_path (root only; skipped where mounting is not permitted)."""
-    import subprocess
-
-    mount = tmp_path / "full"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
-                          capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
-    try:
-        yield mount
-    finally:
-        subprocess.run(["umount", str(mount)], capture_output=True)
-
-
 @pytest.mark.parametrize("name", ["run.h5", "run.pvd"])
 def test_a_full_disk_is_one_line_and_exit_1(tiny_disk, tmp_path, name):
     """500 disks, 1001 snapshots of 16 kB each, on a 1 MiB disk.
