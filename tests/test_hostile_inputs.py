@@ -117,6 +117,8 @@ CASES = [
      "64-bit"),
     ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
                                          "--db", "{tmp}/gaz.db"], 1, "64-bit"),
+    ("query: a parameter not a number", ["query", "q36", "--param", "si_num=abc", "--db", "{tmp}/gaz.db"], 1,
+     "whole number"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
