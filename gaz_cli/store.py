@@ -69,7 +69,7 @@ from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli import scenefile
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.species import BUILTIN, NAME_MAX, Species
 
 metadata = sa.MetaData()
 
@@ -86,7 +86,7 @@ simulation = sa.Table(
 particule = sa.Table(
     "particule", metadata,
     sa.Column("pa_num", sa.Integer, primary_key=True, autoincrement=True),
-    sa.Column("pa_nom", sa.String(64), nullable=False),
+    sa.Column("pa_nom", sa.String(NAME_MAX), nullable=False),
     sa.Column("pa_m", sa.Float, nullable=False),
     sa.Column("pa_r", sa.Float, nullable=False),
 )

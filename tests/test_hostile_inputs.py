@@ -119,6 +119,7 @@ CASES = [
                                          "--db", "{tmp}/gaz.db"], 1, "64-bit"),
     ("query: a parameter not a number", ["query", "q36", "--param", "si_num=abc", "--db", "{tmp}/gaz.db"], 1,
      "whole number"),
+    ("species name of 65 characters", ["simulate", "{tmp}/longname.toml"], 1, "PA_NOM"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
@@ -160,6 +161,9 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\ncount = 2\n'
         '[initial]\nkind = "explicit"\npositions = [[1e-8, 1e-8], [1e-8, 1.01e-8]]\n'
         'velocities = [[1.0, 1.0], [1.0, 1.0]]\n')
+    (tmp_path / "longname.toml").write_text(
+        'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
+        '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
 
 from gaz_cli import scenefile
@@ -162,6 +163,45 @@ def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
                                ["unknown key 'x' (= [1.0, 1.0", "...", "allowed: dim"])
     code, out, err = invoke(["simulate", str(path), "--no-db"])
     assert len(err) < 1000, len(err)
+
+
+CUSTOM = ('dim = 2\nduration = 1e-11\nlength = 1e-7\nseed = 1\n'
+          '[[species]]\nname = {}\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+
+
+@pytest.mark.parametrize("name, words", [
+    ('""', ["species name '' is empty"]),
+    ('"   "', ["species name '   ' is empty"]),
+    ('"' + "x" * 65 + '"', ["has 65 characters, more than the 64", "PA_NOM"]),
+    ('"a\\u0000b"', ["control character"]),
+    ('"two\\nlines"', ["control character"]),
+])
+def test_a_species_name_the_database_cannot_hold_is_refused_at_the_door(tmp_path, name, words):
+    """Such names were run and stored in SQLite; PostgreSQL refused them when the run was over
+    ('value too long for type character varying(64)', 'cannot contain NUL (0x00) bytes')."""
+    path, db = tmp_path / "named.toml", tmp_path / "gaz.db"
+    path.write_text(CUSTOM.format(name))
+    code, out, err = invoke(["simulate", str(path), "--db", str(db)])
+    assert code == 1 and out == "" and len(err.splitlines()) == 1, err
+    assert err.startswith(f"gaz: error: {path}: species name ")
+    for w in words:
+        assert w in err, err
+    assert not db.exists()
+
+
+@pytest.mark.parametrize("backend", BACKENDS, indirect=True)
+def test_species_names_up_to_64_characters_any_script_are_stored_as_given(backend, tmp_path):
+    from gaz_cli import store as st
+
+    names = ["x" * 64, "Argon \u2603 \u6c29", "a,b:c"]
+    path = tmp_path / "named.toml"
+    for seed, name in enumerate(names, 1):
+        path.write_text(CUSTOM.format(json.dumps(name)).replace("seed = 1", f"seed = {seed}"), encoding="utf-8")
+        code, out, err = invoke(["simulate", str(path), "--db", backend])
+        assert code == 0, err
+    with st.Store(backend, create=False) as store:
+        stored = store.read_sql("SELECT PA_NOM FROM PARTICULE WHERE PA_NUM > 10 ORDER BY PA_NUM")
+    assert list(stored.iloc[:, 0]) == names
 
 
 # --- presets ----------------------------------------------------------------------------------
