@@ -568,9 +568,21 @@ def read_vtk(path: str | os.PathLike) -> dict:
     try:
         root = ET.parse(path, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
         entries = [(float(e.get("timestep")), path.parent / e.get("file")) for e in root.iter("DataSet")]
-        meshes = [meshio.read(file) for _, file in entries]
     except (OSError, ET.ParseError, TypeError, ValueError) as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
+    meshes = []
+    for _, file in entries:
+        # meshio's own reader, not meshio.read: that one prints "Error: Couldn't read file" and
+        # calls sys.exit(1) for a file it cannot parse, and raises its ReadError for a missing one
+        try:
+            meshes.append(meshio.vtu.read(str(file)))
+        except OSError as err:
+            raise SceneError(f"cannot read trajectory {str(path)!r}: its snapshot {str(file)!r} is "
+                             f"missing or unreadable ({err.strerror})") from None
+        except (meshio.ReadError, ET.ParseError, ValueError) as err:
+            raise SceneError(f"cannot read trajectory {str(path)!r}: its snapshot {str(file)!r} is not a "
+                             f"VTU file gaz wrote (truncated or replaced{': ' + str(err) if str(err) else ''})") \
+                from None
     if not meshes:
         raise SceneError(f"trajectory {str(path)!r} holds no snapshot")
     first = meshes[0]

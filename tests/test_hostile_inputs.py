@@ -113,6 +113,7 @@ CASES = [
                                "--repeat", "100000000000000"], 1, "--repeat"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
+    ("animate: a .pvd listing a missing snapshot", ["animate", "{tmp}/gone.pvd"], 1, "gone_00000.vtu"),
     ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,
      "64-bit"),
     ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
@@ -164,6 +165,8 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     (tmp_path / "longname.toml").write_text(
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
         '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+    (tmp_path / "gone.pvd").write_text('<VTKFile type="Collection"><Collection>'
+                                       '<DataSet timestep="0" file="gone_00000.vtu"/></Collection></VTKFile>\n')
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]
