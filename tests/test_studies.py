@@ -58,6 +58,28 @@ def test_unknown_key_and_empty_database_are_one_line(rods_db, tmp_path):
             studies.versus(store, "packing")
 
 
+def test_runs_recorded_without_bounces_add_no_pressure(rods_db, tmp_path):
+    """Runs of record = "none" store no bounce: their pressure was averaged as 0 (two such runs
+    beside eight took a third off P and Z); now they measure none, and still count for the
+    collision rate."""
+    import shutil
+
+    db = str(tmp_path / "mixed.db")
+    shutil.copyfile(rods_db, db)
+    length = N * 2 * ARGON.radius / PACKINGS[0]
+    for seed in (SEEDS + 1, SEEDS + 2):
+        simulate(Scene(dim=1, length=length, duration=2e-10, components=((ARGON, N),), seed=seed,
+                       record="none"), db=db)
+    with Store(rods_db, create=False) as store:
+        before = studies.versus(store, "packing").iloc[0]
+    with Store(db, create=False) as store:
+        after = studies.versus(store, "packing").iloc[0]
+    assert after.RUNS == SEEDS + 2
+    for name in ("P", "P_ERR", "P_THEORY", "P_DEV_SIGMA", "Z", "Z_ERR", "Z_THEORY"):
+        assert after[name] == pytest.approx(before[name], rel=1e-12), name
+    assert after.RATE != before.RATE  # the two runs' collisions are measured
+
+
 def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
     with Store(rods_db, create=False) as store:
         table = studies.versus(store, "packing")
