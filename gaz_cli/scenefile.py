@@ -167,7 +167,12 @@ def _components(entries: list, where: str) -> tuple:
         if len(custom) == 1:
             raise SceneError(f"{where}species[{k}] ({t['name']}): mass and radius go together (a custom "
                              "species), or give neither for a built-in one")
-        sp = Species(t["name"], float(t["mass"]), float(t["radius"])) if custom else lookup(t["name"])
+        try:
+            sp = Species(t["name"], float(t["mass"]), float(t["radius"])) if custom else lookup(t["name"])
+        except SceneError:  # lookup's words are the command line's (--radius and --mass)
+            raise SceneError(f"{where}species[{k}]: unknown species {_shown(t['name'])}; built in: "
+                             f"{', '.join(BUILTIN)}; or give it mass (kg) and radius (m), a species of "
+                             "your own") from None
         out.append((sp, t["count"]))
     names = [sp.name for sp, _ in out]
     if len(set(names)) != len(names):

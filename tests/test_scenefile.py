@@ -155,6 +155,18 @@ def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line,
     assert_refused_in_one_line(path, f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n", words)
 
 
+def test_an_unknown_species_in_a_file_names_the_file_and_the_file_s_fix(tmp_path):
+    """It said "unknown species 'Zz'; known: ... (or give --radius and --mass)": neither the file
+    nor its keys (also in each failed run of a gaz sweep over that file)."""
+    path = tmp_path / "zz.toml"
+    assert_refused_in_one_line(path, 'dim = 2\nduration = 1e-10\nlength = 1e-7\n[[species]]\nname = "Ar"\n'
+                                     'count = 5\n[[species]]\nname = "Zz"\ncount = 5\n',
+                               [f"gaz: error: {path}: species[1]: unknown species 'Zz'; built in: He, Ne, Ar",
+                                "give it mass (kg) and radius (m)"])
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    assert "--radius" not in err
+
+
 def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
     """An unknown key holding 200,000 numbers was echoed whole: one line of 1.2 MB on stderr."""
     path = tmp_path / "huge.toml"
