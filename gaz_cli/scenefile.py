@@ -342,6 +342,6 @@ def stored(db: str, si_num: int) -> str:
         raise StoreError(f"no simulation {si_num} in {db!r}; gaz analyse --db {db} lists them")
     text = frame.iloc[0, 1]
     if not isinstance(text, str) or not text:
-        raise StoreError(f"simulation {si_num} was stored without its scene file (before schema version 3 "
-                         "or by an older gaz); its SCENE row holds the options that were recorded then")
+        raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
+                         "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
     return text

@@ -226,6 +226,22 @@ def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
     assert code == 1 and "--preset marbles sets --temperature itself" in err  # it would be ignored
 
 
+def test_gaz_scene_of_a_simulation_without_a_scene_row_says_so(tmp_path):
+    """A SIMULATION row with no SCENE row (written by other software, as the exam's INSERTs would)
+    was "no simulation 1 in 'gaz.db'" though gaz analyse --sim 1 analysed it."""
+    db = tmp_path / "gaz.db"
+    assert invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11",
+                   "--seed", "1", "--db", str(db)]).exit_code == 0
+    with sqlite3.connect(db) as conn:
+        conn.execute("DELETE FROM SCENE WHERE SI_NUM = 1")
+    conn.close()
+    code, out, err = invoke(["scene", "1", "--db", str(db)])
+    assert (code, out) == (1, "") and len(err.splitlines()) == 1
+    assert err.startswith("gaz: error: simulation 1 was stored without its scene file"), err
+    code, out, err = invoke(["scene", "2", "--db", str(db)])
+    assert code == 1 and err == f"gaz: error: no simulation 2 in '{db}'; gaz analyse --db {db} lists them\n"
+
+
 def test_a_preset_with_a_seed_is_placed_with_it_and_reruns_from_the_database(tmp_path):
     """--preset marbles --seed 5: placed with seed 5 (the seed SCENE records); `gaz scene` prints a
     file that runs again to the same REBOND rows, bit for bit."""
