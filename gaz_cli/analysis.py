@@ -599,7 +599,7 @@ def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, er
     counts, _, masses = _counts_radii_masses(run)
     window = run.window
     diff_var = (2.0 * float(np.sum(counts * masses)) * K_B * temperature / (window * run.wall_measure) ** 2
-                if math.isfinite(temperature) and len(run.species) else math.nan)
+                if math.isfinite(temperature) and len(run.species) and window > 0.0 else math.nan)
     for d in range(1, run.dim + 1):
         low, high = series[-d], series[d]
         exp = [expected.get(w) for w in (-d, d)]
