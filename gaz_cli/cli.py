@@ -100,7 +100,20 @@ def _jsonable(obj):
 
 
 # --- the group ----------------------------------------------------------------
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class _PipeClosed(Exception):
+    """stdout's reader went away (``gaz place ... | head``): carries the BrokenPipeError past
+    click, whose own handler of it exits 1 without a word, even outside standalone mode."""
+
+
+class _Group(click.Group):
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except BrokenPipeError:
+            raise _PipeClosed() from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="gaz")
 def cli():
     """gaz: hard rods, disks and spheres bouncing in a box; every wall bounce
@@ -515,7 +528,13 @@ def main(argv=None) -> None:
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)
-    except BrokenPipeError:
+    except (BrokenPipeError, _PipeClosed):
+        # the reader has what it wanted: exit 0, and point stdout at /dev/null so that the
+        # interpreter's last flush of it does not fail again ("Exception ignored", exit 120)
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):  # no real descriptor (a test's capture)
+            pass
         sys.exit(0)
     except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
         from gaz_cli.interrupts import signal_of

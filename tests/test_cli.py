@@ -167,3 +167,19 @@ def test_a_step_too_long_is_one_warning_line_and_the_run_completes(db):
     warnings = [line for line in res.stderr.splitlines() if line.startswith("gaz: warning:")]
     assert len(warnings) == 1 and len(res.stderr.splitlines()) == 1, res.stderr
     assert "overlapping" in warnings[0] and "--dt" in warnings[0]
+
+
+def test_output_cut_short_by_its_reader_exits_0_without_a_word():
+    """gaz place ... | head -c 10: the reader leaves before the 20,000 rows are written. click's
+    own handler of the broken pipe exited 1, silently, even outside standalone mode (a
+    pipeline under `set -o pipefail` failed with nothing said); cli.main meant 0."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "place", "--dim", "1", "--n", "20000",
+                             "--radius", "1e-9", "--length", "1", "--seed", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.read(10)
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert (proc.wait(timeout=120), err) == (0, "")
