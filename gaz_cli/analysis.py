@@ -70,7 +70,10 @@ def _check_place_args(dim, n, radius, length):
     from gaz_cli.scene import DENSEST, ball_volume
 
     eta = n * float(ball_volume(dim, radius)) / length ** dim
-    if 2 * radius >= length or eta >= DENSEST[dim]:
+    if 2 * radius >= length:
+        raise SceneError(f"a particle of radius {radius:g} m (diameter {2 * radius:g} m) does not fit in a box "
+                         f"of side {length:g} m; lower --radius or raise --length")
+    if eta >= DENSEST[dim]:
         raise SceneError(f"{n} particles of radius {radius:g} m cannot fit in a box of side {length:g} m "
                          f"(packing fraction {eta:.3g}, densest {DENSEST[dim]:.4g}); "
                          "lower --n or --radius, or raise --length")

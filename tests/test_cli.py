@@ -78,6 +78,10 @@ def test_place_csv_and_histogram(tmp_path):
 
 @pytest.mark.parametrize("args, needle", [
     (["place", "--dim", "1", "--n", "6", "--radius", "0.5", "--length", "5"], "cannot fit"),
+    # one sphere as wide as the box was told "(packing fraction 0.524, densest 0.7405)", below the densest
+    (["place", "--dim", "3", "--n", "1", "--radius", "5", "--length", "10"],
+     "gaz: error: a particle of radius 5 m (diameter 10 m) does not fit in a box of side 10 m; lower --radius "
+     "or raise --length"),
     (["place", "--dim", "2", "--n", "-3", "--radius", "0.5", "--length", "5"], "--n"),
     (["place", "--dim", "4", "--n", "3", "--radius", "0.5", "--length", "5"], "--dim"),
     (["place", "--dim", "2", "--n", "3", "--radius", "0", "--length", "5"], "--radius"),
