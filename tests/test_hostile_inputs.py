@@ -121,6 +121,9 @@ CASES = [
     ("query: a parameter not a number", ["query", "q36", "--param", "si_num=abc", "--db", "{tmp}/gaz.db"], 1,
      "whole number"),
     ("species name of 65 characters", ["simulate", "{tmp}/longname.toml"], 1, "PA_NOM"),
+    ("sweep: a value given twice", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,100",
+                                    "--db", "{tmp}/gaz.db"], 1, "comes twice"),
+    ("scene file with an unknown species", ["simulate", "{tmp}/zz.toml"], 1, "species[0]: unknown species"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
@@ -165,6 +168,7 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     (tmp_path / "longname.toml").write_text(
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
         '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+    (tmp_path / "zz.toml").write_text(scene.format("").replace('"Ar"', '"Zz"'))
     (tmp_path / "gone.pvd").write_text('<VTKFile type="Collection"><Collection>'
                                        '<DataSet timestep="0" file="gone_00000.vtu"/></Collection></VTKFile>\n')
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
