@@ -1226,7 +1226,9 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
     if sim is not None and sim not in numbers:
         raise StoreError(f"simulation {sim} is not in {db!r}; it holds SI_NUM {_ranges(numbers)}")
     if plot_dir is not None:
-        _make_dir(plot_dir)
+        from gaz_cli import plots
+
+        plots.make_folder(plot_dir)
     chosen = [sim] if sim is not None else numbers
     q34 = store.query("q34_simulations_per_dimension")
     q35 = None if sim is not None else store.query("q35_bounces_per_simulation")
@@ -1294,11 +1296,6 @@ def _overview_row(run: Run, temperature: float, summary: dict) -> dict:
     return row
 
 
-def _make_dir(path: str) -> None:
-    try:
-        Path(path).mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise StoreError(f"cannot create --plot folder {path!r}: {err.strerror}") from None
 
 
 # --- figures -----------------------------------------------------------------------

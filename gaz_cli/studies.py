@@ -217,7 +217,9 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    os.makedirs(folder, exist_ok=True)
+    from gaz_cli import plots
+
+    plots.make_folder(folder)
     written = []
     col = key.upper()
     for (dim, boundary), g in table.groupby(["DIM", "BOUNDARY"]):
@@ -247,9 +249,7 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
         top = float(np.nanmax(np.abs(g.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
         dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
         dev.legend(fontsize=8, loc="upper right")
-        fig.tight_layout()
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        plots.save(fig, path, dpi=120)
         written.append(path)
     return written

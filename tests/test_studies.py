@@ -88,6 +88,17 @@ def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
     assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
 
 
+def test_a_plot_folder_that_cannot_be_made_is_one_line(rods_db, tmp_path):
+    """gaz analyse --vs packing --plot FILE/sub ended in 'internal error: NotADirectoryError', exit 3,
+    as gaz analyse --sim 1 --plot FILE/sub did not."""
+    from cli_helpers import invoke
+
+    (tmp_path / "afile").write_text("")
+    res = invoke(["analyse", "--db", rods_db, "--vs", "packing", "--plot", str(tmp_path / "afile" / "sub")])
+    assert (res.exit_code, res.stdout) == (1, "")
+    assert res.stderr == f"gaz: error: cannot create --plot folder '{tmp_path / 'afile' / 'sub'}': Not a directory\n"
+
+
 def test_dense_disks_against_walls_say_no_theory(tmp_path):
     """2D disks at packing 0.4 between walls: the first-order wall theory's own error exceeds
     the error bar, so no deviation in sigma is printed -- the reason is in NOTE."""
