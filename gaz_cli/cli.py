@@ -29,10 +29,11 @@ def db_option(default: str | None = "gaz.db", note: str = ""):
                         help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 
-def seed_option(f):
-    return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
-                        help="Random seed; same seed, same rows. Default: a fresh seed, "
-                             "recorded in the database and the summary.")(f)
+def seed_option(f=None, *, default="a fresh seed, recorded in the database and the summary"):
+    def decorate(f):
+        return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
+                            help=f"Random seed; same seed, same rows. Default: {default}.")(f)
+    return decorate(f) if f is not None else decorate
 
 
 def format_option(f):
@@ -141,7 +142,7 @@ def cli():
               help="rapid: the exam's Q10 (1D, exactly uniform); rejection: random sequential "
                    "addition on a cell grid; lattice/grow: dense starts. auto: rapid in 1D, else "
                    "rejection when dilute, a dense method when not.")
-@seed_option
+@seed_option(default="a fresh seed each time, printed nowhere (give --seed to place the same particles again)")
 @click.option("--repeat", type=click.IntRange(1), default=None,
               help="Q12 study: repeat the placement K times and histogram the centres along x.")
 @click.option("--bins", type=click.IntRange(1), default=50, show_default=True, help="Histogram bins (with --repeat).")

@@ -134,6 +134,15 @@ def test_help_teaches():
         assert "Example" in res.stdout or "A first session" in res.stdout
 
 
+def test_place_help_does_not_promise_a_recorded_seed():
+    """gaz place --help said the default seed is "recorded in the database and the summary":
+    gaz place has neither, and a placement without --seed could not be made again."""
+    place = " ".join(invoke(["place", "--help"]).stdout.split())
+    assert "recorded in the database" not in place and "printed nowhere" in place
+    simulate = " ".join(invoke(["simulate", "--help"]).stdout.split())
+    assert "a fresh seed, recorded in the database and the summary" in simulate
+
+
 def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
     """The engine counts collisions found already overlapping (a missed collision, or an
     overlapping start); simulate reports them on stderr, the results still on stdout."""
