@@ -353,7 +353,9 @@ def analyse(db, sim, fmt, plot, table, vs):
     if table is not None:
         title = analysis.TABLES[table]
         if title not in frames:
-            raise GazError(f"no table {table!r} for this analysis ({'needs --sim' if sim is None else 'not this scene'}); "
+            why = ("needs --plot DIR" if table == "figures" and plot is None else
+                   "needs --sim" if sim is None else "not this scene")
+            raise GazError(f"no table {table!r} for this analysis ({why}); "
                            f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
         frame = frames[title]
         if fmt == "csv":

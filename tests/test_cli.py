@@ -114,6 +114,11 @@ def test_analyse_errors(tmp_path, db):
     assert res.exit_code == 0, res.output
     res = invoke(["analyse", "--db", db, "--sim", "42"])
     assert res.exit_code != 0 and "simulation 42 is not in" in res.stderr
+    # the figures table needs --plot: it said "(not this scene)" with --sim, "(needs --sim)" without
+    for sim in (["--sim", "1"], []):
+        res = invoke(["analyse", "--db", db, *sim, "--table", "figures"])
+        assert res.exit_code == 1 and res.stderr.startswith("gaz: error: no table 'figures' for this "
+                                                            "analysis (needs --plot DIR); it has: q34"), res.stderr
 
 
 @pytest.mark.parametrize("fmt", ["table", "csv", "json"])
