@@ -66,7 +66,10 @@ def image_file(ctx, param, value):
 
 # --- output helpers -----------------------------------------------------------
 def emit_frames(frames: dict, fmt: str) -> None:
-    """Print named DataFrames (or dicts of scalars) as table, csv or json."""
+    """Print named DataFrames (or dicts of scalars) as table, csv or json.
+
+    csv: one table alone is plain csv, which pandas.read_csv reads as is; several each
+    follow a ``# name`` line."""
     import pandas as pd
 
     if fmt == "json":
@@ -81,7 +84,8 @@ def emit_frames(frames: dict, fmt: str) -> None:
         if not isinstance(frame, pd.DataFrame):
             frame = pd.DataFrame([frame]) if isinstance(frame, dict) else pd.DataFrame(frame)
         if fmt == "csv":
-            click.echo(f"# {name}")
+            if len(frames) > 1:
+                click.echo(f"# {name}")
             click.echo(frame.to_csv(index=False), nl=False)
         else:
             if not first:

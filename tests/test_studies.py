@@ -99,6 +99,21 @@ def test_a_plot_folder_that_cannot_be_made_is_one_line(rods_db, tmp_path):
     assert res.stderr == f"gaz: error: cannot create --plot folder '{tmp_path / 'afile' / 'sub'}': Not a directory\n"
 
 
+def test_vs_csv_is_read_by_pandas_as_is(rods_db):
+    """gaz analyse --vs packing --format csv began with a '# against packing' line, which
+    pandas.read_csv took for the header of one column ('--table' is refused with --vs)."""
+    import io
+
+    import pandas as pd
+    from cli_helpers import invoke
+
+    res = invoke(["analyse", "--db", rods_db, "--vs", "packing", "--format", "csv"])
+    assert res.exit_code == 0, res.stderr
+    frame = pd.read_csv(io.StringIO(res.stdout))
+    assert list(frame.columns[:4]) == ["DIM", "BOUNDARY", "PACKING", "RUNS"] and len(frame) == len(PACKINGS)
+    assert frame.P.dtype.kind == "f"
+
+
 def test_dense_disks_against_walls_say_no_theory(tmp_path):
     """2D disks at packing 0.4 between walls: the first-order wall theory's own error exceeds
     the error bar, so no deviation in sigma is printed -- the reason is in NOTE."""

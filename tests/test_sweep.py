@@ -194,6 +194,12 @@ def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     first = CliRunner().invoke(cli, args)
     assert first.exit_code == 0, first.output
     assert first.output.count(",stored,") == 4
+    import io
+
+    import pandas as pd
+
+    runs = pd.read_csv(io.StringIO(first.stdout))  # one table: no '# runs' line for read_csv to take as its header
+    assert list(runs.columns) == ["packing", "SEED", "STATUS", "SI_NUM", "NOTE"] and len(runs) == 4
     with Store(db, create=False) as store:
         seeds = sorted(store.read_sql("SELECT SC_SEED FROM SCENE").SC_SEED)
     assert seeds == [5, 5, 6, 6]
