@@ -77,7 +77,7 @@ def emit_frames(frames: dict, fmt: str) -> None:
         for name, frame in frames.items():
             out[name] = (frame.astype(object).where(frame.notna(), None).to_dict(orient="records")
                          if isinstance(frame, pd.DataFrame) else frame)
-        click.echo(json.dumps(out, indent=2, default=_jsonable))
+        click.echo(json.dumps(_finite(out), indent=2, default=_jsonable))
         return
     first = True
     for name, frame in frames.items():
@@ -95,6 +95,23 @@ def emit_frames(frames: dict, fmt: str) -> None:
                                    "display.float_format", "{:.6g}".format):
                 click.echo(frame.to_string(index=False) if len(frame) else "(no rows)")
         first = False
+
+
+def _finite(value):
+    """``value`` with every NaN and infinity as None: JSON has no such numbers (Python's
+    NaN and Infinity tokens are refused by jq, JavaScript and strict parsers)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):  # a numpy scalar
+        try:
+            value = value.item()
+        except (ValueError, TypeError):
+            return value
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def _jsonable(obj):

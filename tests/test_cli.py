@@ -121,6 +121,22 @@ def test_analyse_errors(tmp_path, db):
                                                             "analysis (needs --plot DIR); it has: q34"), res.stderr
 
 
+def test_json_output_is_strict_json(db):
+    """A run without collisions printed "MEAN_FREE_TIME_S": NaN in gaz analyse --sim 1 --format
+    json (a table of scalars): a token jq and JavaScript refuse, where --help promises null."""
+    def strict(text):
+        return json.loads(text, parse_constant=lambda token: pytest.fail(f"{token} in the JSON output"))
+
+    assert invoke(["simulate", "--dim", "1", "--n", "3", "--length", "1e-7", "--duration", "1e-13",
+                   "--seed", "1", "--db", db]).exit_code == 0
+    for args in (["analyse", "--sim", "1"], ["analyse"], ["analyse", "--vs", "n"], ["query", "q35"]):
+        res = invoke([*args, "--db", db, "--format", "json"])
+        assert res.exit_code == 0, res.stderr
+        strict(res.stdout)
+    out = strict(invoke(["analyse", "--sim", "1", "--db", db, "--format", "json"]).stdout)
+    assert out["simulation"]["MEAN_FREE_TIME_S"] is None
+
+
 @pytest.mark.parametrize("fmt", ["table", "csv", "json"])
 def test_analyse_formats(db, fmt):
     assert invoke(["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-10",
