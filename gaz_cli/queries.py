@@ -88,6 +88,8 @@ def parse_parameters(query: Query, pairs) -> dict:
         if key not in query.parameters:
             takes = (f"takes {', '.join(query.parameters)}" if query.parameters else "takes no parameter")
             raise QueryError(f"query {query.name} has no parameter {key!r}; it {takes}")
+        if key in params:
+            raise QueryError(f"--param {key} is given twice; give it once")
         params[key] = _number(value.strip())
         if isinstance(params[key], int) and not -2 ** 63 <= params[key] < 2 ** 63:
             raise QueryError(f"--param {pair!r}: {key} is beyond a 64-bit integer, the largest the "

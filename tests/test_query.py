@@ -73,6 +73,9 @@ def test_query_csv_is_the_query_result(backend):
     (["query", "bounce", "--param", "si_num=1", "--param", "bins=4", "--param", "duration=nan"],
      "gaz: error: --param 'duration=nan': duration takes a positive number (s, the time the bins divide), "
      "got nan\n"),
+    # the last one won, without a word
+    (["query", "q36", "--param", "si_num=1", "--param", "si_num=2"],
+     "gaz: error: --param si_num is given twice; give it once\n"),
     (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are bounce, collision, first, "
                        "lookup, pair, pressure, q34, q35, q36, scene, sweep, wall "
                        "(gaz query --list describes them)\n"),
