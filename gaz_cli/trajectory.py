@@ -490,8 +490,11 @@ def read_h5md(path: str | os.PathLike) -> dict:
     except OSError as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
     with f:
-        if "particles/all/position/value" not in f:
-            raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no particles/all/position)")
+        for member in ("particles/all/position/value", "particles/all/position/time", "particles/all/box/edges"):
+            if member not in f:
+                raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no {member})")
+        if "dimension" not in f["particles/all/box"].attrs:
+            raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no dimension on particles/all/box)")
         part = f["particles/all"]
 
         def scaled(dataset, table, default):
