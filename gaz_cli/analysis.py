@@ -70,7 +70,10 @@ def _check_place_args(dim, n, radius, length):
     from gaz_cli.scene import DENSEST, ball_volume
 
     eta = n * float(ball_volume(dim, radius)) / length ** dim
-    if 2 * radius >= length or eta >= DENSEST[dim]:
+    if 2 * radius >= length:
+        raise SceneError(f"a particle of radius {radius:g} m (diameter {2 * radius:g} m) does not fit in a box "
+                         f"of side {length:g} m; lower --radius or raise --length")
+    if eta >= DENSEST[dim]:
         raise SceneError(f"{n} particles of radius {radius:g} m cannot fit in a box of side {length:g} m "
                          f"(packing fraction {eta:.3g}, densest {DENSEST[dim]:.4g}); "
                          "lower --n or --radius, or raise --length")
@@ -599,7 +602,7 @@ def wall_estimates(run: Run, expected: dict, temperature: float) -> dict[int, er
     counts, _, masses = _counts_radii_masses(run)
     window = run.window
     diff_var = (2.0 * float(np.sum(counts * masses)) * K_B * temperature / (window * run.wall_measure) ** 2
-                if math.isfinite(temperature) and len(run.species) else math.nan)
+                if math.isfinite(temperature) and len(run.species) and window > 0.0 else math.nan)
     for d in range(1, run.dim + 1):
         low, high = series[-d], series[d]
         exp = [expected.get(w) for w in (-d, d)]
@@ -1223,7 +1226,9 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
     if sim is not None and sim not in numbers:
         raise StoreError(f"simulation {sim} is not in {db!r}; it holds SI_NUM {_ranges(numbers)}")
     if plot_dir is not None:
-        _make_dir(plot_dir)
+        from gaz_cli import plots
+
+        plots.make_folder(plot_dir)
     chosen = [sim] if sim is not None else numbers
     q34 = store.query("q34_simulations_per_dimension")
     q35 = None if sim is not None else store.query("q35_bounces_per_simulation")
@@ -1291,11 +1296,6 @@ def _overview_row(run: Run, temperature: float, summary: dict) -> dict:
     return row
 
 
-def _make_dir(path: str) -> None:
-    try:
-        Path(path).mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise StoreError(f"cannot create --plot folder {path!r}: {err.strerror}") from None
 
 
 # --- figures -----------------------------------------------------------------------

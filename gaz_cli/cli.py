@@ -37,10 +37,11 @@ def db_option(default: str | None = "gaz.db", note: str = ""):
                         help="SQLite file path, or any SQLAlchemy URL (e.g. postgresql://user@host/gaz)." + note)
 
 
-def seed_option(f):
-    return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
-                        help="Random seed; same seed, same rows. Default: a fresh seed, "
-                             "recorded in the database and the summary.")(f)
+def seed_option(f=None, *, default="a fresh seed, recorded in the database and the summary"):
+    def decorate(f):
+        return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
+                            help=f"Random seed; same seed, same rows. Default: {default}.")(f)
+    return decorate(f) if f is not None else decorate
 
 
 def format_option(f):
@@ -73,7 +74,10 @@ def image_file(ctx, param, value):
 
 # --- output helpers -----------------------------------------------------------
 def emit_frames(frames: dict, fmt: str) -> None:
-    """Print named DataFrames (or dicts of scalars) as table, csv or json."""
+    """Print named DataFrames (or dicts of scalars) as table, csv or json.
+
+    csv: one table alone is plain csv, which pandas.read_csv reads as is; several each
+    follow a ``# name`` line."""
     import pandas as pd
 
     if fmt == "json":
@@ -81,14 +85,15 @@ def emit_frames(frames: dict, fmt: str) -> None:
         for name, frame in frames.items():
             out[name] = (frame.astype(object).where(frame.notna(), None).to_dict(orient="records")
                          if isinstance(frame, pd.DataFrame) else frame)
-        click.echo(json.dumps(out, indent=2, default=_jsonable))
+        click.echo(json.dumps(_finite(out), indent=2, default=_jsonable))
         return
     first = True
     for name, frame in frames.items():
         if not isinstance(frame, pd.DataFrame):
             frame = pd.DataFrame([frame]) if isinstance(frame, dict) else pd.DataFrame(frame)
         if fmt == "csv":
-            click.echo(f"# {name}")
+            if len(frames) > 1:
+                click.echo(f"# {name}")
             click.echo(frame.to_csv(index=False), nl=False)
         else:
             if not first:
@@ -100,6 +105,23 @@ def emit_frames(frames: dict, fmt: str) -> None:
         first = False
 
 
+def _finite(value):
+    """``value`` with every NaN and infinity as None: JSON has no such numbers (Python's
+    NaN and Infinity tokens are refused by jq, JavaScript and strict parsers)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):  # a numpy scalar
+        try:
+            value = value.item()
+        except (ValueError, TypeError):
+            return value
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
 def _jsonable(obj):
     try:
         return obj.item()
@@ -108,7 +130,20 @@ def _jsonable(obj):
 
 
 # --- the group ----------------------------------------------------------------
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class _PipeClosed(Exception):
+    """stdout's reader went away (``gaz place ... | head``): carries the BrokenPipeError past
+    click, whose own handler of it exits 1 without a word, even outside standalone mode."""
+
+
+class _Group(click.Group):
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except BrokenPipeError:
+            raise _PipeClosed() from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.version_option(__version__, prog_name="gaz")
 def cli():
     """gaz: hard rods, disks and spheres bouncing in a box; every wall bounce
@@ -136,7 +171,7 @@ def cli():
               help="rapid: the exam's Q10 (1D, exactly uniform); rejection: random sequential "
                    "addition on a cell grid; lattice/grow: dense starts. auto: rapid in 1D, else "
                    "rejection when dilute, a dense method when not.")
-@seed_option
+@seed_option(default="a fresh seed each time, printed nowhere (give --seed to place the same particles again)")
 @click.option("--repeat", type=click.IntRange(1), default=None,
               help="Q12 study: repeat the placement K times and histogram the centres along x.")
 @click.option("--bins", type=click.IntRange(1), default=50, show_default=True, help="Histogram bins (with --repeat).")
@@ -347,7 +382,9 @@ def analyse(db, sim, fmt, plot, table, vs):
     if table is not None:
         title = analysis.TABLES[table]
         if title not in frames:
-            raise GazError(f"no table {table!r} for this analysis ({'needs --sim' if sim is None else 'not this scene'}); "
+            why = ("needs --plot DIR" if table == "figures" and plot is None else
+                   "needs --sim" if sim is None else "not this scene")
+            raise GazError(f"no table {table!r} for this analysis ({why}); "
                            f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
         frame = frames[title]
         if fmt == "csv":
@@ -523,7 +560,13 @@ def main(argv=None) -> None:
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)
-    except BrokenPipeError:
+    except (BrokenPipeError, _PipeClosed):
+        # the reader has what it wanted: exit 0, and point stdout at /dev/null so that the
+        # interpreter's last flush of it does not fail again ("Exception ignored", exit 120)
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):  # no real descriptor (a test's capture)
+            pass
         sys.exit(0)
     except Exception as exc:  # noqa: BLE001 - last line of defence: one line, no traceback
         from gaz_cli.interrupts import signal_of

@@ -27,11 +27,22 @@ def _pyplot():
     return plt
 
 
-def _save(fig, path: str) -> None:
+def make_folder(path: str) -> None:
+    """Create the folder of ``--plot DIR`` (and its parents); GazError in one line if it cannot be."""
+    from pathlib import Path
+
+    try:
+        Path(path).mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise GazError(f"cannot create --plot folder {path!r}: {err.strerror}") from None
+
+
+def save(fig, path: str, dpi: int = 110) -> None:
+    """Write ``fig`` to ``path`` and close it; GazError in one line if it cannot be written."""
     plt = _pyplot()
     try:
         fig.tight_layout()
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=dpi)
     except OSError as err:
         raise GazError(f"cannot write figure {path!r}: {err.strerror}") from None
     finally:
@@ -73,7 +84,7 @@ def placement_histogram(path: str, edges, counts, exact, repeat: int, title: str
     ax.set_title(title, fontsize=10)
     ax.set_ylim(bottom=0)
     ax.legend(loc="upper center", fontsize=9)
-    _save(fig, path)
+    save(fig, path)
 
 
 # --- gaz analyse --plot ------------------------------------------------------------
@@ -115,7 +126,7 @@ def wall_hit_speeds(path: str, dim: int, speeds, normal_speeds, temperature: flo
     axes[0].set_title("speeds of the particles hitting a wall (Q35)", fontsize=10)
     axes[1].set_title("normal speed: Rayleigh, any dimension", fontsize=10)
     fig.suptitle(title + (f"  [T = {temperature:.4g} K]" if known else "  [no theory: T unknown]"), fontsize=9)
-    _save(fig, path)
+    save(fig, path)
 
 
 def bounces_per_wall(path: str, dim: int, walls, counts, expected, title: str, gravity: bool = False) -> None:
@@ -139,7 +150,7 @@ def bounces_per_wall(path: str, dim: int, walls, counts, expected, title: str, g
               float(np.max(expected)) if expected is not None else 0.0)
     ax.set_ylim(0, 1.3 * top)
     ax.legend(fontsize=8, loc="upper center", ncol=3)
-    _save(fig, path)
+    save(fig, path)
 
 
 def pressure_against_time(path: str, times, running, band, block_times, block_values, theory,
@@ -176,7 +187,7 @@ def pressure_against_time(path: str, times, running, band, block_times, block_va
     ax.set_ylabel(f"pressure ({unit})")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8, loc="best")
-    _save(fig, path)
+    save(fig, path)
 
 
 def density_profile(path: str, heights, measured, expected, scale_height: float, title: str) -> None:
@@ -192,7 +203,7 @@ def density_profile(path: str, heights, measured, expected, scale_height: float,
     ax.set_ylim(bottom=0)
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8)
-    _save(fig, path)
+    save(fig, path)
 
 
 def cooling(path: str, times, temperatures, haff, t_end: float, title: str) -> None:
@@ -208,4 +219,4 @@ def cooling(path: str, times, temperatures, haff, t_end: float, title: str) -> N
     ax.set_yscale("log")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=8)
-    _save(fig, path)
+    save(fig, path)

@@ -9,12 +9,27 @@ called by its short name -- the file name's first word, ``q34``, ``q36``,
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
 from gaz_cli.errors import QueryError
 
 _PARAMETER = re.compile(r"(?<![:\w]):([A-Za-z_]\w*)")
+
+PARAMETERS = {
+    "si_num": ("a whole number", "SIMULATION.SI_NUM"),
+    "re_num": ("a whole number", "REBOND.RE_NUM"),
+    "lo": ("a whole number", "the first RE_NUM"),
+    "hi": ("a whole number", "the last RE_NUM"),
+    "bins": ("a positive whole number", "time bins"),
+    "duration": ("a positive number", "s, the time the bins divide"),
+    "t_lo": ("a number", "s"),
+    "t_hi": ("a number", "s"),
+}
+"""Every parameter of the packaged queries: what its value must be, and what it is. The SQL
+would compare any other value (``si_num=abc``, ``bins=0``) and answer with no row, or rows
+of nonsense, without a word."""
 
 
 @dataclass(frozen=True)
@@ -73,14 +88,26 @@ def parse_parameters(query: Query, pairs) -> dict:
         if key not in query.parameters:
             takes = (f"takes {', '.join(query.parameters)}" if query.parameters else "takes no parameter")
             raise QueryError(f"query {query.name} has no parameter {key!r}; it {takes}")
+        if key in params:
+            raise QueryError(f"--param {key} is given twice; give it once")
         params[key] = _number(value.strip())
         if isinstance(params[key], int) and not -2 ** 63 <= params[key] < 2 ** 63:
             raise QueryError(f"--param {pair!r}: {key} is beyond a 64-bit integer, the largest the "
                              "database holds; no stored value matches it")
+        _check_kind(pair, key, params[key])
     missing = [p for p in query.parameters if p not in params]
     if missing:
         raise QueryError(f"query {query.name} needs {' '.join(f'--param {p}=VALUE' for p in missing)}")
     return params
+
+
+def _check_kind(pair: str, key: str, value) -> None:
+    """Refuse a value that is not what :data:`PARAMETERS` says ``key`` takes."""
+    kind, what = PARAMETERS.get(key, ("a number", key))
+    number = isinstance(value, (int, float)) and math.isfinite(value)
+    if (not number or ("whole" in kind and not isinstance(value, int))
+            or ("positive" in kind and value <= 0)):
+        raise QueryError(f"--param {pair!r}: {key} takes {kind} ({what}), got {value!r}")
 
 
 def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: F821

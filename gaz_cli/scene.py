@@ -21,7 +21,7 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines import CHOICES as ENGINES  # what `engine` may say; validate resolves "auto"
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, ball_volume, packing_fraction  # noqa: F401 (re-exported)
-from gaz_cli.species import Species
+from gaz_cli.species import NAME_MAX, Species
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
@@ -318,6 +318,7 @@ def validate(scene: Scene) -> Scene:
     _positive("duration", scene.duration, " (simulated seconds)")
     _positive("temperature", scene.temperature, " (kelvin)")
     for sp, k in scene.components:
+        check_species_name(sp.name)
         if not _real("mass", sp.mass) or not np.isfinite(sp.mass) or sp.mass <= 0:
             raise field_error(f"`mass` of {sp.name} must be a positive number, got {sp.mass!r} (kg)")
         _number("radius", sp.radius, "m")
@@ -531,6 +532,22 @@ def check_count(n) -> None:
     if n > MAX_COUNT:
         raise field_error(f"`n` {n} is above {MAX_COUNT:.3g} (2^63 - 1), the largest count the "
                           "engines' int64 indices hold; lower `n`")
+
+
+def check_species_name(name) -> None:
+    """A species name is 1 to NAME_MAX printable characters: what PARTICULE.PA_NOM holds on
+    both backends (PostgreSQL refuses a longer one, and any NUL, at the end of the run)."""
+    shown = repr(name) if len(repr(name)) <= 40 else repr(name)[:37] + "..."
+    if not isinstance(name, str):
+        raise field_error(f"species name {shown} is not text")
+    if not name.strip():
+        raise field_error(f"species name {shown} is empty; give the species a name")
+    if len(name) > NAME_MAX:
+        raise field_error(f"species name {shown} has {len(name)} characters, more than the {NAME_MAX} "
+                          "the database's PARTICULE.PA_NOM holds; shorten it")
+    if not name.isprintable():
+        raise field_error(f"species name {shown} holds a control character (newline, tab, NUL...); "
+                          "use printable characters only")
 
 
 def _outside(what: str, value: float, lo: float, hi: float, unit: str, why: str, fix: str) -> None:

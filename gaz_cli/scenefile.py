@@ -171,7 +171,12 @@ def _components(entries: list, where: str) -> tuple:
         if len(custom) == 1:
             raise SceneError(f"{where}species[{k}] ({t['name']}): mass and radius go together (a custom "
                              "species), or give neither for a built-in one")
-        sp = Species(t["name"], float(t["mass"]), float(t["radius"])) if custom else lookup(t["name"])
+        try:
+            sp = Species(t["name"], float(t["mass"]), float(t["radius"])) if custom else lookup(t["name"])
+        except SceneError:  # lookup's words are the command line's (--radius and --mass)
+            raise SceneError(f"{where}species[{k}]: unknown species {_shown(t['name'])}; built in: "
+                             f"{', '.join(BUILTIN)}; or give it mass (kg) and radius (m), a species of "
+                             "your own") from None
         out.append((sp, t["count"]))
     names = [sp.name for sp, _ in out]
     if len(set(names)) != len(names):
@@ -341,6 +346,6 @@ def stored(db: str, si_num: int) -> str:
         raise StoreError(f"no simulation {si_num} in {db!r}; gaz analyse --db {db} lists them")
     text = frame.iloc[0, 1]
     if not isinstance(text, str) or not text:
-        raise StoreError(f"simulation {si_num} was stored without its scene file (before schema version 3 "
-                         "or by an older gaz); its SCENE row holds the options that were recorded then")
+        raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
+                         "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
     return text

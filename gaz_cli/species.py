@@ -17,6 +17,11 @@ from gaz_cli.constants import N_A
 from gaz_cli.errors import SceneError
 
 
+NAME_MAX = 64
+"""The longest species name, in characters: PARTICULE.PA_NOM is VARCHAR(64) (PostgreSQL
+enforces it; SQLite does not)."""
+
+
 @dataclass(frozen=True)
 class Species:
     """One kind of particle. ``mass`` in kg, ``radius`` in m."""

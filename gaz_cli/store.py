@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import os
 import re
 import sqlite3
 import sys
@@ -69,7 +70,7 @@ from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli import scenefile
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.species import BUILTIN, NAME_MAX, Species
 
 metadata = sa.MetaData()
 
@@ -86,7 +87,7 @@ simulation = sa.Table(
 particule = sa.Table(
     "particule", metadata,
     sa.Column("pa_num", sa.Integer, primary_key=True, autoincrement=True),
-    sa.Column("pa_nom", sa.String(64), nullable=False),
+    sa.Column("pa_nom", sa.String(NAME_MAX), nullable=False),
     sa.Column("pa_m", sa.Float, nullable=False),
     sa.Column("pa_r", sa.Float, nullable=False),
 )
@@ -290,6 +291,8 @@ class Store(RunStore):
         if self.is_sqlite and self.path is None:
             raise StoreError(f"--db {self.shown!r} is a SQLite database in memory, gone when gaz exits; "
                              "give a file path, or --no-db to store nothing")
+        if self.is_sqlite and not create and "uri" not in url.query and _unwritable_folder(self.path):
+            url = _immutable(url, self.path)
         self.engine = None
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
         try:
@@ -576,6 +579,23 @@ def _sqlite_path(url: sa.URL) -> Path | None:
     if url.query.get("uri") in ("true", "1") and name.startswith("file:"):
         name = name[len("file:"):].split("?", 1)[0]
     return Path(name) if name and name != ":memory:" else None
+
+
+def _unwritable_folder(path: Path) -> bool:
+    """Whether ``path`` lies on a read-only file system (a read-only medium or share, a volume
+    mounted :ro) with no -wal or -shm beside it. SQLite creates the -shm there to read a WAL
+    database, so it cannot open one; and no writer can be at work on it. (A folder others may
+    write, but not we, is not one: their writer could be at work.)"""
+    try:
+        read_only = bool(os.statvfs(path.parent).f_flag & os.ST_RDONLY)
+    except (OSError, AttributeError):  # no statvfs (Windows), or the folder is not there
+        return False
+    return read_only and not any(Path(f"{path}{suffix}").exists() for suffix in ("-wal", "-shm"))
+
+
+def _immutable(url: sa.URL, path: Path) -> sa.URL:
+    """``url`` opened as an immutable file: read without the -shm SQLite cannot create."""
+    return url.set(database=path.resolve().as_uri(), query={**url.query, "immutable": "1", "uri": "true"})
 
 
 def _make_engine(url: sa.URL, display: str) -> sa.Engine:

@@ -66,6 +66,7 @@ def runs(store) -> pd.DataFrame:
     out["T_KIN"] = t_kin
     duration = frame.SI_DUR.to_numpy(dtype=float)
     wall = frame.MOMENTUM.to_numpy(dtype=float) / (2 * dim * duration * length ** (dim - 1))
+    wall[(frame.SC_RECORD == "none").to_numpy()] = math.nan  # no bounce stored: not measured (not 0)
     virial = np.array([_virial(d, nn, t, v, w, tau) for d, nn, t, v, w, tau in
                        zip(dim, n, t_kin, volume, frame.RS_VIRIAL.to_numpy(dtype=float), duration)])
     out["P"] = np.where(periodic, virial, wall)
@@ -104,7 +105,8 @@ def versus(store, key: str) -> pd.DataFrame:
                 if np.all(np.isfinite(within)):
                     err = float(np.sqrt(np.sum(within ** 2)) / len(within))
                     row["Z_ESTIMATOR"] = "reblocking within runs"
-            theory_ = g[f"{name}_THEORY"].mean()
+            measured = np.isfinite(g[name].to_numpy(dtype=float))  # theory of the runs averaged
+            theory_ = g[f"{name}_THEORY"][measured].mean() if measured.any() else g[f"{name}_THEORY"].mean()
             row.update({name: mean, f"{name}_ERR": err, f"{name}_THEORY": theory_,
                         f"{name}_DEV_SIGMA": (mean - theory_) / err if err > 0 else math.nan})
         row["P_IDEAL"] = g.P_IDEAL.mean()
@@ -215,7 +217,9 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    os.makedirs(folder, exist_ok=True)
+    from gaz_cli import plots
+
+    plots.make_folder(folder)
     written = []
     col = key.upper()
     for (dim, boundary), g in table.groupby(["DIM", "BOUNDARY"]):
@@ -245,9 +249,7 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
         top = float(np.nanmax(np.abs(g.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
         dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
         dev.legend(fontsize=8, loc="upper right")
-        fig.tight_layout()
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
-        fig.savefig(path, dpi=120)
-        plt.close(fig)
+        plots.save(fig, path, dpi=120)
         written.append(path)
     return written

@@ -66,16 +66,31 @@ def parse_vary(text: str) -> tuple[str, list]:
         if count == 1:
             return key, [start]
         step = (stop - start) / (count - 1)
-        return key, [_tidy(start + k * step) for k in range(count)]
+        return key, _once(text, [_tidy(start + k * step) for k in range(count)])
     items = [v.strip() for v in values.split(",")]
     if any(not v for v in items):
         raise SceneError(f"--vary {text!r}: an empty value between commas")
     for kind in (int, float):
         try:
-            return key, [kind(v) for v in items]
+            parsed = [kind(v) for v in items]
+            break
         except ValueError:
             continue
-    return key, items
+    else:
+        parsed = items
+    return key, _once(text, parsed)
+
+
+def _once(text: str, values: list) -> list:
+    """``values``, refused when one comes twice: each would be run and stored twice, the same
+    scene with the same seed, and counted twice in the mean over the runs."""
+    seen = set()
+    for v in values:
+        if v in seen:
+            raise SceneError(f"--vary {text!r}: {v!r} comes twice; give each value once "
+                             "(--seeds K runs each point with K seeds)")
+        seen.add(v)
+    return values
 
 
 def _tidy(x: float) -> float:

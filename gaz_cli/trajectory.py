@@ -490,8 +490,11 @@ def read_h5md(path: str | os.PathLike) -> dict:
     except OSError as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
     with f:
-        if "particles/all/position/value" not in f:
-            raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no particles/all/position)")
+        for member in ("particles/all/position/value", "particles/all/position/time", "particles/all/box/edges"):
+            if member not in f:
+                raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no {member})")
+        if "dimension" not in f["particles/all/box"].attrs:
+            raise SceneError(f"{str(path)!r} is not an H5MD trajectory (no dimension on particles/all/box)")
         part = f["particles/all"]
 
         def scaled(dataset, table, default):
@@ -568,9 +571,21 @@ def read_vtk(path: str | os.PathLike) -> dict:
     try:
         root = ET.parse(path, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
         entries = [(float(e.get("timestep")), path.parent / e.get("file")) for e in root.iter("DataSet")]
-        meshes = [meshio.read(file) for _, file in entries]
     except (OSError, ET.ParseError, TypeError, ValueError) as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
+    meshes = []
+    for _, file in entries:
+        # meshio's own reader, not meshio.read: that one prints "Error: Couldn't read file" and
+        # calls sys.exit(1) for a file it cannot parse, and raises its ReadError for a missing one
+        try:
+            meshes.append(meshio.vtu.read(str(file)))
+        except OSError as err:
+            raise SceneError(f"cannot read trajectory {str(path)!r}: its snapshot {str(file)!r} is "
+                             f"missing or unreadable ({err.strerror})") from None
+        except (meshio.ReadError, ET.ParseError, ValueError) as err:
+            raise SceneError(f"cannot read trajectory {str(path)!r}: its snapshot {str(file)!r} is not a "
+                             f"VTU file gaz wrote (truncated or replaced{': ' + str(err) if str(err) else ''})") \
+                from None
     if not meshes:
         raise SceneError(f"trajectory {str(path)!r} holds no snapshot")
     first = meshes[0]

@@ -1,4 +1,5 @@
--- The scene file of one simulation (SCENE.SC_FILE, TOML): run it again with gaz simulate FILE.toml. NULL for runs stored before schema version 3.
-SELECT SI_NUM, SC_FILE
-FROM SCENE
-WHERE SI_NUM = :si_num;
+-- The scene file of one simulation (SCENE.SC_FILE, TOML): run it again with gaz simulate FILE.toml. NULL for runs stored before schema version 3, or without a SCENE row (SIMULATION rows written by other software).
+SELECT S.SI_NUM, SC.SC_FILE
+FROM SIMULATION S
+LEFT JOIN SCENE SC ON SC.SI_NUM = S.SI_NUM
+WHERE S.SI_NUM = :si_num;

@@ -3,10 +3,11 @@
 -- radius and mass) and what it measured: the momentum given to all walls (Q36's
 -- (1 + e_w) m |v_perp| per bounce, kg m/s), bounces, collisions, the collision virial and the
 -- kinetic energy at start and end (RESULTAT). Runs of one species only (a mixture
--- has no single radius): PA_R and PA_M are NULL for them.
+-- has no single radius): PA_R and PA_M are NULL for them. SC_RECORD: a run recorded with
+-- record = "none" stored no bounce, so its MOMENTUM of 0 measures nothing.
 -- Runs in the sqlite3 shell and psql as it is.
 SELECT S.SI_NUM, S.SI_DIM, S.SI_N, S.SI_L, S.SI_DUR,
-       SC.SC_TEMPERATURE, SC.SC_BOUNDARY, SC.SC_SEED,
+       SC.SC_TEMPERATURE, SC.SC_BOUNDARY, SC.SC_SEED, SC.SC_RECORD,
        CASE WHEN C.KINDS = 1 THEN C.PA_R END AS PA_R,
        CASE WHEN C.KINDS = 1 THEN C.PA_M END AS PA_M,
        COALESCE(B.MOMENTUM, 0) AS MOMENTUM,

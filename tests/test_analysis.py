@@ -199,6 +199,24 @@ def test_gravity_force_balance_and_profile(tmp_path):
     assert "density profile" in " ".join(figures.FIGURE)
 
 
+def test_a_gravity_run_shorter_than_its_fall_is_analysed_with_a_note(tmp_path):
+    """A run under gravity shorter than one fall time across the box (all of it is the fall:
+    2D, L = 1e-7 m, g = 1e12 m/s^2, 1e-10 s; the marbles preset for 0.5 s) ended gaz analyse in
+    'internal error: ZeroDivisionError: float division by zero', exit 3, with or without --sim:
+    one such run stopped the analysis of every run in the database."""
+    db = str(tmp_path / "fall.db")
+    for args in (["--gravity", "1e12"], []):
+        res = invoke(["simulate", "--dim", "2", "--n", "40", "--length", "1e-7", "--duration", "1e-10",
+                      "--seed", "9", "--db", db, "--engine", "event", "--quiet", *args])
+        assert res.exit_code == 0, res.stderr
+    for args in (["--sim", "1"], []):
+        res = invoke(["analyse", "--db", db, "--format", "json", *args])
+        assert res.exit_code == 0 and res.stderr == "", res.stderr
+    overview = json.loads(res.stdout)["pressure against the ideal gas"]
+    assert overview[0]["P_MEASURED"] is None and "did not settle" in overview[0]["NOTE"]
+    assert overview[1]["P_MEASURED"] > 0
+
+
 def test_mixture_weights_the_theory_by_hit_shares(tmp_path):
     """Two species: Q35's mean over all hits is the hit-share-weighted mean of the species' means."""
     db = str(tmp_path / "mix.db")

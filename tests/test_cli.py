@@ -124,6 +124,10 @@ def test_place_csv_and_histogram(tmp_path):
 
 @pytest.mark.parametrize("args, needle", [
     (["place", "--dim", "1", "--n", "6", "--radius", "0.5", "--length", "5"], "cannot fit"),
+    # one sphere as wide as the box was told "(packing fraction 0.524, densest 0.7405)", below the densest
+    (["place", "--dim", "3", "--n", "1", "--radius", "5", "--length", "10"],
+     "gaz: error: a particle of radius 5 m (diameter 10 m) does not fit in a box of side 10 m; lower --radius "
+     "or raise --length"),
     (["place", "--dim", "2", "--n", "-3", "--radius", "0.5", "--length", "5"], "--n"),
     (["place", "--dim", "4", "--n", "3", "--radius", "0.5", "--length", "5"], "--dim"),
     (["place", "--dim", "2", "--n", "3", "--radius", "0", "--length", "5"], "--radius"),
@@ -156,6 +160,27 @@ def test_analyse_errors(tmp_path, db):
     assert res.exit_code == 0, res.output
     res = invoke(["analyse", "--db", db, "--sim", "42"])
     assert res.exit_code != 0 and "simulation 42 is not in" in res.stderr
+    # the figures table needs --plot: it said "(not this scene)" with --sim, "(needs --sim)" without
+    for sim in (["--sim", "1"], []):
+        res = invoke(["analyse", "--db", db, *sim, "--table", "figures"])
+        assert res.exit_code == 1 and res.stderr.startswith("gaz: error: no table 'figures' for this "
+                                                            "analysis (needs --plot DIR); it has: q34"), res.stderr
+
+
+def test_json_output_is_strict_json(db):
+    """A run without collisions printed "MEAN_FREE_TIME_S": NaN in gaz analyse --sim 1 --format
+    json (a table of scalars): a token jq and JavaScript refuse, where --help promises null."""
+    def strict(text):
+        return json.loads(text, parse_constant=lambda token: pytest.fail(f"{token} in the JSON output"))
+
+    assert invoke(["simulate", "--dim", "1", "--n", "3", "--length", "1e-7", "--duration", "1e-13",
+                   "--seed", "1", "--db", db]).exit_code == 0
+    for args in (["analyse", "--sim", "1"], ["analyse"], ["analyse", "--vs", "n"], ["query", "q35"]):
+        res = invoke([*args, "--db", db, "--format", "json"])
+        assert res.exit_code == 0, res.stderr
+        strict(res.stdout)
+    out = strict(invoke(["analyse", "--sim", "1", "--db", db, "--format", "json"]).stdout)
+    assert out["simulation"]["MEAN_FREE_TIME_S"] is None
 
 
 @pytest.mark.parametrize("fmt", ["table", "csv", "json"])
@@ -174,6 +199,15 @@ def test_help_teaches():
         res = invoke([*cmd, "--help"])
         assert res.exit_code == 0
         assert "Example" in res.stdout or "A first session" in res.stdout
+
+
+def test_place_help_does_not_promise_a_recorded_seed():
+    """gaz place --help said the default seed is "recorded in the database and the summary":
+    gaz place has neither, and a placement without --seed could not be made again."""
+    place = " ".join(invoke(["place", "--help"]).stdout.split())
+    assert "recorded in the database" not in place and "printed nowhere" in place
+    simulate = " ".join(invoke(["simulate", "--help"]).stdout.split())
+    assert "a fresh seed, recorded in the database and the summary" in simulate
 
 
 def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
@@ -213,3 +247,19 @@ def test_a_step_too_long_is_one_warning_line_and_the_run_completes(db):
     warnings = [line for line in res.stderr.splitlines() if line.startswith("gaz: warning:")]
     assert len(warnings) == 1 and len(res.stderr.splitlines()) == 1, res.stderr
     assert "overlapping" in warnings[0] and "--dt" in warnings[0]
+
+
+def test_output_cut_short_by_its_reader_exits_0_without_a_word():
+    """gaz place ... | head -c 10: the reader leaves before the 20,000 rows are written. click's
+    own handler of the broken pipe exited 1, silently, even outside standalone mode (a
+    pipeline under `set -o pipefail` failed with nothing said); cli.main meant 0."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "place", "--dim", "1", "--n", "20000",
+                             "--radius", "1e-9", "--length", "1", "--seed", "1"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.read(10)
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert (proc.wait(timeout=120), err) == (0, "")

@@ -119,10 +119,17 @@ CASES = [
                                "--repeat", "100000000000000"], 1, "--repeat"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
+    ("animate: a .pvd listing a missing snapshot", ["animate", "{tmp}/gone.pvd"], 1, "gone_00000.vtu"),
     ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,
      "64-bit"),
     ("query: a parameter beyond int64", ["query", "q36", "--param", "si_num=99999999999999999999999",
                                          "--db", "{tmp}/gaz.db"], 1, "64-bit"),
+    ("query: a parameter not a number", ["query", "q36", "--param", "si_num=abc", "--db", "{tmp}/gaz.db"], 1,
+     "whole number"),
+    ("species name of 65 characters", ["simulate", "{tmp}/longname.toml"], 1, "PA_NOM"),
+    ("sweep: a value given twice", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,100",
+                                    "--db", "{tmp}/gaz.db"], 1, "comes twice"),
+    ("scene file with an unknown species", ["simulate", "{tmp}/zz.toml"], 1, "species[0]: unknown species"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
@@ -164,6 +171,12 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\ncount = 2\n'
         '[initial]\nkind = "explicit"\npositions = [[1e-8, 1e-8], [1e-8, 1.01e-8]]\n'
         'velocities = [[1.0, 1.0], [1.0, 1.0]]\n')
+    (tmp_path / "longname.toml").write_text(
+        'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
+        '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+    (tmp_path / "zz.toml").write_text(scene.format("").replace('"Ar"', '"Zz"'))
+    (tmp_path / "gone.pvd").write_text('<VTKFile type="Collection"><Collection>'
+                                       '<DataSet timestep="0" file="gone_00000.vtu"/></Collection></VTKFile>\n')
     argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if argv[0] == "simulate":
         argv += ["--db", str(db)]

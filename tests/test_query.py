@@ -62,6 +62,20 @@ def test_query_csv_is_the_query_result(backend):
     (["query", "q34", "--param", "x=1"], "gaz: error: query q34 has no parameter 'x'; it takes no parameter\n"),
     (["query", "q36", "--param", "si_num"],
      "gaz: error: --param 'si_num' is not KEY=VALUE (e.g. --param si_num=1)\n"),
+    (["query", "q36", "--param", "si_num=abc"],
+     "gaz: error: --param 'si_num=abc': si_num takes a whole number (SIMULATION.SI_NUM), got 'abc'\n"),
+    (["query", "q36", "--param", "si_num=1.5"],
+     "gaz: error: --param 'si_num=1.5': si_num takes a whole number (SIMULATION.SI_NUM), got 1.5\n"),
+    (["query", "q36", "--param", "si_num="],
+     "gaz: error: --param 'si_num=': si_num takes a whole number (SIMULATION.SI_NUM), got ''\n"),
+    (["query", "bounce", "--param", "si_num=1", "--param", "bins=0", "--param", "duration=1e-10"],
+     "gaz: error: --param 'bins=0': bins takes a positive whole number (time bins), got 0\n"),
+    (["query", "bounce", "--param", "si_num=1", "--param", "bins=4", "--param", "duration=nan"],
+     "gaz: error: --param 'duration=nan': duration takes a positive number (s, the time the bins divide), "
+     "got nan\n"),
+    # the last one won, without a word
+    (["query", "q36", "--param", "si_num=1", "--param", "si_num=2"],
+     "gaz: error: --param si_num is given twice; give it once\n"),
     (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are bounce, collision, first, "
                        "lookup, pair, pressure, q34, q35, q36, scene, sweep, wall "
                        "(gaz query --list describes them)\n"),
@@ -71,6 +85,13 @@ def test_query_errors_are_one_line(tmp_path, args, message):
     assert invoke([*QUICK, "--seed", "1", "--db", db]).exit_code == 0
     res = invoke([*args, "--db", db])
     assert (res.exit_code, res.stdout, res.stderr) == (1, "", message)
+
+
+def test_every_packaged_parameter_says_what_it_takes():
+    """A new query's :name must say what its values are (queries.PARAMETERS), or
+    `--param name=abc` would run and answer with no row, exit 0."""
+    for q in queries.catalogue():
+        assert set(q.parameters) <= set(queries.PARAMETERS), (q.file, q.parameters)
 
 
 def test_query_without_name_or_database(tmp_path):

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
 
 from gaz_cli import scenefile
@@ -154,6 +155,18 @@ def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line,
     assert_refused_in_one_line(path, f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n", words)
 
 
+def test_an_unknown_species_in_a_file_names_the_file_and_the_file_s_fix(tmp_path):
+    """It said "unknown species 'Zz'; known: ... (or give --radius and --mass)": neither the file
+    nor its keys (also in each failed run of a gaz sweep over that file)."""
+    path = tmp_path / "zz.toml"
+    assert_refused_in_one_line(path, 'dim = 2\nduration = 1e-10\nlength = 1e-7\n[[species]]\nname = "Ar"\n'
+                                     'count = 5\n[[species]]\nname = "Zz"\ncount = 5\n',
+                               [f"gaz: error: {path}: species[1]: unknown species 'Zz'; built in: He, Ne, Ar",
+                                "give it mass (kg) and radius (m)"])
+    code, out, err = invoke(["simulate", str(path), "--no-db"])
+    assert "--radius" not in err
+
+
 def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
     """An unknown key holding 200,000 numbers was echoed whole: one line of 1.2 MB on stderr."""
     path = tmp_path / "huge.toml"
@@ -164,6 +177,45 @@ def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
     assert len(err) < 1000, len(err)
 
 
+CUSTOM = ('dim = 2\nduration = 1e-11\nlength = 1e-7\nseed = 1\n'
+          '[[species]]\nname = {}\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+
+
+@pytest.mark.parametrize("name, words", [
+    ('""', ["species name '' is empty"]),
+    ('"   "', ["species name '   ' is empty"]),
+    ('"' + "x" * 65 + '"', ["has 65 characters, more than the 64", "PA_NOM"]),
+    ('"a\\u0000b"', ["control character"]),
+    ('"two\\nlines"', ["control character"]),
+])
+def test_a_species_name_the_database_cannot_hold_is_refused_at_the_door(tmp_path, name, words):
+    """Such names were run and stored in SQLite; PostgreSQL refused them when the run was over
+    ('value too long for type character varying(64)', 'cannot contain NUL (0x00) bytes')."""
+    path, db = tmp_path / "named.toml", tmp_path / "gaz.db"
+    path.write_text(CUSTOM.format(name))
+    code, out, err = invoke(["simulate", str(path), "--db", str(db)])
+    assert code == 1 and out == "" and len(err.splitlines()) == 1, err
+    assert err.startswith(f"gaz: error: {path}: species name ")
+    for w in words:
+        assert w in err, err
+    assert not db.exists()
+
+
+@pytest.mark.parametrize("backend", BACKENDS, indirect=True)
+def test_species_names_up_to_64_characters_any_script_are_stored_as_given(backend, tmp_path):
+    from gaz_cli import store as st
+
+    names = ["x" * 64, "Argon \u2603 \u6c29", "a,b:c"]
+    path = tmp_path / "named.toml"
+    for seed, name in enumerate(names, 1):
+        path.write_text(CUSTOM.format(json.dumps(name)).replace("seed = 1", f"seed = {seed}"), encoding="utf-8")
+        code, out, err = invoke(["simulate", str(path), "--db", backend])
+        assert code == 0, err
+    with st.Store(backend, create=False) as store:
+        stored = store.read_sql("SELECT PA_NOM FROM PARTICULE WHERE PA_NUM > 10 ORDER BY PA_NUM")
+    assert list(stored.iloc[:, 0]) == names
+
+
 # --- presets ----------------------------------------------------------------------------------
 def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
     """`--preset marbles --n 10 --dim 2` ran 300 marbles in 3D, silently."""
@@ -172,6 +224,22 @@ def test_a_preset_refuses_flags_its_state_depends_on_in_one_line():
     assert "--preset marbles sets --dim itself" in err
     code, out, err = invoke(["simulate", "--preset", "marbles", "--temperature", "500", "--no-db"])
     assert code == 1 and "--preset marbles sets --temperature itself" in err  # it would be ignored
+
+
+def test_gaz_scene_of_a_simulation_without_a_scene_row_says_so(tmp_path):
+    """A SIMULATION row with no SCENE row (written by other software, as the exam's INSERTs would)
+    was "no simulation 1 in 'gaz.db'" though gaz analyse --sim 1 analysed it."""
+    db = tmp_path / "gaz.db"
+    assert invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11",
+                   "--seed", "1", "--db", str(db)]).exit_code == 0
+    with sqlite3.connect(db) as conn:
+        conn.execute("DELETE FROM SCENE WHERE SI_NUM = 1")
+    conn.close()
+    code, out, err = invoke(["scene", "1", "--db", str(db)])
+    assert (code, out) == (1, "") and len(err.splitlines()) == 1
+    assert err.startswith("gaz: error: simulation 1 was stored without its scene file"), err
+    code, out, err = invoke(["scene", "2", "--db", str(db)])
+    assert code == 1 and err == f"gaz: error: no simulation 2 in '{db}'; gaz analyse --db {db} lists them\n"
 
 
 def test_a_preset_with_a_seed_is_placed_with_it_and_reruns_from_the_database(tmp_path):

@@ -323,3 +323,44 @@ def test_round_trip_on_postgres_same_rows_as_sqlite(tmp_path, postgres_db):
     assert res.exit_code == 0 and len(pd.read_csv(pd.io.common.StringIO(res.stdout))) == 4
     assert np.isfinite(pd.read_csv(pd.io.common.StringIO(res.stdout)).QUANTITE_MOUVEMENT).all()
     assert os.environ.get("GAZ_TEST_POSTGRES_URL")
+
+
+@pytest.fixture
+def read_only_folder(tmp_path):
+    """A small tmpfs under tmp_path, remounted read-only once ``fill(folder)`` has written it
+    (root only; skipped where mounting is not permitted)."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4M", "tmpfs", str(folder)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip() or done.returncode}")
+
+    def seal():
+        subprocess.run(["mount", "-o", "remount,ro", str(folder)], check=True, capture_output=True)
+
+    try:
+        yield folder, seal
+    finally:
+        subprocess.run(["umount", str(folder)], capture_output=True)
+
+
+def test_a_database_in_a_read_only_folder_is_read(tmp_path, read_only_folder):
+    """gaz analyse, query and scene on a database on a read-only medium (a share, a volume
+    mounted :ro) ended in "cannot open database ... (unable to open database file); check that
+    its folder exists and is writable": SQLite cannot create the -shm it reads a WAL file
+    with. Readers now open it immutable there; a writer is still refused in one line."""
+    folder, seal = read_only_folder
+    db = folder / "gaz.db"
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    expected = {args[0]: invoke([*args, "--db", str(db)]).stdout
+                for args in (["analyse"], ["query", "q35"], ["scene", "1"])}
+    assert sorted(p.name for p in folder.iterdir()) == ["gaz.db"]
+    seal()
+    for command, out in expected.items():
+        args = {"analyse": ["analyse"], "query": ["query", "q35"], "scene": ["scene", "1"]}[command]
+        res = invoke([*args, "--db", str(db)])
+        assert (res.exit_code, res.stderr) == (0, ""), (command, res.stderr)
+        assert res.stdout == out, command
+    res = invoke([*QUICK, "--seed", "2", "--db", str(db)])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1 and "writable" in res.stderr

@@ -58,12 +58,60 @@ def test_unknown_key_and_empty_database_are_one_line(rods_db, tmp_path):
             studies.versus(store, "packing")
 
 
+def test_runs_recorded_without_bounces_add_no_pressure(rods_db, tmp_path):
+    """Runs of record = "none" store no bounce: their pressure was averaged as 0 (two such runs
+    beside eight took a third off P and Z); now they measure none, and still count for the
+    collision rate."""
+    import shutil
+
+    db = str(tmp_path / "mixed.db")
+    shutil.copyfile(rods_db, db)
+    length = N * 2 * ARGON.radius / PACKINGS[0]
+    for seed in (SEEDS + 1, SEEDS + 2):
+        simulate(Scene(dim=1, length=length, duration=2e-10, components=((ARGON, N),), seed=seed,
+                       record="none"), db=db)
+    with Store(rods_db, create=False) as store:
+        before = studies.versus(store, "packing").iloc[0]
+    with Store(db, create=False) as store:
+        after = studies.versus(store, "packing").iloc[0]
+    assert after.RUNS == SEEDS + 2
+    for name in ("P", "P_ERR", "P_THEORY", "P_DEV_SIGMA", "Z", "Z_ERR", "Z_THEORY"):
+        assert after[name] == pytest.approx(before[name], rel=1e-12), name
+    assert after.RATE != before.RATE  # the two runs' collisions are measured
+
+
 def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
     with Store(rods_db, create=False) as store:
         table = studies.versus(store, "packing")
     files = studies.plot(table, "packing", str(tmp_path / "figs"))
     assert len(files) == 1 and all(math.isfinite(z) for z in table.Z)
     assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
+
+
+def test_a_plot_folder_that_cannot_be_made_is_one_line(rods_db, tmp_path):
+    """gaz analyse --vs packing --plot FILE/sub ended in 'internal error: NotADirectoryError', exit 3,
+    as gaz analyse --sim 1 --plot FILE/sub did not."""
+    from cli_helpers import invoke
+
+    (tmp_path / "afile").write_text("")
+    res = invoke(["analyse", "--db", rods_db, "--vs", "packing", "--plot", str(tmp_path / "afile" / "sub")])
+    assert (res.exit_code, res.stdout) == (1, "")
+    assert res.stderr == f"gaz: error: cannot create --plot folder '{tmp_path / 'afile' / 'sub'}': Not a directory\n"
+
+
+def test_vs_csv_is_read_by_pandas_as_is(rods_db):
+    """gaz analyse --vs packing --format csv began with a '# against packing' line, which
+    pandas.read_csv took for the header of one column ('--table' is refused with --vs)."""
+    import io
+
+    import pandas as pd
+    from cli_helpers import invoke
+
+    res = invoke(["analyse", "--db", rods_db, "--vs", "packing", "--format", "csv"])
+    assert res.exit_code == 0, res.stderr
+    frame = pd.read_csv(io.StringIO(res.stdout))
+    assert list(frame.columns[:4]) == ["DIM", "BOUNDARY", "PACKING", "RUNS"] and len(frame) == len(PACKINGS)
+    assert frame.P.dtype.kind == "f"
 
 
 def test_dense_disks_against_walls_say_no_theory(tmp_path):

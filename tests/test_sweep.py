@@ -58,6 +58,27 @@ def test_vary_refuses_malformed_text_in_one_line(text):
     assert "\n" not in str(err.value) and "--vary" in str(err.value)
 
 
+@pytest.mark.parametrize("text, twice", [("temperature=100,100", "100"), ("temperature=100,1e2", "100.0"),
+                                         ("boundary=walls,walls", "'walls'"), ("length=2:2:3", "2.0")])
+def test_a_value_given_twice_is_refused(text, twice):
+    """temperature=100,100 ran the same scene with the same seed twice and stored both runs (the
+    mean over the runs counted it twice)."""
+    with pytest.raises(SceneError) as err:
+        sweep.parse_vary(text)
+    assert str(err.value) == (f"--vary {text!r}: {twice} comes twice; give each value once "
+                              "(--seeds K runs each point with K seeds)")
+
+
+def test_gaz_sweep_with_a_value_given_twice_is_one_line_and_writes_nothing(tmp_path):
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "s.db"
+    scene.write_text(RODS)
+    code, out, err = invoke(["sweep", str(scene), "--vary", "temperature=100,100", "--db", str(db)])
+    assert (code, out, len(err.splitlines())) == (1, "", 1) and "100 comes twice" in err, err
+    assert not db.exists()
+
+
 def test_a_range_of_too_many_values_is_refused_before_it_is_built():
     """temperature=1:2:100000000000 built 10^11 floats before the plan counted them (the
     command hung past 120 s); it is refused as the plan refuses more than MAX_POINTS runs."""
@@ -173,6 +194,12 @@ def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     first = CliRunner().invoke(cli, args)
     assert first.exit_code == 0, first.output
     assert first.output.count(",stored,") == 4
+    import io
+
+    import pandas as pd
+
+    runs = pd.read_csv(io.StringIO(first.stdout))  # one table: no '# runs' line for read_csv to take as its header
+    assert list(runs.columns) == ["packing", "SEED", "STATUS", "SI_NUM", "NOTE"] and len(runs) == 4
     with Store(db, create=False) as store:
         seeds = sorted(store.read_sql("SELECT SC_SEED FROM SCENE").SC_SEED)
     assert seeds == [5, 5, 6, 6]

@@ -155,6 +155,46 @@ def test_render_gif(tmp_path, dim, suffix):
         render_gif(tmp_path / "bad.h5", tmp_path / "x.gif")
 
 
+@pytest.mark.parametrize("drop", ["particles/all/box", "particles/all/position/time"])
+def test_an_h5_lacking_what_gaz_reads_is_one_line(tmp_path, drop):
+    """An HDF5 file with positions but no box (a foreign or hand-made one) ended gaz animate in
+    'internal error: KeyError: Unable to synchronously open object (component not found)', exit 3."""
+    import h5py
+    from cli_helpers import invoke
+
+    sc = small_scene(dim=2)
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=2):
+            w.add_snapshot(t, x, v)
+    with h5py.File(tmp_path / "run.h5", "a") as f:
+        del f[drop]
+    code, out, err = invoke(["animate", str(tmp_path / "run.h5"), "-o", str(tmp_path / "x.gif")])
+    assert (code, out, len(err.splitlines())) == (1, "", 1), err
+    assert err.startswith(f"gaz: error: '{tmp_path / 'run.h5'}' is not an H5MD trajectory (no particles/all/")
+    assert not (tmp_path / "x.gif").exists()
+
+
+@pytest.mark.parametrize("damage", ["missing", "truncated", "empty"])
+def test_animate_names_a_snapshot_missing_or_damaged_from_its_collection(tmp_path, damage):
+    """A .pvd whose .vtu was deleted ended in 'internal error: ReadError', exit 3; a truncated or
+    empty one in meshio's own 'Error: Couldn't read file ... as vtu' after a blank line."""
+    from cli_helpers import invoke
+
+    sc = small_scene(dim=2)
+    with open_trajectory(tmp_path / "run.pvd", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=4):
+            w.add_snapshot(t, x, v)
+    vtu = tmp_path / "run_00002.vtu"
+    if damage == "missing":
+        vtu.unlink()
+    else:
+        vtu.write_bytes(vtu.read_bytes()[:400] if damage == "truncated" else b"")
+    code, out, err = invoke(["animate", str(tmp_path / "run.pvd"), "-o", str(tmp_path / "x.gif")])
+    assert (code, out, len(err.splitlines())) == (1, "", 1), (code, out, err)
+    assert err.startswith(f"gaz: error: cannot read trajectory '{tmp_path / 'run.pvd'}': its snapshot '{vtu}'")
+    assert not (tmp_path / "x.gif").exists()
+
+
 @pytest.mark.parametrize("suffix", [".h5", ".gsd", ".pvd"])
 @pytest.mark.parametrize("dim", [1, 2, 3])
 def test_every_format_reads_back_what_was_written(tmp_path, suffix, dim):
