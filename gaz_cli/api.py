@@ -92,17 +92,18 @@ def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
     return analysis.report(db, sim=sim, plot_dir=plot)
 
 
-def sweep(scene_file, vary: list[str], seeds: int = 1, db: str = "gaz.db", workers: int | None = None,
+def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, workers: int | None = None,
           scheduler: str | None = None, progress: bool | None = None):
     """Run a sweep (``gaz sweep``): the scene file with each ``vary`` (``"KEY=V1,V2"`` or
-    ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``.
+    ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``
+    (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
     Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed)."""
-    from gaz_cli import sweeps
+    from gaz_cli import scenefile, sweeps
 
     varies = [sweeps.parse_vary(v) for v in vary]
-    scene_of, base_seed = sweeps.scenes_of_file(scene_file, [k for k, _ in varies])
+    scene_of, base_seed, outputs = sweeps.scenes_of_file(scene_file, [k for k, _ in varies])
     points = sweeps.plan(varies, seeds, base_seed)
-    return sweeps.run(points, scene_of, None, db, workers=workers, scheduler=scheduler, progress=progress)
+    return sweeps.run(points, scene_of, None, scenefile.database(db, outputs), workers=workers, scheduler=scheduler, progress=progress)
 
 
 def versus(db: str, key: str, plot: str | None = None):

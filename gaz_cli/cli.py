@@ -292,12 +292,12 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
       gaz simulate examples/exam.toml --seed 7 --write-scene run.toml
     """
-    from gaz_cli import api, options as opts, progress, runner
+    from gaz_cli import api, options as opts, progress, runner, scenefile
 
     if no_db and db is not None:
         raise click.UsageError(f"--no-db writes no database; drop --db {db!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
-    db = None if no_db else (db or outputs.get("db") or "gaz.db")
+    db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory or outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
     save_state = save_state or outputs.get("save_state")
@@ -412,7 +412,7 @@ def analyse(db, sim, fmt, plot, table, vs):
               help="Worker processes of the local Dask cluster.  [default: the core count]")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask cluster (e.g. tcp://host:8786) instead of a local one.")
-@db_option()
+@db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @format_option
 def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
@@ -442,7 +442,7 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
             for p, status, si_num, why in report.rows]
     emit_frames({"runs": pd.DataFrame(rows)}, fmt)
     counts = ", ".join(f"{report.count(s)} {s}" for s in ("stored", "skipped", "failed"))
-    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {db})", err=True)
+    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {report.db})", err=True)
     if report.failed:
         raise SystemExit(1)
 

@@ -227,6 +227,16 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
     return scene, dict(doc.get("output", {}))
 
 
+DEFAULT_DB = "gaz.db"
+"""Where a run is stored when neither --db nor the scene file's [output] db says."""
+
+
+def database(given: str | None, outputs: dict) -> str:
+    """The database a scene file's runs go to: ``given`` (--db) when given, else the file's
+    ``[output] db``, else :data:`DEFAULT_DB` (gaz simulate and gaz sweep alike)."""
+    return given or outputs.get("db") or DEFAULT_DB
+
+
 def load(path) -> tuple[Scene, dict]:
     """(Scene, outputs) of the scene file at ``path``."""
     return build(read(path), f"{path}: ")

@@ -141,8 +141,9 @@ def varied_keys() -> list[str]:
     return [k for k in scenefile.SCALARS if k != "seed"] + ["count", "count.NAME"]
 
 
-def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None]:
-    """The scene builder of a sweep over the scene file ``path``, and the file's seed.
+def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, dict]:
+    """The scene builder of a sweep over the scene file ``path``, the file's seed, and its
+    ``[output]`` table (where the runs go: :func:`gaz_cli.scenefile.database`).
 
     A point's overrides set top-level keys of the file (``packing``, ``temperature``,
     ``length``, ``duration``, ``seed``...), or ``count`` -- the count of the file's one
@@ -177,7 +178,11 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None]:
         return scenefile.build(point, where)[0]
 
     seed = doc.get("seed")
-    return scene_of, seed if isinstance(seed, int) and not isinstance(seed, bool) else None
+    outputs = doc.get("output")
+    if outputs is not None:
+        scenefile.check({"output": outputs}, where)  # its db must be a path before the store opens it
+    return (scene_of, seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+            dict(outputs or {}))
 
 
 def _set_count(species: list, key: str, value, where: str) -> None:
@@ -214,6 +219,7 @@ class Report:
     """What happened to each point: stored (with its SI_NUM), skipped (already stored) or failed."""
 
     rows: list = field(default_factory=list)  # (point, status, si_num or None, message)
+    db: str = ""  # where the runs were stored (a path or URL, as given)
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.rows if r[1] == status)
@@ -240,7 +246,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.store import Store
 
     key = key or key_of
-    report = Report()
+    report = Report(db=db)
     todo = []
     with Store(db) as store:
         done = set(store.scene_files())

@@ -243,3 +243,24 @@ def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, f
     assert res.exit_code == 1 and len(lines) == 1 and fragment in lines[0], res.stderr
     assert "count.NAME" in lines[0] or "count." in vary
     assert res.stdout == "" and not db.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rods.toml"]
+
+
+def test_gaz_sweep_stores_into_the_scene_files_output_db_unless_db_is_given(tmp_path, cluster, monkeypatch):
+    """A scene file's [output] db = "other.db" was ignored by gaz sweep, which wrote gaz.db
+    (gaz simulate FILE honours it); now the sweep goes there, and --db still wins."""
+    from cli_helpers import invoke
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out.toml").write_text(RODS + '[output]\ndb = "other.db"\n')
+    args = ["sweep", "out.toml", "--vary", "temperature=100,200", "--scheduler", cluster, "--quiet"]
+    res = invoke(args)
+    assert res.exit_code == 0, res.stderr
+    assert "(--db other.db)" in res.stderr and not (tmp_path / "gaz.db").exists()
+    with Store("other.db", create=False) as store:
+        assert len(store.simulation_numbers()) == 2
+    res = invoke([*args, "--db", "given.db"])
+    assert res.exit_code == 0 and "(--db given.db)" in res.stderr, res.stderr
+    with Store("given.db", create=False) as store:
+        assert len(store.simulation_numbers()) == 2
+    with Store("other.db", create=False) as store:
+        assert len(store.simulation_numbers()) == 2
