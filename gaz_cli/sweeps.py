@@ -247,15 +247,17 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
 
     key = key or key_of
     report = Report(db=db)
+    built = []
+    for point in points:  # every scene built (cheap) before the database is opened or a cluster started
+        try:
+            built.append((point, prepare(scene_of(point.overrides()))))
+        except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
+            report.rows.append((point, "failed", None, str(err)))
+    _refuse_a_sweep_that_cannot_run(points, report.rows)
     todo = []
     with Store(db) as store:
         done = set(store.scene_files())
-    for point in points:
-        try:
-            scene = prepare(scene_of(point.overrides()))
-        except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
-            report.rows.append((point, "failed", None, str(err)))
-            continue
+    for point, scene in built:
         if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))
         else:
@@ -276,6 +278,21 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
                                       f"{store.shown!r}, {left} were not; run the same sweep again to "
                                       "finish it (stored runs are skipped)") from None
     return report
+
+
+def _refuse_a_sweep_that_cannot_run(points: list[Point], failed: list) -> None:
+    """Raise SceneError, in one line, when no point of the sweep can run with its first seed
+    (the scene's own): an error of the file itself, such as ``restitution = 2`` or
+    ``seed = -1``, fails them all alike; said once, before any database or cluster.
+    ``failed``: the report's rows of the points whose scene did not build."""
+    why = {point: text for point, _, _, text in failed}
+    firsts = list({p.values: p for p in reversed(points)}.values())  # each set of values, its first seed
+    if not firsts or any(p not in why for p in firsts):
+        return
+    messages = list(dict.fromkeys(why[p] for p in reversed(firsts)))
+    if len(messages) == 1:
+        raise SceneError(messages[0])
+    raise SceneError(f"no point of the sweep can run; the first, {firsts[-1].label}: {messages[0]}")
 
 
 def _run_all(client, store, todo, report, bar) -> None:

@@ -129,6 +129,8 @@ CASES = [
     ("species name of 65 characters", ["simulate", "{tmp}/longname.toml"], 1, "PA_NOM"),
     ("sweep: a value given twice", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,100",
                                     "--db", "{tmp}/gaz.db"], 1, "comes twice"),
+    ("sweep: a file no point of which can run", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,200",
+                                                 "--db", "{tmp}/new.db"], 1, "range.toml: restitution 2.0"),
     ("scene file with an unknown species", ["simulate", "{tmp}/zz.toml"], 1, "species[0]: unknown species"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),

@@ -264,3 +264,28 @@ def test_gaz_sweep_stores_into_the_scene_files_output_db_unless_db_is_given(tmp_
         assert len(store.simulation_numbers()) == 2
     with Store("other.db", create=False) as store:
         assert len(store.simulation_numbers()) == 2
+
+
+@pytest.mark.parametrize("change, vary, seeds, line", [
+    (("seed = 5", "seed = 5\nrestitution = 2"), "temperature=100,200", "1",
+     "rods.toml: restitution 2.0 is outside [0, 1]"),
+    (("seed = 5", "seed = -1"), "temperature=100,200", "3", "rods.toml: seed -1 must be between 0 and 2^63 - 1"),
+    (("", ""), "packing=1.5,2", "1", "no point of the sweep can run; the first, packing=1.5 seed=5: "),
+])
+def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cluster(
+        tmp_path, monkeypatch, change, vary, seeds, line):
+    """restitution = 2 (or seed = -1) in the file failed every point alike: a table of N
+    identical failures and an empty gaz database left behind (seed = -1 with --seeds 3 even
+    ran seeds 0 and 1). Now one line naming the file and the key; no database, no cluster."""
+    from cli_helpers import invoke
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS.replace(*change))
+    res = invoke(["sweep", str(scene), "--vary", vary, "--seeds", seeds, "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and line in lines[0], res.stderr
+    assert res.stdout == "" and not db.exists()
