@@ -77,8 +77,29 @@ def parse_vary(text: str) -> tuple[str, list]:
         except ValueError:
             continue
     else:
+        if _numeric(key):  # name the value that is not a number, not the first of the list
+            wrong = next(v for v in items if not _reads_as_number(v))
+            raise SceneError(f"--vary {text!r}: {wrong!r} is not a number; {key} takes numbers")
         parsed = items
     return key, _once(text, parsed)
+
+
+def _numeric(key: str) -> bool:
+    """Whether the scene key ``key`` takes a number (``count``, ``count.NAME``: a whole one)."""
+    from gaz_cli import scenefile
+
+    if key == "count" or key.startswith("count."):
+        return True
+    kind = scenefile.SCALARS.get(key, (None,))[0]
+    return kind in (scenefile.REAL, scenefile.INT)
+
+
+def _reads_as_number(text: str) -> bool:
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
 
 
 def _once(text: str, values: list) -> list:

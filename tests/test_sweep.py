@@ -289,3 +289,20 @@ def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cl
     lines = res.stderr.splitlines()
     assert res.exit_code == 1 and len(lines) == 1 and line in lines[0], res.stderr
     assert res.stdout == "" and not db.exists()
+
+
+@pytest.mark.parametrize("vary, wrong", [("temperature=-5,abc", "'abc'"), ("temperature=abc,300", "'abc'"),
+                                         ("count=10,2x0", "'2x0'")])
+def test_a_value_not_a_number_is_named_itself(tmp_path, vary, wrong):
+    """--vary temperature=-5,abc made every value text, and the sweep said "temperature = '-5'
+    must be a number" (and the same for 'abc'): the message named a number. Now one line
+    naming the value that is not one, before any database."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert f"{wrong} is not a number" in lines[0] and "'-5'" not in lines[0] and "'10'" not in lines[0], lines[0]
+    assert res.stdout == "" and not db.exists()
