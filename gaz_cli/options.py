@@ -42,10 +42,11 @@ ignores them (temperature, placement: the state's velocities and positions come 
 def message(err: BaseException, given=None) -> str:
     """An error's one line in the CLI's words: each marked field as its flag.
 
-    ``given``: the fields set by flags when a scene file was read too; the others keep their
-    file key names (the user wrote them in the file). None: every field is a flag.
+    ``given``: the fields set by flags when a scene file was read too; the others take their
+    file key names (the user wrote them in the file: `n` is its [[species]] count). None:
+    every field is a flag.
     """
-    names = FLAGS if given is None else {k: v for k, v in FLAGS.items() if k in given}
+    names = FLAGS if given is None else {**scenefile.FIELD_KEYS, **{k: v for k, v in FLAGS.items() if k in given}}
     return render(err, names)
 
 

@@ -313,7 +313,8 @@ def validate(scene: Scene) -> Scene:
     for item in scene.components:
         if not (isinstance(item, tuple) and len(item) == 2 and isinstance(item[0], Species)):
             raise field_error(f"`species` entry {item!r} is not a (Species, count) pair")
-        check_count(item[1])
+    for sp, k in scene.components:
+        check_count(k, None if len(scene.components) == 1 else sp.name)
     _positive("length", scene.length, " (m)")
     _positive("duration", scene.duration, " (simulated seconds)")
     _positive("temperature", scene.temperature, " (kelvin)")
@@ -523,15 +524,17 @@ def _overlapping_pair(pos: np.ndarray, radii: np.ndarray, length: float, periodi
 
 
 # --- the checks validate() composes --------------------------------------------------------------
-def check_count(n) -> None:
-    """A particle count is an integer in [1, MAX_COUNT]."""
+def check_count(n, species: str | None = None) -> None:
+    """A particle count is an integer in [1, MAX_COUNT]. ``species``: the name of the species
+    counted, one of a mixture (None: the scene's one count, `n`)."""
+    what = "`n`" if species is None else f"the `n` of {species}"
     if isinstance(n, bool) or not isinstance(n, numbers.Integral):
-        raise field_error(f"`n` {n!r} is not a whole number")
+        raise field_error(f"{what} {n!r} is not a whole number")
     if n < 1:
-        raise field_error(f"`n` must be at least 1, got {n}")
+        raise field_error(f"{what} must be at least 1, got {n}")
     if n > MAX_COUNT:
-        raise field_error(f"`n` {n} is above {MAX_COUNT:.3g} (2^63 - 1), the largest count the "
-                          "engines' int64 indices hold; lower `n`")
+        raise field_error(f"{what} {n} is above {MAX_COUNT:.3g} (2^63 - 1), the largest count the "
+                          f"engines' int64 indices hold; lower {what}")
 
 
 def check_species_name(name) -> None:

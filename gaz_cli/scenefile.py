@@ -44,7 +44,7 @@ from pathlib import Path
 from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import packing_fraction
-from gaz_cli.scene import SEARCH, Scene, default_tc, field_error, validate
+from gaz_cli.scene import SEARCH, Scene, default_tc, field_error, render, validate
 from gaz_cli.species import BUILTIN, Species, lookup
 
 REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
@@ -221,10 +221,22 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
         if "tc" not in doc and scene.restitution < 1.0:
             scene = replace(scene, tc=default_tc(scene))
     except SceneError as err:
-        if where:
-            raise field_error(where + getattr(err, "marked", str(err))) from None
-        raise
+        raise in_file_terms(err, where) from None
     return scene, dict(doc.get("output", {}))
+
+
+FIELD_KEYS = {"n": "[[species]] count"}
+"""Scene fields that are no key of a scene file -> what a scene file calls them."""
+
+
+def in_file_terms(err: SceneError, where: str = "") -> SceneError:
+    """``err`` of :func:`gaz_cli.scene.validate`, prefixed by ``where``, its fields named as a
+    scene file names them (:data:`FIELD_KEYS`: `n` is the count of [[species]]); the marks are
+    kept (``marked``) for the command line, which names its own flags."""
+    marked = where + getattr(err, "marked", str(err))
+    out = SceneError(render(field_error(marked), FIELD_KEYS))
+    out.marked = marked
+    return out
 
 
 DEFAULT_DB = "gaz.db"

@@ -167,6 +167,21 @@ def test_an_unknown_species_in_a_file_names_the_file_and_the_file_s_fix(tmp_path
     assert "--radius" not in err
 
 
+def test_a_count_of_zero_in_a_file_names_the_species_count_and_the_flag_stays_n(tmp_path):
+    """count = 0 in a file said "n must be at least 1, got 0": a file has no key n (nor does a
+    gaz sweep over it with --vary count=0); it names the [[species]] count now, the species
+    too in a mixture. From the command line, --n 0 still says --n."""
+    head = 'dim = 2\nduration = 1e-10\nlength = 1e-7\n[[species]]\nname = "Ar"\ncount = {}\n'
+    one, two = tmp_path / "one.toml", tmp_path / "two.toml"
+    assert_refused_in_one_line(one, head.format(0), [f"{one}: [[species]] count must be at least 1, got 0"])
+    assert_refused_in_one_line(two, head.format(5) + '[[species]]\nname = "He"\ncount = 0\n',
+                               [f"{two}: the [[species]] count of He must be at least 1, got 0"])
+    for args in (["simulate", str(one), "--n", "0"], ["simulate", "--dim", "2", "--n", "0", "--length", "1e-7",
+                                                      "--duration", "1e-10"]):
+        code, out, err = invoke([*args, "--no-db"])
+        assert code == 1 and err.strip().endswith("--n must be at least 1, got 0"), err
+
+
 def test_an_unknown_key_with_a_huge_value_is_one_short_line(tmp_path):
     """An unknown key holding 200,000 numbers was echoed whole: one line of 1.2 MB on stderr."""
     path = tmp_path / "huge.toml"

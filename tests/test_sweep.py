@@ -306,3 +306,20 @@ def test_a_value_not_a_number_is_named_itself(tmp_path, vary, wrong):
     assert res.exit_code == 1 and len(lines) == 1, res.stderr
     assert f"{wrong} is not a number" in lines[0] and "'-5'" not in lines[0] and "'10'" not in lines[0], lines[0]
     assert res.stdout == "" and not db.exists()
+
+
+def test_a_varied_count_of_zero_names_the_species_count(tmp_path, cluster):
+    """--vary count.He=0,3 failed its first point with "n must be at least 1, got 0"; it names the
+    [[species]] count of He now (the other point runs)."""
+    from cli_helpers import invoke
+
+    scene = tmp_path / "mix.toml"
+    scene.write_text(RODS + '[[species]]\nname = "He"\ncount = 20\n')
+    res = invoke(["sweep", str(scene), "--vary", "count.He=0,3", "--scheduler", cluster, "--format", "json",
+                  "--db", str(tmp_path / "m.db"), "--quiet"])
+    assert res.exit_code == 1, res.stderr
+    import json
+
+    rows = {r["count.He"]: r for r in json.loads(res.stdout)["runs"]}
+    assert rows[3]["STATUS"] == "stored" and rows[0]["STATUS"] == "failed"
+    assert rows[0]["NOTE"] == f"{scene}: the [[species]] count of He must be at least 1, got 0"
