@@ -58,7 +58,9 @@ def runs(store) -> pd.DataFrame:
     radius = frame.PA_R.to_numpy(dtype=float)
     out = pd.DataFrame({"SI_NUM": frame.SI_NUM, "DIM": dim, "BOUNDARY": frame.SC_BOUNDARY,
                         "SEED": frame.SC_SEED, "n": n, "length": length,
-                        "temperature": frame.SC_TEMPERATURE.astype(float), "density": n / volume})
+                        "temperature": frame.SC_TEMPERATURE.astype(float), "density": n / volume,
+                        "duration": frame.SI_DUR.astype(float)})
+    out = out.merge(_scenes(store), on="SI_NUM", how="left")
     out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
                       for d, rho, r in zip(dim, out.density, radius)]
     ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
@@ -86,17 +88,97 @@ def runs(store) -> pd.DataFrame:
     return out
 
 
+SETTINGS = {"SC_GRAVITY": "gravity", "SC_RESTITUTION": "restitution", "SC_TC": "tc",
+            "SC_WALL_RESTITUTION": "wall_restitution", "SC_DT": "dt", "SC_DRAG": "drag",
+            "SC_PAIR_GRAVITY": "pair_gravity"}
+"""The settings of SCENE that make two runs different scenes (beside dimension, boundary,
+species and counts, box, duration and temperature). Not the seed, nor how a scene is run or
+what is stored of it (engine, placement, record): runs differing in those are repeats."""
+
+SCENE_KEYS = ("DIM", "BOUNDARY", "names", "species", "n", "length", "temperature", "duration", *SETTINGS.values())
+"""What one scene is, apart from its seed: runs that agree on all of these are its repeats."""
+
+FREE = {"packing": ("length",), "density": ("length",), "length": ("length",),
+        "temperature": ("temperature",), "n": ("n", "species", "length")}  # names held
+"""What may change along one series against each key, with the key: a sweep over packing
+changes the box (the counts held), over n the counts (and the box, at a packing held)."""
+
+LEFT_OUT = {"packing": "a mixture has no single packing fraction (its species differ in size)"}
+"""Why a run may have no value of a key."""
+
+
+def _scenes(store) -> pd.DataFrame:
+    """Per SI_NUM: ``species`` (``Ar``, or ``Ar:500,He:500`` for a mixture), ``names``
+    (``Ar``, ``Ar+He``) and the :data:`SETTINGS` that tell scenes apart."""
+    from gaz_cli.store import composition, particule, scene_table
+
+    scenes = store.table(scene_table)
+    parts = store.table(composition).merge(store.table(particule)[["PA_NUM", "PA_NOM"]], on="PA_NUM")
+    parts = parts.sort_values(["SI_NUM", "CO_RANK" if "CO_RANK" in parts else "PA_NUM", "PA_NUM"])
+    mix = pd.DataFrame([{"SI_NUM": si, "names": "+".join(g.PA_NOM),
+                         "species": g.PA_NOM.iloc[0] if len(g) == 1 else
+                         ",".join(f"{a}:{k}" for a, k in zip(g.PA_NOM, g.CO_N))}
+                        for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
+    out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
+    return out.merge(mix, on="SI_NUM", how="left")
+
+
+def _same(values: pd.Series) -> pd.Series:
+    """Values to group by: numbers to 12 significant digits (the repeats of a scene agree to
+    the last bit; a box computed from a packing may differ in the 16th), missing ones as ''."""
+    if pd.api.types.is_numeric_dtype(values):
+        return values.map(lambda v: "" if pd.isna(v) else f"{float(v):.12g}")
+    return values.fillna("").astype(str)
+
+
 def versus(store, key: str) -> pd.DataFrame:
-    """Per value of ``key``: runs, mean and standard error over them, theory, deviation in sigma."""
+    """Per scene and value of ``key``: runs (its seeds), mean and standard error over them,
+    theory, deviation in sigma.
+
+    Only repeats of one scene are averaged: runs are grouped by every scene key
+    (:data:`SCENE_KEYS`) but the seed. Scenes that differ in more than ``key`` (and what
+    changes with it, :data:`FREE`) are told apart by a column SCENE naming what differs
+    (absent when the database holds one series, as after a sweep of one scene file over one
+    key). Runs without a value of ``key`` (a mixture's packing) are left out, said in one
+    warning (:class:`~gaz_cli.errors.GazWarning`).
+    """
+    import warnings
+
+    from gaz_cli.errors import GazWarning
+
     if key not in KEYS:
         raise GazError(f"--vs {key!r} is not a key gaz can tabulate; use one of {', '.join(KEYS)}")
     table = runs(store)
     if table.empty:
         raise GazError("the database holds no simulation to tabulate; run 'gaz sweep' or 'gaz simulate' first")
-    groups = table.groupby([table.DIM, table.BOUNDARY, table[key].round(12)], sort=True)
+    missing = table[key].isna().to_numpy()
+    if missing.any():
+        why = LEFT_OUT.get(key, f"no {key} stored")
+        if missing.all():
+            raise GazError(f"--vs {key}: none of the {len(table)} runs has a {key} ({why}); "
+                           f"tabulate against another key ({', '.join(k for k in KEYS if k != key)})")
+        warnings.warn(GazWarning(f"--vs {key}: {int(missing.sum())} of {len(table)} runs left out, "
+                                 f"having no {key}: {why}"))
+        table = table[~missing].reset_index(drop=True)
+    series = [k for k in SCENE_KEYS if k not in FREE[key]]
+    ids = pd.DataFrame({k: _same(table[k]) for k in SCENE_KEYS})
+    ids["SERIES_ID"] = ids[series].apply(tuple, axis=1)
+    ids["SCENE_ID"] = ids[list(SCENE_KEYS)].apply(tuple, axis=1)
+    ids["X_ID"] = table[key].round(12)
+    crowded = ids.groupby(["SERIES_ID", "X_ID"])["SCENE_ID"].transform("nunique") > 1  # scenes alike but in FREE
+    several = ids["SERIES_ID"].nunique() > 1 or crowded.any()
+    differ = [k for k in SCENE_KEYS[2:] if ids[k].nunique() > 1]  # beyond DIM and BOUNDARY (columns)
+    groups = table.groupby([table.DIM, table.BOUNDARY, ids["SERIES_ID"], ids["X_ID"], ids["SCENE_ID"]], sort=True)
     rows = []
-    for (dim, boundary, x), g in groups:
-        row = {"DIM": dim, "BOUNDARY": boundary, key.upper(): x, "RUNS": len(g)}
+    for (dim, boundary, _, x, _), g in groups:
+        row = {"DIM": dim, "BOUNDARY": boundary}
+        if several:  # what tells this row's scene from the others'
+            first = g.iloc[0]
+            named = [k for k in differ if k in series or (k != key and crowded[g.index[0]])]
+            if "species" in named and "names" in named:
+                named.remove("names")
+            row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named)
+        row.update({key.upper(): x, "RUNS": len(g)})
         for name in ("P", "Z", "RATE"):
             mean, err = _mean_err(g[name])
             if name == "Z":
@@ -122,6 +204,21 @@ def versus(store, key: str) -> pd.DataFrame:
                            "compares with the bulk equation of state")
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _shown(value) -> str:
+    """A scene key's value as a user would write it: 20, 300.0 K as 300, 1e-07."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        return f"{_integral(value):.6g}" if isinstance(_integral(value), float) else str(_integral(value))
+    return str(value)
+
+
+def _integral(x):
+    """``x`` as an int when it is a whole number (N = 5, not 5.0), else as it is."""
+    try:
+        return int(x) if float(x).is_integer() else x
+    except (TypeError, ValueError, OverflowError):
+        return x
 
 
 def _mean_err(values: pd.Series) -> tuple[float, float]:
@@ -222,16 +319,20 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
     plots.make_folder(folder)
     written = []
     col = key.upper()
-    for (dim, boundary), g in table.groupby(["DIM", "BOUNDARY"]):
+    for (dim, boundary), whole in table.groupby(["DIM", "BOUNDARY"]):
         fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True,
                                       gridspec_kw={"height_ratios": [3, 1.3]})
-        lo, hi = int(g.RUNS.min()), int(g.RUNS.max())
+        lo, hi = int(whole.RUNS.min()), int(whole.RUNS.max())
         seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
-        ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color="C0", capsize=3,
-                    label=f"measured (mean of {seeds} seeds, ±1σ)")
-        ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color="C1", label="theory for each scene")
+        series = list(whole.groupby("SCENE", sort=False)) if "SCENE" in whole else [("", whole)]
+        for k, (name, g) in enumerate(series):  # one scene apart from the key: one series
+            ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color=f"C{2 * k}", capsize=3,
+                        label=f"{name}: measured" if name else f"measured (mean of {seeds} seeds, ±1σ)")
+            ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color=f"C{2 * k + 1}",
+                    label=f"{name}: theory" if name else "theory for each scene")
+            dev.plot(g[col], g.Z_DEV_SIGMA, "o", color=f"C{2 * k}")
         if key == "packing":
-            eta = np.linspace(0.0, float(g[col].max()) * 1.05, 200)
+            eta = np.linspace(0.0, float(whole[col].max()) * 1.05, 200)
             model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[int(dim)]
             ax.plot(eta, theory.compressibility_factor(int(dim), eta), "-", color="C1", lw=1,
                     label=f"{model} (bulk)")
@@ -244,9 +345,8 @@ def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
         ax.legend(fontsize=8)
         dev.axhspan(-3, 3, color="C2", alpha=0.12, lw=0, label="±3σ")
         dev.axhline(0.0, color="grey", lw=0.8)
-        dev.plot(g[col], g.Z_DEV_SIGMA, "o", color="C0")
         dev.set_ylabel("(Z − theory)/σ")
-        top = float(np.nanmax(np.abs(g.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
+        top = float(np.nanmax(np.abs(whole.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
         dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
         dev.legend(fontsize=8, loc="upper right")
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")

@@ -126,3 +126,57 @@ def test_dense_disks_against_walls_say_no_theory(tmp_path):
         row = studies.versus(store, "packing").iloc[0]
     assert row.SYST_REL > row.Z_ERR / row.Z_THEORY
     assert math.isnan(row.Z_DEV_SIGMA) and math.isnan(row.P_DEV_SIGMA) and "no theory" in row.NOTE
+
+
+@pytest.fixture(scope="module")
+def two_scenes_db(rods_db, tmp_path_factory):
+    """rods_db (50 rods at packings 0.2 and 0.5, 8 seeds each) and, beside them, 20 rods at
+    packing 0.2 and a mixture of 25 Ar and 25 He in the box of the first, 2 seeds each."""
+    import shutil
+
+    db = str(tmp_path_factory.mktemp("two") / "two.db")
+    shutil.copyfile(rods_db, db)
+    helium = BUILTIN["He"]
+    for seed in (1, 2):
+        simulate(Scene(dim=1, length=20 * 2 * ARGON.radius / PACKINGS[0], duration=2e-10,
+                       components=((ARGON, 20),), seed=seed), db=db)
+        simulate(Scene(dim=1, length=N * 2 * ARGON.radius / PACKINGS[0], duration=2e-10,
+                       components=((ARGON, 25), (helium, 25)), seed=seed), db=db)
+    return db
+
+
+def test_runs_of_different_scenes_are_never_averaged_together(rods_db, two_scenes_db):
+    """--vs temperature averaged every run at 300 K into one row (50 and 20 rods, packings 0.2
+    and 0.5, a mixture: 20 'seeds' of 4 scenes); --vs packing put the 20 rods in the 50 rods'
+    row at 0.2 and dropped the mixture without a word. Now one row per scene and value, a
+    column SCENE saying what differs; a sweep of one scene keeps its table as it was."""
+    from gaz_cli.errors import GazWarning
+
+    with Store(rods_db, create=False) as store:
+        alone = studies.versus(store, "packing")
+    assert "SCENE" not in alone and list(alone.RUNS) == [SEEDS, SEEDS]
+    with Store(two_scenes_db, create=False) as store:
+        hot = studies.versus(store, "temperature")
+        with pytest.warns(GazWarning, match=r"--vs packing: 2 of 20 runs left out, having no packing: a mixture"):
+            dense = studies.versus(store, "packing")
+    assert sorted(hot.RUNS) == [2, 2, SEEDS, SEEDS] and hot.SCENE.nunique() == 4
+    assert set(hot.TEMPERATURE) == {300.0}
+    mixture = hot[hot.SCENE.str.contains("Ar:25,He:25")]
+    assert len(mixture) == 1 and mixture.RUNS.iloc[0] == 2
+    assert sorted(zip(dense.SCENE, dense.PACKING.round(6), dense.RUNS)) == [
+        ("n=20", 0.2, 2), ("n=50", 0.2, SEEDS), ("n=50", 0.5, SEEDS)]
+    fifty = dense[dense.SCENE == "n=50"].reset_index(drop=True)
+    for name in ("P", "Z", "RATE", "Z_THEORY"):  # the 50 rods' rows as when they were alone
+        assert list(fifty[name]) == pytest.approx(list(alone[name]), rel=1e-12), name
+
+
+def test_analyse_vs_says_in_one_line_how_many_runs_it_left_out(two_scenes_db, tmp_path):
+    from cli_helpers import invoke
+
+    res = invoke(["analyse", "--db", two_scenes_db, "--vs", "packing", "--format", "csv", "--plot",
+                  str(tmp_path / "figs")])
+    assert res.exit_code == 0, res.stderr
+    assert res.stderr.strip().splitlines() == [
+        "gaz: warning: --vs packing: 2 of 20 runs left out, having no packing: a mixture has no single "
+        "packing fraction (its species differ in size)"]
+    assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
