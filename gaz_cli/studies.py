@@ -178,7 +178,7 @@ def versus(store, key: str) -> pd.DataFrame:
             if "species" in named and "names" in named:
                 named.remove("names")
             row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named)
-        row.update({key.upper(): x, "RUNS": len(g)})
+        row.update({key.upper(): int(x) if key == "n" else x, "RUNS": len(g)})  # N = 5, not 5.0
         for name in ("P", "Z", "RATE"):
             mean, err = _mean_err(g[name])
             if name == "Z":

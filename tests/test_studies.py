@@ -180,3 +180,18 @@ def test_analyse_vs_says_in_one_line_how_many_runs_it_left_out(two_scenes_db, tm
         "gaz: warning: --vs packing: 2 of 20 runs left out, having no packing: a mixture has no single "
         "packing fraction (its species differ in size)"]
     assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
+
+
+def test_n_is_printed_as_a_whole_number(rods_db):
+    """gaz analyse --vs n printed N as 50.0 (table, csv and json); it is a count: 50."""
+    import json
+
+    from cli_helpers import invoke
+
+    res = invoke(["analyse", "--db", rods_db, "--vs", "n", "--format", "json"])
+    assert res.exit_code == 0, res.stderr
+    rows = json.loads(res.stdout)["against n"]  # two rows: 50 rods at two packings
+    assert [row["N"] for row in rows] == [50, 50] and all(isinstance(row["N"], int) for row in rows)
+    for fmt in ("csv", "table"):
+        res = invoke(["analyse", "--db", rods_db, "--vs", "n", "--format", fmt])
+        assert res.exit_code == 0 and " 50 " in res.stdout.replace(",", " ") and "50.0" not in res.stdout, res.stdout
