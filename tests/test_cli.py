@@ -81,6 +81,23 @@ def test_an_empty_db_is_refused(tmp_path, monkeypatch, command, db):
     assert sorted(tmp_path.iterdir()) == files
 
 
+@pytest.mark.parametrize("command", [
+    ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "1e-11"],
+    ["analyse"], ["query", "q34"], ["scene", "1"],
+])
+def test_a_db_that_is_a_folder_is_refused(tmp_path, monkeypatch, command):
+    """--db adir, an existing folder: analyse, query and scene said "database 'adir' does not
+    exist; run 'gaz simulate --db adir' first", simulate "cannot open ... check that its folder
+    exists and is writable". Now one line saying it is a folder, naming a file inside it."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "adir").mkdir()
+    res = invoke([*command, "--db", "adir"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and res.stdout == "", res.output
+    assert "'adir' is a folder" in lines[0] and "adir/gaz.db" in lines[0], lines[0]
+    assert list((tmp_path / "adir").iterdir()) == [] and sorted(p.name for p in tmp_path.iterdir()) == ["adir"]
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):
