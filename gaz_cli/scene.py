@@ -52,6 +52,10 @@ MAX_COUNT = 2 ** 63 - 1
 MAX_EVENTS = 1e11
 """Largest estimated number of events (collisions + wall bounces) run without --force:
 about a day at a million events a second."""
+NARROW_BOX = 0.1
+"""A box is narrow when a particle's centre moves in less than this fraction of it (L - 2R < 0.1 L):
+its wall bounces come L / (L - 2R) > 10 times as often as a point's, and a box 10 % longer
+more than doubles the free length, halving them. The work refusal then says to raise `length`."""
 MAX_STEP_WORK = 1e11
 """Step engine: largest steps x particles (x N/2 more with pair gravity) run without --force."""
 MAX_REFERENCE_WORK = 1e10
@@ -689,6 +693,11 @@ def work_estimate(scene: Scene) -> dict:
         if scene.gravity > 0:
             rate += n * scene.gravity / (2.0 * math.sqrt(K_B * scene.temperature / mass))
     events = rate * scene.duration
+    # a centre with under NARROW_BOX of the box to move in hits the walls L / (L - 2R) times as
+    # often as a point would: there, a slightly longer box is the cheapest fix
+    free = min(length - 2.0 * species.radius for species, _ in scene.components) / length
+    wider = (f" or raise `length` (a centre has {100 * free:.2g} % of the box's side to move in)"
+             if scene.boundary == "walls" and free < NARROW_BOX else "")
     rows = {"bounces": (rate - collision_rate) * scene.duration, "collisions": collision_rate * scene.duration}
     if scene.engine == "step":
         steps = scene.duration / scene.dt if scene.dt else 0.0
@@ -701,10 +710,11 @@ def work_estimate(scene: Scene) -> dict:
         return {"events_per_s": rate, "events": events, **rows, "work": events * n + n * n, "limit": MAX_REFERENCE_WORK,
                 "what": f"{events:.3g} events x {n} particles + {n}^2 for the initial catalogue (the "
                         "reference engine updates every particle's catalogue entry at each event)",
-                "fix": "use `engine` event, or lower `duration` or `n`"}
+                "fix": "use `engine` event, or lower `duration` or `n`" + wider}
     return {"events_per_s": rate, "events": events, **rows, "work": events, "limit": MAX_EVENTS,
             "what": f"{events:.3g} events ({rate:.3g} per simulated second over {scene.duration:.3g} s)",
-            "fix": "lower `duration`, `n`, `temperature`" + (" or `gravity`" if scene.gravity > 0 else "")}
+            "fix": "lower `duration`, `n`, `temperature`" + (" or `gravity`" if scene.gravity > 0 else "")
+                   + wider}
 
 
 def check_work(scene: Scene) -> None:
