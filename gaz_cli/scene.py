@@ -21,7 +21,7 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines import CHOICES as ENGINES  # what `engine` may say; validate resolves "auto"
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, ball_volume, packing_fraction  # noqa: F401 (re-exported)
-from gaz_cli.species import NAME_MAX, Species
+from gaz_cli.species import NAME_MAX, NAME_SEPARATORS, Species, builtin_named
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
@@ -328,6 +328,7 @@ def validate(scene: Scene) -> Scene:
         _number("radius", sp.radius, "m")
         if not np.isfinite(sp.radius) or sp.radius < 0:
             raise field_error(f"`radius` of {sp.name} must be >= 0, got {sp.radius}")
+        check_builtin_clash(sp)
         if 2 * sp.radius >= scene.length:
             raise field_error(f"a {sp.name} particle (diameter {2 * sp.radius:g} m) does not fit in "
                               f"the box of side {scene.length:g} m; raise `length`")
@@ -552,6 +553,23 @@ def check_species_name(name) -> None:
     if not name.isprintable():
         raise field_error(f"species name {shown} holds a control character (newline, tab, NUL...); "
                           "use printable characters only")
+    if any(c in name for c in NAME_SEPARATORS):
+        raise field_error(f"species name {shown} holds ',' or ':', which separate the entries of a mixture "
+                          "(Ar:500,He:500); use another character, such as '-' or '_'")
+
+
+def check_builtin_clash(sp: Species) -> None:
+    """A custom species may not take a built-in species' name (PARTICULE would hold two rows of
+    that name, and 'Ar' in a query or --species would be ambiguous) unless it is that species:
+    the same mass and radius to the 1e-12 the stores match PARTICULE rows with."""
+    builtin = builtin_named(sp.name)
+    if builtin is None or (math.isclose(sp.mass, builtin.mass, rel_tol=1e-12, abs_tol=0)
+                           and math.isclose(sp.radius, builtin.radius, rel_tol=1e-12, abs_tol=0)):
+        return
+    raise field_error(f"species name {sp.name!r} is the built-in {builtin.name} ({builtin.mass:.4g} kg, radius "
+                      f"{builtin.radius:.3g} m), but this one has mass {sp.mass:.4g} kg and radius "
+                      f"{sp.radius:.3g} m; give it another name, e.g. '{builtin.name}-custom', or drop "
+                      "its mass and radius to use the built-in one")
 
 
 def _outside(what: str, value: float, lo: float, hi: float, unit: str, why: str, fix: str) -> None:

@@ -116,6 +116,31 @@ def test_a_run_refused_for_its_work_in_a_narrow_box_says_to_raise_length(tmp_pat
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("mass, radius, name, refused", [
+    ("1e-25", "1e-10", "Ar", True), ("1e-25", "1e-10", "argon", True),
+    ("6.633853573359518e-26", "1.79e-10", "Ar", False),  # the built-in Ar's own values
+    ("1e-25", "1e-10", "Ar-heavy", False)])
+def test_a_custom_species_may_not_take_a_builtin_name(tmp_path, mass, radius, name, refused):
+    """A scene file's [[species]] name = "Ar" with a mass and radius of its own was stored as a
+    second PARTICULE row named Ar, so a query by name no longer told the two apart. Now refused
+    in one line naming the fix (another name), nothing written; the built-in values, or another
+    name, run, and PARTICULE keeps one row per name."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "{name}"\n'
+                     f"count = 5\nmass = {mass}\nradius = {radius}\n")
+    db = tmp_path / "gaz.db"
+    res = invoke(["simulate", str(scene), "--db", str(db)])
+    if refused:
+        lines = res.stderr.splitlines()
+        assert res.exit_code == 1 and len(lines) == 1 and res.stdout == "", res.output
+        assert f"species name '{name}' is the built-in Ar" in lines[0] and "another name" in lines[0], lines[0]
+        assert not db.exists()
+        return
+    assert res.exit_code == 0, res.output
+    names = [r[0] for r in sqlite3.connect(db).execute("SELECT pa_nom FROM particule")]
+    assert len(names) == len(set(names)) and name in names, names
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):

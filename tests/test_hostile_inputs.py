@@ -130,6 +130,10 @@ CASES = [
     ("sweep: a value given twice", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,100",
                                     "--db", "{tmp}/gaz.db"], 1, "comes twice"),
     ("scene file with an unknown species", ["simulate", "{tmp}/zz.toml"], 1, "species[0]: unknown species"),
+    ("a custom species named Ar", ["simulate", "{tmp}/customar.toml"], 1,
+     "species name 'Ar' is the built-in Ar"),
+    ("a species name with a comma", ["simulate", "{tmp}/comma.toml"], 1, "holds ',' or ':'"),
+    ("a species name with a colon", ["simulate", "{tmp}/colon.toml"], 1, "holds ',' or ':'"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
@@ -174,6 +178,10 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     (tmp_path / "longname.toml").write_text(
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
         '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+    custom = ('dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "{}"\ncount = 5\n'
+              'mass = 1e-25\nradius = 1e-10\n')
+    for file, name in (("customar", "Ar"), ("comma", "a,b"), ("colon", "a:5")):
+        (tmp_path / f"{file}.toml").write_text(custom.format(name))
     (tmp_path / "zz.toml").write_text(scene.format("").replace('"Ar"', '"Zz"'))
     (tmp_path / "gone.pvd").write_text('<VTKFile type="Collection"><Collection>'
                                        '<DataSet timestep="0" file="gone_00000.vtu"/></Collection></VTKFile>\n')
