@@ -510,7 +510,7 @@ def animate(trajectory, output, fps):
     """
     from gaz_cli import animate as anim
 
-    output = output or os.path.splitext(trajectory)[0] + ".gif"
+    output = os.path.splitext(trajectory)[0] + ".gif" if output is None else output
     anim.check_output(output)
     anim.render_gif(trajectory, output, fps=fps)
     click.echo(f"animation written to {output}", err=True)

@@ -118,6 +118,7 @@ CASES = [
     ("place: --repeat 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                                "--repeat", "100000000000000"], 1, "--repeat"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
+    ("animate: -o ''", ["animate", "{tmp}/run.h5", "-o", ""], 1, "names no file"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
     ("animate: a .pvd listing a missing snapshot", ["animate", "{tmp}/gone.pvd"], 1, "gone_00000.vtu"),
     ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,

@@ -174,6 +174,22 @@ def test_an_h5_lacking_what_gaz_reads_is_one_line(tmp_path, drop):
     assert not (tmp_path / "x.gif").exists()
 
 
+@pytest.mark.parametrize("output", ["", "  "])
+def test_animate_refuses_an_empty_output(tmp_path, output):
+    """gaz animate run.h5 -o '' wrote run.gif, exit 0, as if no -o had been given. Now one line
+    naming -o, nothing written."""
+    from cli_helpers import invoke
+
+    sc = small_scene(dim=2)
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=2):
+            w.add_snapshot(t, x, v)
+    code, out, err = invoke(["animate", str(tmp_path / "run.h5"), "-o", output])
+    assert (code, out, len(err.splitlines())) == (1, "", 1), (code, out, err)
+    assert err.startswith(f"gaz: error: -o {output!r} names no file"), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.h5"]
+
+
 @pytest.mark.parametrize("damage", ["missing", "truncated", "empty"])
 def test_animate_names_a_snapshot_missing_or_damaged_from_its_collection(tmp_path, damage):
     """A .pvd whose .vtu was deleted ended in 'internal error: ReadError', exit 3; a truncated or
