@@ -503,6 +503,11 @@ def query(name, db, params, fmt, list_only):
 def animate(trajectory, output, fps):
     """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
+    One frame per snapshot, each particle a disk of its true radius coloured by species: 1D rods
+    on a line, 2D disks in the box, 3D spheres as a side view (x across, z up, the gravity axis;
+    y is not shown). A trajectory of more than 400 snapshots is subsampled evenly to 400 frames
+    (the title gives each frame's time).
+
     \b
     Example:
       gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
