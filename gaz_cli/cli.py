@@ -52,8 +52,12 @@ def format_option(f):
 def positive(name):
     """A click callback refusing values <= 0 or not finite."""
     def check(ctx, param, value):
-        if value is not None and (not math.isfinite(value) or value <= 0):
-            raise click.BadParameter(f"{value} must be > 0", param_hint=name)
+        if value is None:
+            return value
+        if math.isnan(value):
+            raise click.UsageError(f"{name} {value} is not a number; give a number > 0", ctx)
+        if not math.isfinite(value) or value <= 0:
+            raise click.UsageError(f"{name} {value:g} must be a finite number > 0", ctx)
         return value
     return check
 

@@ -141,6 +141,22 @@ def test_a_custom_species_may_not_take_a_builtin_name(tmp_path, mass, radius, na
     assert len(names) == len(set(names)) and name in names, names
 
 
+@pytest.mark.parametrize("option, value, message", [
+    ("--radius", "nan", "--radius nan is not a number; give a number > 0"),
+    ("--length", "NaN", "--length nan is not a number; give a number > 0"),
+    ("--radius", "inf", "--radius inf must be a finite number > 0"),
+    ("--length", "-2", "--length -2 must be a finite number > 0"),
+])
+def test_place_names_the_option_of_a_value_not_a_positive_number(option, value, message):
+    """gaz place --radius nan said "Invalid value for --radius: nan must be > 0", as if nan were
+    a number below zero. Now the option, the value, and what it is."""
+    args = {"--radius": "0.5", "--length": "5", option: value}
+    res = invoke(["place", "--dim", "2", "--n", "3", *[x for kv in args.items() for x in kv]])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 2 and len(lines) == 1 and res.stdout == "", res.output
+    assert lines[0].startswith(f"gaz place: error: {message} "), lines[0]
+
+
 def test_same_seed_same_rows(tmp_path):
     frames = []
     for k in range(2):

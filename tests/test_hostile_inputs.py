@@ -113,6 +113,8 @@ CASES = [
     ("place: histogram h.txt", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                                 "--repeat", "3", "--histogram", "{tmp}/h.txt"], 2, ".png"),
     ("place: radius 0", ["place", "--dim", "2", "--n", "5", "--radius", "0", "--length", "1"], 2, "--radius"),
+    ("place: radius nan", ["place", "--dim", "2", "--n", "5", "--radius", "nan", "--length", "1"], 2,
+     "--radius nan is not a number"),
     ("place: --bins 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                              "--repeat", "2", "--bins", "100000000000000"], 1, "--bins"),
     ("place: --repeat 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
