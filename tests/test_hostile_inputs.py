@@ -79,6 +79,7 @@ CASES = [
     ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
      1, "not a key a sweep can vary"),
     ("analyse: --db ''", ["analyse", "--db", ""], 2, "names no database"),
+    ("analyse: --db a folder", ["analyse", "--db", "{tmp}"], 1, "is a folder, not a database file"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
