@@ -31,6 +31,7 @@ not apply.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -39,7 +40,7 @@ import pandas as pd
 
 from gaz_cli import errorbars, theory
 from gaz_cli.constants import K_B
-from gaz_cli.errors import SceneError, StoreError
+from gaz_cli.errors import GazWarning, SceneError, StoreError
 
 NA = math.nan
 """What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
@@ -1233,6 +1234,7 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
     q34 = store.query("q34_simulations_per_dimension")
     q35 = None if sim is not None else store.query("q35_bounces_per_simulation")
     walls, overview, figures = [], [], []
+    blank = []  # simulations without a figure, each with the reason
     detail = {}
     for number in chosen:
         run = load_run(store, number)
@@ -1262,7 +1264,10 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
             if run.restitution < 1.0:
                 detail[TABLES["cooling"]] = cooling_frame(run)
         if plot_dir is not None:
-            figures.extend(make_plots(run, temperature, summary, plot_dir))
+            drawn = make_plots(run, temperature, summary, plot_dir)
+            figures.extend(drawn)
+            if not drawn:
+                blank.append(f"simulation {number}: {_nothing_to_draw(run)}")
     frames = {
         TABLES["q34"]: q34,
         TABLES["q35"]: q35,
@@ -1270,6 +1275,8 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
         TABLES["overview"]: pd.DataFrame(overview),
     }
     frames.update(detail)
+    if blank:
+        warnings.warn(GazWarning(f"--plot {plot_dir}: nothing to draw for {'; '.join(blank)}"), stacklevel=2)
     if plot_dir is not None:
         frames[TABLES["figures"]] = pd.DataFrame(figures, columns=["SI_NUM", "FIGURE", "FILE"])
     return frames
@@ -1344,6 +1351,20 @@ def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str) -> li
             plots.cooling(p, **cool, title=label)
             out.append((run.si_num, "temperature of the cooling gas against Haff's law", p))
     return out
+
+
+def _nothing_to_draw(run: Run) -> str:
+    """Why :func:`make_plots` drew nothing for ``run``: its figures need wall bounces (the
+    periodic box's pressure against time, collisions of one species)."""
+    if run.periodic:
+        if run.record != "all":
+            return "a periodic box has no wall bounce, and its pressure against time needs --record all"
+        if not run.one_species:
+            return "a periodic box has no wall bounce, and its pressure against time is drawn for one species only"
+        return f"no collision in its {run.duration:.3g} s"
+    if run.record == "none":
+        return "its wall bounces were not recorded, --record none"
+    return f"no wall bounce in its {run.duration:.3g} s"
 
 
 def _expected_hits(run: Run, temperature: float):

@@ -26,6 +26,9 @@ FORMATS = (".gif",)
 
 def check_output(gif_path) -> None:
     """Raise OutputError unless ``gif_path`` names a format :func:`render_gif` writes."""
+    if not str(gif_path).strip():
+        raise OutputError(f"-o {str(gif_path)!r} names no file; give one such as run.gif, or drop -o "
+                          "to write the trajectory's name with .gif")
     suffix = os.path.splitext(str(gif_path))[1].lower()
     if suffix not in FORMATS:
         raise OutputError(f"-o {str(gif_path)!r}: gaz animate writes {', '.join(FORMATS)} files only; "

@@ -52,8 +52,12 @@ def format_option(f):
 def positive(name):
     """A click callback refusing values <= 0 or not finite."""
     def check(ctx, param, value):
-        if value is not None and (not math.isfinite(value) or value <= 0):
-            raise click.BadParameter(f"{value} must be > 0", param_hint=name)
+        if value is None:
+            return value
+        if math.isnan(value):
+            raise click.UsageError(f"{name} {value} is not a number; give a number > 0", ctx)
+        if not math.isfinite(value) or value <= 0:
+            raise click.UsageError(f"{name} {value:g} must be a finite number > 0", ctx)
         return value
     return check
 
@@ -503,6 +507,11 @@ def query(name, db, params, fmt, list_only):
 def animate(trajectory, output, fps):
     """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
+    One frame per snapshot, each particle a disk of its true radius coloured by species: 1D rods
+    on a line, 2D disks in the box, 3D spheres as a side view (x across, z up, the gravity axis;
+    y is not shown). A trajectory of more than 400 snapshots is subsampled evenly to 400 frames
+    (the title gives each frame's time).
+
     \b
     Example:
       gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
@@ -510,7 +519,7 @@ def animate(trajectory, output, fps):
     """
     from gaz_cli import animate as anim
 
-    output = output or os.path.splitext(trajectory)[0] + ".gif"
+    output = os.path.splitext(trajectory)[0] + ".gif" if output is None else output
     anim.check_output(output)
     anim.render_gif(trajectory, output, fps=fps)
     click.echo(f"animation written to {output}", err=True)

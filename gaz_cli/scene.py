@@ -21,7 +21,7 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines import CHOICES as ENGINES  # what `engine` may say; validate resolves "auto"
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, ball_volume, packing_fraction  # noqa: F401 (re-exported)
-from gaz_cli.species import NAME_MAX, Species
+from gaz_cli.species import NAME_MAX, NAME_SEPARATORS, Species, builtin_named
 
 BOUNDARIES = ("walls", "periodic")
 RECORD_LEVELS = ("none", "bounces", "all")
@@ -52,6 +52,10 @@ MAX_COUNT = 2 ** 63 - 1
 MAX_EVENTS = 1e11
 """Largest estimated number of events (collisions + wall bounces) run without --force:
 about a day at a million events a second."""
+NARROW_BOX = 0.1
+"""A box is narrow when a particle's centre moves in less than this fraction of it (L - 2R < 0.1 L):
+its wall bounces come L / (L - 2R) > 10 times as often as a point's, and a box 10 % longer
+more than doubles the free length, halving them. The work refusal then says to raise `length`."""
 MAX_STEP_WORK = 1e11
 """Step engine: largest steps x particles (x N/2 more with pair gravity) run without --force."""
 MAX_REFERENCE_WORK = 1e10
@@ -325,6 +329,7 @@ def validate(scene: Scene) -> Scene:
         _number("radius", sp.radius, "m")
         if not np.isfinite(sp.radius) or sp.radius < 0:
             raise field_error(f"`radius` of {sp.name} must be >= 0, got {sp.radius}")
+        check_builtin_clash(sp)
         if 2 * sp.radius >= scene.length:
             raise field_error(f"a {sp.name} particle (diameter {2 * sp.radius:g} m) does not fit in "
                               f"the box of side {scene.length:g} m; raise `length`")
@@ -551,6 +556,23 @@ def check_species_name(name) -> None:
     if not name.isprintable():
         raise field_error(f"species name {shown} holds a control character (newline, tab, NUL...); "
                           "use printable characters only")
+    if any(c in name for c in NAME_SEPARATORS):
+        raise field_error(f"species name {shown} holds ',' or ':', which separate the entries of a mixture "
+                          "(Ar:500,He:500); use another character, such as '-' or '_'")
+
+
+def check_builtin_clash(sp: Species) -> None:
+    """A custom species may not take a built-in species' name (PARTICULE would hold two rows of
+    that name, and 'Ar' in a query or --species would be ambiguous) unless it is that species:
+    the same mass and radius to the 1e-12 the stores match PARTICULE rows with."""
+    builtin = builtin_named(sp.name)
+    if builtin is None or (math.isclose(sp.mass, builtin.mass, rel_tol=1e-12, abs_tol=0)
+                           and math.isclose(sp.radius, builtin.radius, rel_tol=1e-12, abs_tol=0)):
+        return
+    raise field_error(f"species name {sp.name!r} is the built-in {builtin.name} ({builtin.mass:.4g} kg, radius "
+                      f"{builtin.radius:.3g} m), but this one has mass {sp.mass:.4g} kg and radius "
+                      f"{sp.radius:.3g} m; give it another name, e.g. '{builtin.name}-custom', or drop "
+                      "its mass and radius to use the built-in one")
 
 
 def _outside(what: str, value: float, lo: float, hi: float, unit: str, why: str, fix: str) -> None:
@@ -692,6 +714,11 @@ def work_estimate(scene: Scene) -> dict:
         if scene.gravity > 0:
             rate += n * scene.gravity / (2.0 * math.sqrt(K_B * scene.temperature / mass))
     events = rate * scene.duration
+    # a centre with under NARROW_BOX of the box to move in hits the walls L / (L - 2R) times as
+    # often as a point would: there, a slightly longer box is the cheapest fix
+    free = min(length - 2.0 * species.radius for species, _ in scene.components) / length
+    wider = (f" or raise `length` (a centre has {100 * free:.2g} % of the box's side to move in)"
+             if scene.boundary == "walls" and free < NARROW_BOX else "")
     rows = {"bounces": (rate - collision_rate) * scene.duration, "collisions": collision_rate * scene.duration}
     if scene.engine == "step":
         steps = scene.duration / scene.dt if scene.dt else 0.0
@@ -704,10 +731,11 @@ def work_estimate(scene: Scene) -> dict:
         return {"events_per_s": rate, "events": events, **rows, "work": events * n + n * n, "limit": MAX_REFERENCE_WORK,
                 "what": f"{events:.3g} events x {n} particles + {n}^2 for the initial catalogue (the "
                         "reference engine updates every particle's catalogue entry at each event)",
-                "fix": "use `engine` event, or lower `duration` or `n`"}
+                "fix": "use `engine` event, or lower `duration` or `n`" + wider}
     return {"events_per_s": rate, "events": events, **rows, "work": events, "limit": MAX_EVENTS,
             "what": f"{events:.3g} events ({rate:.3g} per simulated second over {scene.duration:.3g} s)",
-            "fix": "lower `duration`, `n`, `temperature`" + (" or `gravity`" if scene.gravity > 0 else "")}
+            "fix": "lower `duration`, `n`, `temperature`" + (" or `gravity`" if scene.gravity > 0 else "")
+                   + wider}
 
 
 def check_work(scene: Scene) -> None:

@@ -21,6 +21,10 @@ NAME_MAX = 64
 """The longest species name, in characters: PARTICULE.PA_NOM is VARCHAR(64) (PostgreSQL
 enforces it; SQLite does not)."""
 
+NAME_SEPARATORS = ",:"
+"""Characters a species name may not hold: they separate the entries of a mixture ('Ar:500,He:500',
+--species and the composition column SPECIES), which a name holding one would make ambiguous."""
+
 
 @dataclass(frozen=True)
 class Species:
@@ -62,6 +66,12 @@ _ALIASES = {name.lower(): name for name in BUILTIN}
 _ALIASES.update({"argon": "Ar", "helium": "He", "neon": "Ne", "krypton": "Kr",
                  "xenon": "Xe", "hydrogen": "H2", "nitrogen": "N2", "oxygen": "O2",
                  "methane": "CH4"})
+
+
+def builtin_named(name: str) -> Species | None:
+    """The built-in species ``lookup(name)`` gives ('ar' and 'argon' give Ar), or None."""
+    key = _ALIASES.get(name.strip().lower())
+    return BUILTIN[key] if key is not None else None
 
 
 def lookup(name: str) -> Species:

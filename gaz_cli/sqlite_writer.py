@@ -187,6 +187,13 @@ def explain(err: BaseException, db: str, shown: str) -> str:
 
 
 # --- opening ----------------------------------------------------------------------
+def refuse_a_folder(path: Path | None, shown: str) -> None:
+    """Raise StoreError when ``--db`` (printed as ``shown``) names an existing folder, not a file."""
+    if path is not None and path.is_dir():
+        raise StoreError(f"--db {shown!r} is a folder, not a database file; give a file path inside it, "
+                         f"e.g. --db {str(Path(shown) / 'gaz.db')!r}")
+
+
 def is_file_path(db: str) -> bool:
     """Whether ``--db`` names a SQLite file this module may write (not a URL, not in memory)."""
     return bool(db) and "://" not in db and db != ":memory:"
@@ -221,6 +228,7 @@ class SqliteFile(RunStore):
         e.g. ``mode=ro``, kept)."""
         self.db = self.shown = db
         self.path = path if path is not None else Path(db).expanduser()
+        refuse_a_folder(self.path, self.shown)
         args, kwargs = connect if connect is not None else ((self.path,), {})
         self.conn = None
         with self._errors():

@@ -286,6 +286,7 @@ class Store(RunStore):
         url = url_for(db)
         self.is_sqlite = url.get_backend_name() == "sqlite"
         self.path = _sqlite_path(url) if self.is_sqlite else None
+        sqlite_writer.refuse_a_folder(self.path, self.shown)
         if self.is_sqlite and not create and not (self.path and self.path.is_file()):
             raise StoreError(f"database {db!r} does not exist; run 'gaz simulate --db {db}' first")
         if self.is_sqlite and self.path is None:

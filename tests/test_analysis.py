@@ -407,3 +407,26 @@ def test_csv_table_is_read_by_pandas_with_numeric_columns(tmp_path):
     assert frame.P_UNIT.tolist() == ["N/m"] * 4
     code, _, err = invoke(["analyse", "--db", db, "--table", "gravity"])
     assert code != 0 and err.count("\n") == 1 and "no table 'gravity'" in err
+
+
+@pytest.mark.parametrize("extra, reason", [
+    (["--engine", "reference", "--record", "none"], "its wall bounces were not recorded, --record none"),
+    (["--engine", "reference", "--length", "1e-6", "--duration", "1e-14"], "no wall bounce in its 1e-14 s"),
+    (["--engine", "event", "--boundary", "periodic"], "a periodic box has no wall bounce, and its pressure against time needs "
+                                 "--record all"),
+])
+def test_plot_of_a_run_with_nothing_to_draw_says_so(tmp_path, extra, reason):
+    """gaz analyse --sim N --plot DIR on a run without wall bounces wrote no figure and said
+    nothing, exit 0. Now one warning line on stderr naming why, still exit 0; a run with
+    bounces draws its figures without it."""
+    db, figs = str(tmp_path / "gaz.db"), tmp_path / "figs"
+    base = ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7",
+            "--duration", "1e-10", "--seed", "1", "--db", db]
+    assert invoke([*base, *extra]).exit_code == 0
+    res = invoke(["analyse", "--db", db, "--sim", "1", "--plot", str(figs), "--format", "json"])
+    assert res.exit_code == 0 and json.loads(res.stdout), res.output
+    assert res.stderr.splitlines() == [f"gaz: warning: --plot {figs}: nothing to draw for simulation 1: {reason}"]
+    assert list(figs.iterdir()) == []
+    assert invoke([*base, "--engine", "reference"]).exit_code == 0
+    res = invoke(["analyse", "--db", db, "--sim", "2", "--plot", str(figs), "--format", "json"])
+    assert res.exit_code == 0 and res.stderr == "" and len(list(figs.iterdir())) >= 2, res.output

@@ -79,6 +79,7 @@ CASES = [
     ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
      1, "not a key a sweep can vary"),
     ("analyse: --db ''", ["analyse", "--db", ""], 2, "names no database"),
+    ("analyse: --db a folder", ["analyse", "--db", "{tmp}"], 1, "is a folder, not a database file"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),
     ("negative box", [*SIM, "--dim", "2", "--n", "10", "--length", "-1"], 1, "--length"),
     ("box side nan", [*SIM, "--dim", "2", "--n", "10", "--length", "nan"], 1, "--length"),
@@ -113,11 +114,14 @@ CASES = [
     ("place: histogram h.txt", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                                 "--repeat", "3", "--histogram", "{tmp}/h.txt"], 2, ".png"),
     ("place: radius 0", ["place", "--dim", "2", "--n", "5", "--radius", "0", "--length", "1"], 2, "--radius"),
+    ("place: radius nan", ["place", "--dim", "2", "--n", "5", "--radius", "nan", "--length", "1"], 2,
+     "--radius nan is not a number"),
     ("place: --bins 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                              "--repeat", "2", "--bins", "100000000000000"], 1, "--bins"),
     ("place: --repeat 10^14", ["place", "--dim", "1", "--n", "2", "--radius", "1", "--length", "10",
                                "--repeat", "100000000000000"], 1, "--repeat"),
     ("animate: -o out.txt", ["animate", "{tmp}/run.h5", "-o", "{tmp}/out.txt"], 1, ".gif"),
+    ("animate: -o ''", ["animate", "{tmp}/run.h5", "-o", ""], 1, "names no file"),
     ("animate: not a trajectory", ["animate", "{tmp}/run.h5"], 1, "trajectory"),
     ("animate: a .pvd listing a missing snapshot", ["animate", "{tmp}/gone.pvd"], 1, "gone_00000.vtu"),
     ("scene: SI_NUM beyond int64", ["scene", "99999999999999999999999", "--db", "{tmp}/gaz.db"], 1,
@@ -132,6 +136,10 @@ CASES = [
     ("sweep: a file no point of which can run", ["sweep", "{tmp}/range.toml", "--vary", "temperature=100,200",
                                                  "--db", "{tmp}/new.db"], 1, "range.toml: restitution 2.0"),
     ("scene file with an unknown species", ["simulate", "{tmp}/zz.toml"], 1, "species[0]: unknown species"),
+    ("a custom species named Ar", ["simulate", "{tmp}/customar.toml"], 1,
+     "species name 'Ar' is the built-in Ar"),
+    ("a species name with a comma", ["simulate", "{tmp}/comma.toml"], 1, "holds ',' or ':'"),
+    ("a species name with a colon", ["simulate", "{tmp}/colon.toml"], 1, "holds ',' or ':'"),
     ("scene file nested 5000 deep", ["simulate", "{tmp}/deep.toml"], 1, "nested"),
     ("explicit velocities of 1e300 m/s", ["simulate", "{tmp}/fast.toml"], 1, "initial velocities"),
     ("explicit positions overlapping", ["simulate", "{tmp}/overlap.toml"], 1, "overlap"),
@@ -176,6 +184,10 @@ def run_case(args, tmp_path: Path, db_source: Path) -> dict:
     (tmp_path / "longname.toml").write_text(
         'dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "' + "x" * 65 +
         '"\ncount = 5\nmass = 1e-25\nradius = 1e-10\n')
+    custom = ('dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "{}"\ncount = 5\n'
+              'mass = 1e-25\nradius = 1e-10\n')
+    for file, name in (("customar", "Ar"), ("comma", "a,b"), ("colon", "a:5")):
+        (tmp_path / f"{file}.toml").write_text(custom.format(name))
     (tmp_path / "zz.toml").write_text(scene.format("").replace('"Ar"', '"Zz"'))
     (tmp_path / "gone.pvd").write_text('<VTKFile type="Collection"><Collection>'
                                        '<DataSet timestep="0" file="gone_00000.vtu"/></Collection></VTKFile>\n')

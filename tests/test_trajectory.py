@@ -174,6 +174,38 @@ def test_an_h5_lacking_what_gaz_reads_is_one_line(tmp_path, drop):
     assert not (tmp_path / "x.gif").exists()
 
 
+def test_animate_help_and_readme_say_how_3d_and_long_runs_are_drawn():
+    """gaz animate --help did not say that 3D is drawn as a side view (x, z), nor that a long
+    trajectory is subsampled; the README said it renders "1D/2D" trajectories."""
+    from pathlib import Path
+
+    from cli_helpers import invoke
+    from gaz_cli.animate import MAX_FRAMES
+
+    help_text = " ".join(invoke(["animate", "--help"]).stdout.split())
+    assert "3D spheres as a side view (x across, z up" in help_text, help_text
+    assert f"more than {MAX_FRAMES} snapshots is subsampled evenly to {MAX_FRAMES} frames" in help_text
+    row = next(line for line in (Path(__file__).parents[1] / "README.md").read_text().splitlines()
+               if line.startswith("| `gaz animate`"))
+    assert "1D/2D" not in row and "3D as a side view (x, z)" in row and f"{MAX_FRAMES} frames" in row, row
+
+
+@pytest.mark.parametrize("output", ["", "  "])
+def test_animate_refuses_an_empty_output(tmp_path, output):
+    """gaz animate run.h5 -o '' wrote run.gif, exit 0, as if no -o had been given. Now one line
+    naming -o, nothing written."""
+    from cli_helpers import invoke
+
+    sc = small_scene(dim=2)
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=2):
+            w.add_snapshot(t, x, v)
+    code, out, err = invoke(["animate", str(tmp_path / "run.h5"), "-o", output])
+    assert (code, out, len(err.splitlines())) == (1, "", 1), (code, out, err)
+    assert err.startswith(f"gaz: error: -o {output!r} names no file"), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.h5"]
+
+
 @pytest.mark.parametrize("damage", ["missing", "truncated", "empty"])
 def test_animate_names_a_snapshot_missing_or_damaged_from_its_collection(tmp_path, damage):
     """A .pvd whose .vtu was deleted ended in 'internal error: ReadError', exit 3; a truncated or
