@@ -429,8 +429,10 @@ def _check_engine_options(scene: Scene) -> None:
         if isinstance(scene.print_every, bool) or not isinstance(scene.print_every, numbers.Integral) \
                 or scene.print_every < 0:
             raise field_error(f"`print_every` {scene.print_every!r} is not a whole number >= 0 (steps)")
+        rmax = max(float(sp.radius) for sp, _ in scene.components)
         for plane in scene.planes:
             check_plane(plane, scene.dim)
+            check_plane_room(plane, scene.length, rmax)
     if scene.engine == "reference":
         check_reference_scene(scene)
     if scene.engine == "event" and scene.boundary == "periodic" and scene.n > 1:
@@ -455,6 +457,26 @@ def check_plane(plane, dim: int) -> None:
         raise field_error(f"`planes` entry {plane!r} has a zero normal; give the inward normal of the wall")
     if not _real("restitution", e) or not 0.0 <= e <= 1.0:
         raise field_error(f"`planes` entry {plane!r}: restitution {e!r} is outside [0, 1] (1 elastic, 0 fully damped)")
+
+
+def plane_room(plane, length: float, radius: float) -> float:
+    """How far in front of extra ``plane`` (along its inward normal, beyond ``radius``) the centre
+    of a particle of ``radius`` can be while inside the box [radius, length - radius]^D, m: the
+    largest (c - point).n - radius over the corners c of that box; < 0 when no centre fits."""
+    point, normal, _ = plane
+    nrm = np.asarray(normal, dtype=float)
+    nrm = nrm / np.linalg.norm(nrm)
+    lo, hi = radius, length - radius
+    return float(sum(max((lo - p) * n, (hi - p) * n) for p, n in zip(point, nrm))) - radius
+
+
+def check_plane_room(plane, length: float, radius: float) -> None:
+    """An extra plane must leave room in the box for the largest particle on its inner side
+    (else the engine would push every particle to the plane's side, out of the box)."""
+    if plane_room(plane, length, radius) < 0:
+        raise field_error(f"`planes` entry {plane!r} leaves no room in the box for a particle of radius "
+                          f"{radius:g} m on its inner side (the side its normal points to); move its point "
+                          "or turn its normal towards the box")
 
 
 def _check_initial(scene: Scene) -> None:

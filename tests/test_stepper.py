@@ -16,6 +16,8 @@ from gaz_cli.species import Species
 from gaz_cli.stepper import kernels
 from gaz_cli.stepper.presets import PRESETS
 
+from cli_helpers import invoke
+
 BALL = Species("ball", 1.0, 0.01)
 HEAVY = Species("heavy", 3.0, 0.02)
 
@@ -321,6 +323,31 @@ def test_damped_walls_and_extra_plane():
     assert rs.extras["plane_bounces"] == 1 and rs.wall_bounces == 0
     np.testing.assert_allclose(rs.final.velocities[0], v0 - 2 * np.dot(v0, nrm) * nrm, rtol=1e-12)
     assert np.dot(rs.final.positions[0] - 0.5, nrm) >= BALL.radius
+
+
+@pytest.mark.parametrize("point, normal", [
+    ((5.0, 5.0), (1.0, 0.0)),        # beyond the box, facing away from it
+    ((0.0, 0.0), (-1.0, -1.0)),      # at a corner, facing out
+    ((0.995, 0.5), (1.0, 0.0)),      # inside, but a ball of radius 0.01 cannot fit in front of it
+])
+def test_a_plane_that_leaves_no_room_in_the_box_is_refused(point, normal):
+    """No particle may leave the box: a plane whose inner side holds no ball used to push every
+    ball onto that side (--plane 5,5:1,0 ended with all of them at x = 5.01 in a box of side 1)."""
+    sc = scene_of(2, [(BALL, 1)], duration=0.1, planes=((point, normal, 1.0),))
+    with pytest.raises(SceneError, match=r"leaves no room in the box for a particle of radius 0.01 m"):
+        stepper.run(sc, state_of(sc, [[0.5, 0.5]], [[0.1, 0.0]]), MemoryRecorder())
+    code, _, err = invoke(["simulate", "--dim", "2", "--n", "1", "--radius", "0.01", "--mass", "1", "--length", "1",
+                           "--duration", "0.1", "--engine", "step", "--dt", "1e-3", "--no-db",
+                           "--plane", ",".join(map(str, point)) + ":" + ",".join(map(str, normal))])
+    assert code == 1 and err.count("\n") == 1 and "--plane entry" in err and "leaves no room" in err
+
+
+def test_a_plane_that_leaves_just_room_for_a_ball_keeps_it_in_the_box():
+    plane = ((0.97, 0.5), (1.0, 0.0), 1.0)  # a strip 0.03 wide: a ball of radius 0.01 fits
+    sc = scene_of(2, [(BALL, 1)], duration=0.5, planes=(plane,))
+    rs = stepper.run(sc, state_of(sc, [[0.985, 0.5]], [[0.3, 0.2]]), MemoryRecorder())
+    x = rs.final.positions[0]
+    assert 0.98 - 1e-12 <= x[0] <= 0.99 + 1e-12 and 0.01 <= x[1] <= 0.99
 
 
 # --- structure, recording, errors -------------------------------------------------------
