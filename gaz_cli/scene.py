@@ -479,6 +479,28 @@ def check_plane_room(plane, length: float, radius: float) -> None:
                           "or turn its normal towards the box")
 
 
+def check_in_front_of_planes(scene: Scene, positions) -> None:
+    """SceneError when a particle of ``positions`` (N, D) m starts behind one of the scene's extra
+    planes or closer to it than its radius: the step engine would put it back on the plane's
+    inner side in one step, through the others. Round-off allowed: 1e-9 of the box side."""
+    if not scene.planes:
+        return
+    pos, radii = np.asarray(positions, dtype=float), scene.radii()
+    for k, plane in enumerate(scene.planes):
+        point, normal, _ = plane
+        nrm = np.asarray(normal, dtype=float)
+        nrm = nrm / np.linalg.norm(nrm)
+        gap = (pos - np.asarray(point, dtype=float)) @ nrm - radii
+        i = int(np.argmin(gap))
+        if gap[i] < -1e-9 * scene.length:
+            raise field_error(f"particle {i} starts behind `planes` entry {plane!r} (its centre "
+                              f"{np.array2string(pos[i], precision=4)} m, {-gap[i]:.3g} m too far behind); "
+                              + ("move it in front of the plane, or move the plane"
+                                 if scene.initial is not None and scene.initial.get("kind") == "explicit" else
+                                 "the placement fills the whole box, planes aside: give an `initial` state "
+                                 "with every particle in front of the planes, or move the plane"))
+
+
 def _check_initial(scene: Scene) -> None:
     """Scene.initial: its kind and arrays (an explicit state must match the scene's N and D)."""
     init = scene.initial
@@ -509,6 +531,7 @@ def _check_initial(scene: Scene) -> None:
         pos, r = np.asarray(init["positions"], dtype=float), scene.radii()[:, None]
         if np.any(pos < r) or np.any(pos > scene.length - r):
             raise field_error("`initial` positions put a particle outside the box [R, L - R]")
+        check_in_front_of_planes(scene, pos)
         pair = _overlapping_pair(pos, scene.radii(), scene.length, scene.boundary == "periodic")
         if pair is not None:
             raise field_error(f"`initial` positions overlap: particles {pair[0]} and {pair[1]} are closer "

@@ -11,7 +11,7 @@ import pytest
 from gaz_cli import stepper
 from gaz_cli.errors import SceneError
 from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, State, initial_state
+from gaz_cli.scene import Scene, State, initial_state, validate
 from gaz_cli.species import Species
 from gaz_cli.stepper import kernels
 from gaz_cli.stepper.presets import PRESETS
@@ -348,6 +348,27 @@ def test_a_plane_that_leaves_just_room_for_a_ball_keeps_it_in_the_box():
     rs = stepper.run(sc, state_of(sc, [[0.985, 0.5]], [[0.3, 0.2]]), MemoryRecorder())
     x = rs.final.positions[0]
     assert 0.98 - 1e-12 <= x[0] <= 0.99 + 1e-12 and 0.01 <= x[1] <= 0.99
+
+
+def test_a_particle_that_starts_behind_a_plane_is_refused_not_moved_across():
+    """A plane through the box with the particles placed over the whole box: the ones behind it
+    used to be put on its inner side in the first step, 0.46 m in 1 ms through the others, and
+    the run went on as if nothing happened. Now refused, naming the particle and the plane."""
+    plane = ((0.5, 0.5), (-1.0, 0.0), 1.0)
+    sc = scene_of(2, [(BALL, 2)], duration=0.1, planes=(plane,))
+    with pytest.raises(SceneError, match=r"^particle 1 starts behind planes entry .*0\.3 m too far behind"):
+        stepper.run(sc, state_of(sc, [[0.2, 0.5], [0.79, 0.5]], [[0.0, 0.0], [0.0, 0.0]]), MemoryRecorder())
+    # touching the plane is in front of it: runs, and stays there
+    rs = stepper.run(sc, state_of(sc, [[0.2, 0.5], [0.49, 0.5]], [[0.0, 0.0], [0.1, 0.0]]), MemoryRecorder())
+    assert np.all(rs.final.positions[:, 0] <= 0.49 + 1e-12)
+    # an explicit state is refused at the door; a placed gas when placed, before any step
+    with pytest.raises(SceneError, match=r"^particle 1 starts behind .*move it in front of the plane"):
+        validate(replace(sc, initial={"kind": "explicit", "positions": [[0.2, 0.5], [0.79, 0.5]],
+                                      "velocities": [[0.0, 0.0], [0.0, 0.0]]}))
+    code, _, err = invoke(["simulate", "--dim", "2", "--n", "20", "--radius", "0.01", "--mass", "1", "--length", "1",
+                           "--temperature", "1e22", "--duration", "0.1", "--seed", "1", "--engine", "step",
+                           "--dt", "1e-3", "--no-db", "--plane", "0.5,0.5:-1,0"])
+    assert code == 1 and err.count("\n") == 1 and "starts behind --plane entry" in err
 
 
 # --- structure, recording, errors -------------------------------------------------------

@@ -46,7 +46,7 @@ import numpy as np
 from gaz_cli.errors import EngineError, GazWarning, SceneError
 from gaz_cli.interrupts import interrupt_in
 from gaz_cli.recording import Recorder, RunStats
-from gaz_cli.scene import Scene, State, validate
+from gaz_cli.scene import Scene, State, check_in_front_of_planes, validate
 from gaz_cli.stepper import kernels as _k
 
 DETECTIONS = ("overlap", "swept")
@@ -149,6 +149,7 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     pair raises a GazWarning (once a run) naming a dt that avoids them.
     """
     check(scene)
+    check_in_front_of_planes(scene, state.positions)
     if detection not in DETECTIONS:
         raise SceneError(f"detection {detection!r} is not one of {', '.join(DETECTIONS)}")
     return _Stepper(scene, state, recorder, detection, int(max_passes)).run()
