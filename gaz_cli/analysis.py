@@ -1215,6 +1215,8 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
     """
     from gaz_cli import store as st
 
+    if sim is not None and (isinstance(sim, bool) or not isinstance(sim, (int, np.integer))):
+        raise StoreError(f"sim {sim!r} is not an int; give SIMULATION.SI_NUM as an int, e.g. sim=1")
     with st.Store(db, create=False) as store:  # closed: SQLite then removes its -wal and -shm files
         return _report(store, db, sim, plot_dir)
 

@@ -61,3 +61,16 @@ def test_a_scene_written_from_python_loads_back(tmp_path):
     scene = gaz.make_scene(dim=3, species="Ar:20,He:10", packing=0.01, duration=1e-11, seed=3)
     gaz.write_scene(tmp_path / "s.toml", scene)
     assert gaz.load_scene(tmp_path / "s.toml") == scene
+
+
+@pytest.mark.parametrize("sim", ["1", 1.0, True])
+def test_analyse_refuses_a_sim_that_is_not_an_int(tmp_path, sim):
+    """gaz.analyse(db, sim="1") said 'simulation 1 is not in ...; it holds SI_NUM 1'."""
+    import gaz_cli as gaz
+    from gaz_cli.errors import StoreError
+
+    db = str(tmp_path / "g.db")
+    gaz.simulate(gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-12, seed=1), db=db)
+    with pytest.raises(StoreError, match=rf"^sim {sim!r} is not an int; give SIMULATION.SI_NUM as an int"):
+        gaz.analyse(db, sim=sim)
+    assert "Q36 momentum and pressure per wall" in gaz.analyse(db, sim=1)
