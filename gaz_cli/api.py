@@ -36,8 +36,11 @@ def make_scene(*, species, **keys) -> Scene:
         entries = [{"name": sp.name, "count": k} for sp, k in parse_mixture(species, None)]
     elif isinstance(species, dict):
         entries = [{"name": name, "count": count} for name, count in species.items()]
-    else:
+    elif isinstance(species, (list, tuple)) and all(isinstance(t, dict) for t in species):
         entries = [dict(t) for t in species]
+    else:
+        raise SceneError(f"species {species!r} is not a dict of counts ({{'Ar': 500}}), a string ('Ar:500,He:500') "
+                         "or a list of tables ([{'name': 'bead', 'count': 10, 'mass': 1e-3, 'radius': 1e-3}])")
     scene, outputs = scenefile.build({**keys, "species": entries})
     if outputs:
         raise SceneError("make_scene takes no [output] table; pass db, trajectory... to simulate()")

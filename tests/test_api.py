@@ -74,3 +74,14 @@ def test_analyse_refuses_a_sim_that_is_not_an_int(tmp_path, sim):
     with pytest.raises(StoreError, match=rf"^sim {sim!r} is not an int; give SIMULATION.SI_NUM as an int"):
         gaz.analyse(db, sim=sim)
     assert "Q36 momentum and pressure per wall" in gaz.analyse(db, sim=1)
+
+
+@pytest.mark.parametrize("species", [None, 5, ["Ar"], [("Ar", 5)], {"Ar"}])
+def test_make_scene_refuses_species_of_another_type_in_one_line(species):
+    """make_scene(species=None) raised TypeError: 'NoneType' object is not iterable, from api.py;
+    species=['Ar'] a ValueError about a dictionary update sequence."""
+    import gaz_cli as gaz
+
+    with pytest.raises(gaz.SceneError, match=r"^species .* is not a dict of counts \({'Ar': 500}\), a string"):
+        gaz.make_scene(dim=2, species=species, length=1e-7, duration=1e-10)
+    assert gaz.make_scene(dim=2, species=[{"name": "Ar", "count": 5}], length=1e-7, duration=1e-10).n == 5
