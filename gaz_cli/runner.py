@@ -211,6 +211,10 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     (no database needed; the bounces and collisions are kept in memory, whatever
     ``scene.record`` says).
     """
+    if db is not None:
+        from gaz_cli.sqlite_writer import database_name
+
+        db = database_name(db)
     scene = prepare(scene)
     if trajectory and scene.engine == "reference" and scene.extras.get("engine_auto"):
         # the exam's engine writes no trajectory: a tiny run with one takes the event engine

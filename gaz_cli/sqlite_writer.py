@@ -36,6 +36,7 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import functools
+import os
 import queue
 import sqlite3
 import threading
@@ -192,6 +193,16 @@ def refuse_a_folder(path: Path | None, shown: str) -> None:
     if path is not None and path.is_dir():
         raise StoreError(f"--db {shown!r} is a folder, not a database file; give a file path inside it, "
                          f"e.g. --db {str(Path(shown) / 'gaz.db')!r}")
+
+
+def database_name(db) -> str:
+    """``--db`` as a string: a path given as a ``pathlib.Path`` (any os.PathLike) becomes its text;
+    anything but text raises StoreError."""
+    if isinstance(db, os.PathLike):
+        db = os.fspath(db)
+    if not isinstance(db, str) or not db.strip():
+        raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
+    return db
 
 
 def is_file_path(db: str) -> bool:

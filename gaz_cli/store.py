@@ -279,8 +279,7 @@ class Store(RunStore):
     """
 
     def __init__(self, db: str, create: bool = True):
-        if not isinstance(db, str) or not db.strip():
-            raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
+        db = sqlite_writer.database_name(db)
         self.db = db
         self.shown = shown(db)
         url = url_for(db)

@@ -85,3 +85,20 @@ def test_make_scene_refuses_species_of_another_type_in_one_line(species):
     with pytest.raises(gaz.SceneError, match=r"^species .* is not a dict of counts \({'Ar': 500}\), a string"):
         gaz.make_scene(dim=2, species=species, length=1e-7, duration=1e-10)
     assert gaz.make_scene(dim=2, species=[{"name": "Ar", "count": 5}], length=1e-7, duration=1e-10).n == 5
+
+
+def test_a_database_given_as_a_pathlib_path_is_used_and_another_type_refused(tmp_path):
+    """gaz.simulate(scene, db=tmp_path / "g.db") raised TypeError "argument of type 'PosixPath' is
+    not iterable" from sqlite_writer.py, and gaz.analyse / gaz.open_store said such a path 'names
+    no database', while load_scene and write_scene take paths."""
+    import gaz_cli as gaz
+    from gaz_cli.errors import StoreError
+
+    scene = gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-12, seed=1)
+    db = tmp_path / "g.db"
+    assert gaz.simulate(scene, db=db).summary["si_num"] == 1
+    assert "Q36 momentum and pressure per wall" in gaz.analyse(db, sim=1)
+    with gaz.open_store(db) as store:
+        assert store.simulation_numbers() == [1]
+    with pytest.raises(StoreError, match=r"^--db 5 names no database; give a file path or a URL$"):
+        gaz.simulate(scene, db=5)
