@@ -115,13 +115,14 @@ def _tiny_work(scene) -> float | None:
 
 def step_for(scene) -> tuple[float, str]:
     """A time step for the step engine, and a phrase saying which time set it: 1/STEPS_PER_FLIGHT
-    of the shortest of the mean free time, the time to cross the box and the time to cross a
-    particle diameter at the mean speed (a longer step lets pairs pass through each other)."""
+    of the shortest of the mean free time, the time to cross the box, the time to cross a
+    particle diameter at the mean speed (a longer step lets pairs pass through each other) and
+    the run's duration (slow particles would otherwise get a step longer than the run)."""
     from gaz_cli import theory
 
     masses = scene.masses()
     speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
-    times = {"box crossing": scene.length / speed}
+    times = {"box crossing": scene.length / speed, "run": float(scene.duration)}
     radius = float(scene.radii().mean())
     if radius > 0 and scene.n > 1:
         times["diameter crossing"] = 2.0 * radius / speed

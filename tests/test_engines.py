@@ -46,13 +46,26 @@ def test_auto_picks_a_step_from_the_mean_free_time():
     assert scene.engine == "step" and "mean free time" in reason
     assert scene.dt == pytest.approx(free_time / engines.STEPS_PER_FLIGHT, rel=1e-12)
     # a dilute gas of point-like particles crosses the box before it meets anyone
-    scene, reason = engines.choose(_scene(length=1e-6, components=((POINT, 10),), drag=1e9))
+    scene, reason = engines.choose(_scene(length=1e-6, components=((POINT, 10),), drag=1e9, duration=1e-6))
     assert "box crossing" in reason
     assert scene.dt == pytest.approx(1e-6 / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
     # dilute spheres: a step must not let two of them pass through each other
-    scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9))
+    scene, reason = engines.choose(_scene(length=1e-6, components=((ARGON, 10),), drag=1e9, duration=1e-6))
     assert "diameter crossing" in reason
     assert scene.dt == pytest.approx(2 * ARGON.radius / speed / engines.STEPS_PER_FLIGHT, rel=1e-12)
+
+
+def test_auto_never_picks_a_step_longer_than_the_run():
+    """gaz simulate --n 1 --radius 0.01 --mass 1 --length 1 --duration 1 --drag 0.5 (a 1 kg body at
+    300 K, 1e-11 m/s) picked dt = 2.5e8 s, 1/50 of its box crossing, then refused it: '--dt
+    2.47952e+08 s is longer than --duration 1 s; lower --dt', an option the user never gave."""
+    from gaz_cli.scene import validate
+
+    body = Species("body", 1.0, 0.01)
+    scene = validate(Scene(dim=2, length=1.0, duration=1.0, components=((body, 1),), seed=1, engine="auto",
+                           drag=0.5))
+    assert scene.engine == "step" and scene.dt == pytest.approx(1.0 / engines.STEPS_PER_FLIGHT, rel=1e-12)
+    assert "50 steps per run" in scene.extras["engine_reason"]
 
 
 def test_a_tiny_run_loads_no_compiled_engine():
