@@ -23,6 +23,7 @@ but ``event`` does). The choice and its reason go to the run's summary (``engine
 from __future__ import annotations
 
 import importlib
+import math
 from dataclasses import replace
 
 from gaz_cli.errors import SceneError
@@ -117,11 +118,16 @@ def step_for(scene) -> tuple[float, str]:
     """A time step for the step engine, and a phrase saying which time set it: 1/STEPS_PER_FLIGHT
     of the shortest of the mean free time, the time to cross the box, the time to cross a
     particle diameter at the mean speed (a longer step lets pairs pass through each other) and
-    the run's duration (slow particles would otherwise get a step longer than the run)."""
+    the run's duration (slow particles would otherwise get a step longer than the run). Under
+    gravity the speed is at least sqrt(2 g L), reached falling across the box: marbles at 300 K
+    move by their fall, not by their thermal speed."""
     from gaz_cli import theory
 
     masses = scene.masses()
     speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
+    fall = math.sqrt(2.0 * scene.gravity * scene.length)  # m/s, reached falling across the box
+    falling = fall > speed
+    speed = max(speed, fall)
     times = {"box crossing": scene.length / speed, "run": float(scene.duration)}
     radius = float(scene.radii().mean())
     if radius > 0 and scene.n > 1:
@@ -132,4 +138,5 @@ def step_for(scene) -> tuple[float, str]:
         except SceneError:
             pass
     basis = min(times, key=times.get)
-    return times[basis] / STEPS_PER_FLIGHT, f"{STEPS_PER_FLIGHT} steps per {basis}"
+    speed_said = " at the speed of a fall across the box" if falling and basis != "run" else ""
+    return times[basis] / STEPS_PER_FLIGHT, f"{STEPS_PER_FLIGHT} steps per {basis}{speed_said}"

@@ -68,6 +68,29 @@ def test_auto_never_picks_a_step_longer_than_the_run():
     assert "50 steps per run" in scene.extras["engine_reason"]
 
 
+def test_auto_steps_falling_bodies_by_their_fall_not_their_thermal_speed():
+    """gaz simulate --dim 2 --n 100 --radius 0.01 --mass 1 --length 1 --duration 2 --drag 0.1
+    --gravity 9.81 took dt = 0.04 s from the bodies' thermal speed at 300 K (1e-11 m/s): falling
+    at up to 4.4 m/s they moved 9 diameters a step and passed through each other (the engine
+    warned of pairs left 0.09 sigma apart). The fall across the box sets the speed now."""
+    import warnings
+
+    from gaz_cli import stepper
+    from gaz_cli.recording import Recorder
+    from gaz_cli.scene import initial_state, validate
+
+    body = Species("body", 1.0, 0.01)
+    scene = validate(Scene(dim=2, length=1.0, duration=0.6, components=((body, 100),), seed=1, engine="auto",
+                           drag=0.1, gravity=9.81))
+    fall = (2 * 9.81 * 1.0) ** 0.5
+    assert scene.dt == pytest.approx(2 * 0.01 / fall / engines.STEPS_PER_FLIGHT, rel=1e-12)
+    assert "at the speed of a fall across the box" in scene.extras["engine_reason"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the warning of pairs left overlapping
+        stats = stepper.run(scene, initial_state(scene), Recorder())
+    assert stats.extras["overlap_steps"] == 0
+
+
 def test_a_tiny_run_loads_no_compiled_engine():
     """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code:
     no event loop is built, no placement kernel compiled, the event engine's driver and loop
