@@ -874,7 +874,8 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     """Check a run's trajectory request against its scene; raise SceneError naming the fix.
 
     The engine must write snapshots (the reference engine does not); ``every`` must be a
-    positive number of simulated seconds; unless ``scene.force``, at most MAX_SNAPSHOTS
+    positive number of simulated seconds, at most the duration (else the start alone would
+    be written); unless ``scene.force``, at most MAX_SNAPSHOTS
     snapshots and a file smaller than the free space of its disk.
     """
     if not trajectory:
@@ -896,6 +897,9 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
         raise field_error("`trajectory` needs `every` DT, the simulated time between snapshots (s)")
     if not (_real("every", every) and math.isfinite(every) and every > 0):
         raise field_error(f"`every` must be a positive number of simulated seconds, got {every}")
+    if every > scene.duration:
+        raise field_error(f"`every` {every:g} s is longer than `duration` {scene.duration:g} s: the trajectory "
+                          f"would hold the start alone; use `every` {scene.duration:g} or less")
     snapshots = math.floor(scene.duration / every) + 1
     if scene.force:
         return

@@ -333,6 +333,25 @@ def test_more_than_max_snapshots_is_refused_naming_the_fix(tmp_path):
     check_outputs(replace(sc, force=True), out, 0.1 / MAX_SNAPSHOTS)
 
 
+def test_every_longer_than_the_run_is_refused_naming_the_fix(tmp_path):
+    """--every 2 over --duration 1 wrote the t = 0 snapshot alone, exit 0, nothing said; now one
+    line naming the fix. --every equal to the duration stays accepted (the start and the end)."""
+    from cli_helpers import invoke
+
+    base = ["simulate", "--n", "5", "--dim", "2", "--length", "1e-7", "--duration", "1e-10", "--no-db",
+            "--seed", "1", "--trajectory", str(tmp_path / "a.h5")]
+    res = invoke(base + ["--every", "2e-10"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert "longer than --duration 1e-10 s" in res.stderr and "--every 1e-10 or less" in res.stderr, res.stderr
+    assert not (tmp_path / "a.h5").exists()
+    res = invoke(base + ["--every", "1e-10"])
+    assert res.exit_code == 0, res.stderr
+    import h5py
+
+    with h5py.File(tmp_path / "a.h5", "r") as f:
+        assert len(f["particles/all/position/time"]) == 2
+
+
 def test_cli_names_the_flags_and_every_format(tmp_path):
     from cli_helpers import invoke
 
