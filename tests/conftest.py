@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
+
 import pytest
 
 try:
@@ -91,19 +93,25 @@ def random_rows(scene, k, seed):
     return (t, particle, wall, speed, vperp), (i, j, imp)
 
 
-@pytest.fixture
-def tiny_disk(tmp_path):
-    """A 1 MiB tmpfs mounted under tmp_path, for a full disk (root only; skipped where mounting is
-    not permitted); unmounted afterwards."""
+@contextlib.contextmanager
+def mounted_tmpfs(folder, size: str):
+    """A tmpfs of ``size`` (e.g. "1M") mounted on the new folder ``folder``, unmounted afterwards
+    (root only; the test is skipped where mounting is not permitted)."""
     import subprocess
 
-    mount = tmp_path / "small"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1M", "tmpfs", str(mount)],
+    folder.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)],
                           capture_output=True, text=True)
     if done.returncode != 0:
-        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}")
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip() or done.returncode}")
     try:
-        yield mount
+        yield folder
     finally:
-        subprocess.run(["umount", str(mount)], capture_output=True)
+        subprocess.run(["umount", str(folder)], capture_output=True)
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A 1 MiB tmpfs mounted under tmp_path, for a full disk (:func:`mounted_tmpfs`)."""
+    with mounted_tmpfs(tmp_path / "small", "1M") as mount:
+        yield mount

@@ -329,20 +329,13 @@ def test_round_trip_on_postgres_same_rows_as_sqlite(tmp_path, postgres_db):
 def read_only_folder(tmp_path):
     """A small tmpfs under tmp_path, remounted read-only once ``fill(folder)`` has written it
     (root only; skipped where mounting is not permitted)."""
-    folder = tmp_path / "ro"
-    folder.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=4M", "tmpfs", str(folder)],
-                          capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip() or done.returncode}")
+    from conftest import mounted_tmpfs
 
-    def seal():
-        subprocess.run(["mount", "-o", "remount,ro", str(folder)], check=True, capture_output=True)
+    with mounted_tmpfs(tmp_path / "ro", "4M") as folder:
+        def seal():
+            subprocess.run(["mount", "-o", "remount,ro", str(folder)], check=True, capture_output=True)
 
-    try:
         yield folder, seal
-    finally:
-        subprocess.run(["umount", str(folder)], capture_output=True)
 
 
 def test_a_database_in_a_read_only_folder_is_read(tmp_path, read_only_folder):
