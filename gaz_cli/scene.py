@@ -247,11 +247,17 @@ SEARCH = {
 the dilute scan of every particle; size classes or one cell grid; the lists' skin."""
 
 
-WALLED_SEARCHES = ("dilute", "wide")
-"""Searches built for a box with walls and without gravity (their float32 pass bounds a
-straight flight up to the next wall bounce; see gaz_cli.engine.neighbours.dilute). Forced
-on another scene they used to give way to cells in silence; they are refused instead. (A
-1D run ignores ``[search]`` whatever it holds: rods only meet their two neighbours.)"""
+STRAIGHT_SEARCHES = ("dilute", "wide")
+"""Searches built for straight flights, without gravity (their float32 pass bounds a flight up
+to its horizon: the next wall bounce, or for wide cells in a periodic box the next wrap; see
+gaz_cli.engine.neighbours.dilute and .wide). The dilute scan needs walls too; wide cells in a
+periodic box need it 3 diameters wide or more (PERIODIC_WIDE_CELLS cells an axis). Forced on
+another scene they used to give way to cells in silence; they are refused instead. (A 1D
+run ignores ``[search]`` whatever it holds: rods only meet their two neighbours.)"""
+
+PERIODIC_WIDE_CELLS = 3
+"""Wide cells in a periodic box: at least this many an axis, each a diameter wide or more, so
+that each of the 3^D cells around a particle is a different cell (gaz_cli.engine.sizing)."""
 
 
 def search_given(extras: dict) -> list[str]:
@@ -280,13 +286,23 @@ def _check_search(scene: Scene) -> None:
                           f"engine does not search for partners and would ignore it); set `engine` event, "
                           f"or drop `{key}` from [search]")
     chosen = extras.get("neighbours")
-    if chosen in WALLED_SEARCHES:
-        unfit = [why for why, bad in (("periodic", scene.boundary == "periodic"),
+    if chosen in STRAIGHT_SEARCHES:
+        periodic = scene.boundary == "periodic" and chosen == "dilute"
+        unfit = [why for why, bad in (("periodic", periodic),
                                       ("under gravity", scene.gravity != 0)) if bad]
         if unfit:
-            raise field_error(f"`neighbours` {chosen!r} searches a box with walls and without gravity; "
+            where = "a box with walls" if chosen == "dilute" else "straight flights"
+            raise field_error(f"`neighbours` {chosen!r} searches {where} and without gravity; "
                               f"this scene is {' and '.join(unfit)}: "
                               "use 'auto', 'cells' or 'lists'")
+        rmax = float(np.max(scene.radii()))
+        # (the sizing's count of cells a diameter wide or more: engine.sizing._most_wide_cells)
+        diameters = scene.length / (2.0 * rmax * (1.0 + 1e-9)) if rmax > 0.0 else math.inf
+        if chosen == "wide" and scene.boundary == "periodic" and diameters < PERIODIC_WIDE_CELLS:
+            raise field_error(f"`neighbours` 'wide' needs a periodic box {PERIODIC_WIDE_CELLS} "
+                              f"particle diameters wide or more (a cell a diameter wide or more, "
+                              f"{PERIODIC_WIDE_CELLS} an axis); this one is {diameters:.3g}: "
+                              "use 'auto' or 'cells', or raise `length`")
 
 
 def validate(scene: Scene) -> Scene:

@@ -51,7 +51,7 @@ def test_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing):
     assert_exact_runs(dim, packing, DILUTE, lambda extras: extras["dilute_scan"])
 
 
-def assert_exact_runs(dim, packing, extras, took_the_path):
+def assert_exact_runs(dim, packing, extras, took_the_path, boundary="walls"):
     """300 particles at ``packing``, seeds 5-7, run with the search forced by ``extras``:
     the path taken (``took_the_path(stats.extras)``), no pair found overlapping when it
     collides, energy within ENERGY_RTOL, everyone inside and apart; > 5000 collisions."""
@@ -60,7 +60,8 @@ def assert_exact_runs(dim, packing, extras, took_the_path):
     radius = (packing / (n * unit)) ** (1 / dim)
     total = 0
     for seed in (5, 6, 7):
-        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=extras)
+        scene = unit_scene(dim, n, radius, duration=1.0, seed=seed, extras=extras,
+                           boundary=boundary)
         state = initial_state(scene)
         stats = engine.run(scene, state, Recorder())
         assert took_the_path(stats.extras)

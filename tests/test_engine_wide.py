@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, assert_exact_runs, energy,
                                 readme_scene, scene_b)
-from test_event_engine import assert_same_events_as_the_exam, min_gap, unit_scene
+from test_event_engine import (HORIZON, assert_same_events_as_the_exam, event_sequence, min_gap,
+                               time_tolerances, unit_scene)
 
 from gaz_cli import engine
 from gaz_cli.engine import sizing
@@ -21,8 +22,8 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.layout import CELL, I_WIDTH, PR, PV, SLOT, TCOL, TCOL2
 from gaz_cli.engine.neighbours.cells import _assign_cells
 from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
-from gaz_cli.engine.neighbours.wide import _mirror_all, _predict_wide
-from gaz_cli.recording import Recorder
+from gaz_cli.engine.neighbours.wide import _face_time, _mirror_all, _predict_wide
+from gaz_cli.recording import MemoryRecorder, Recorder
 from gaz_cli.scene import initial_state
 
 WIDE = {"neighbours": "wide"}
@@ -51,6 +52,45 @@ def test_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing, four_
     energy stays within ENERGY_RTOL, every particle ends inside the box and apart."""
     assert_exact_runs(dim, packing, WIDE,
                       lambda extras: extras["wide_cells"] and extras["cell_crossings"] > 0)
+
+
+@pytest.mark.parametrize("dim, n, radius", [(2, 200, 0.01), (3, 300, 0.02)])
+@pytest.mark.parametrize("seed", [3, 4])
+@pytest.mark.parametrize("per_axis", [3, 4])
+def test_periodic_same_events_as_cells(dim, n, radius, seed, per_axis, monkeypatch):
+    """In a periodic box (no wall: each particle's horizon is its next wrap, where it scans in
+    full; a cell across a face scanned through its image), wide cells (3 an axis: each cell
+    seen through one image, the fewest allowed; 4) and cells a diameter wide give the same
+    events in the same order at the same times, within test_event_engine's error model, up
+    to its horizon (the exam's code has no periodic box: cells, checked against it with
+    walls, stand in)."""
+    monkeypatch.setattr(sizing, "wide_cells_per_axis", lambda *a: per_axis)
+    scene = unit_scene(dim, n, radius, duration=6.0, seed=seed, boundary="periodic")
+    state = initial_state(scene)
+    runs = []
+    for search in ("cells", "wide"):
+        rec = MemoryRecorder(collisions=True)
+        stats = engine.run(dataclasses.replace(scene, extras={"neighbours": search}), state, rec)
+        runs.append(event_sequence(rec))
+    assert stats.extras["wide_cells"] and stats.extras["cells_per_axis"] == per_axis
+    assert stats.extras["cell_crossings"] > 10 * n  # (wraps among them)
+    cells, wide = runs
+    tol = time_tolerances(scene, wide)
+    horizon = int(np.searchsorted(np.maximum.accumulate(tol), HORIZON))
+    assert horizon >= 50, "scene too quiet for a cross-check"
+    assert [r[1:] for r in cells[:horizon]] == [r[1:] for r in wide[:horizon]]
+    tc, tw = (np.array([r[0] for r in run[:horizon]]) for run in (cells, wide))
+    assert np.all(np.abs(tc - tw) / tc <= tol[:horizon])
+
+
+@pytest.mark.parametrize("dim, packing", [(2, 0.2), (3, 0.08)])
+def test_periodic_no_collision_is_missed_energy_is_kept_nobody_leaves(dim, packing, four_cells):
+    """Forced in a periodic box: no pair found overlapping when it collides (a collision
+    missed across a face, or after a wrap, would be, later), energy within ENERGY_RTOL,
+    everyone inside the box and apart (minimum image)."""
+    assert_exact_runs(dim, packing, WIDE,
+                      lambda extras: extras["wide_cells"] and extras["cell_crossings"] > 0,
+                      boundary="periodic")
 
 
 def test_a_full_cell_widens_its_block_and_the_run_stays_exact(monkeypatch, four_cells):
@@ -92,13 +132,16 @@ def test_collisions_and_bounces_agree_with_cells():
     # model rates cheaper
     (scene_b(n=2000, packing=0.04), False),
     (readme_scene(), False),  # the dilute scan (no cells at all)
-    (scene_b(boundary="periodic"), False),  # walls only
+    # periodic: cells at packing 0.01 (wide cells 0.88x as fast there), wide cells in argon
+    # at 1 atm (packing 0.0005: 1.7x)
+    (scene_b(boundary="periodic"), False),
+    (scene_b(boundary="periodic", packing=0.0005), True),
     (scene_b(gravity=9.81), False),  # no gravity
     (unit_scene(3, 2000, (0.3 / (2000 * 4 / 3 * math.pi)) ** (1 / 3), duration=1e-4), False),
     (scene_b(extras={"neighbours": "cells"}), False),  # forced
     (unit_scene(3, 500, 0.05, duration=1e-3, extras=WIDE), True),  # forced, dense
 ])
-def test_auto_takes_wide_cells_for_dilute_gases_in_boxes_with_walls(scene, wide):
+def test_auto_takes_wide_cells_for_dilute_gases(scene, wide):
     stats = engine.run(scene, initial_state(scene), Recorder())
     assert stats.extras["wide_cells"] is wide
     if wide:
@@ -108,10 +151,12 @@ def test_auto_takes_wide_cells_for_dilute_gases_in_boxes_with_walls(scene, wide)
 # --- the scan: it only filters (module docstring of neighbours.wide) ---
 
 @numba.njit(cache=True)
-def _kept_and_found(P, XC, nc, t_mirror, t, L, D):
+def _kept_and_found(P, F, XC, nc, t_mirror, t, L, D, PER):
     """Particle 0's full scan (its row at t) in wide cells, nc an axis, after the rows were
     mirrored at t_mirror: which particles the pass kept, which ones the exact float64 root
-    finds in contact by its next wall bounce, and its two predictions."""
+    finds in contact by its horizon (its next wall bounce; PER: its next wrap), and its two
+    predictions. F: the rows as the scan sees them (with walls P itself; PER, a periodic box:
+    each partner in the image its cell is scanned through)."""
     n = P.shape[0]
     I = np.zeros((n, I_WIDTH), np.int32)
     cap = n
@@ -123,17 +168,20 @@ def _kept_and_found(P, XC, nc, t_mirror, t, L, D):
     EV = np.full((n, 4), np.inf)
     edges = np.arange(nc + 1) * (L / nc)
     edges[-1] = L
-    tw, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, True)
+    if PER:
+        tw = _face_time(P, 0, L, D)
+    else:
+        tw, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, True)
     _predict_wide(P, I, EV, cells, XB, XC, edges, 0, t, n, nc, L, 0.0, True, -1, 1, -1, 1, -1, 1,
-                  (1.0, 0.0), D)
+                  (1.0, 0.0), D, PER)
     kept = np.zeros(n, np.bool_)
     times = np.full(n, np.inf)
     for m in range(1, n):
         kept[m] = XB[I[m, CELL], KEEP, I[m, SLOT] - 1] <= 0.0
-        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, P[0, 0], P[0, 1], P[0, 2],
-                                                    P[0, PV], P[0, PV + 1], P[0, PV + 2],
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(F, m, t, F[0, 0], F[0, 1], F[0, 2],
+                                                    F[0, PV], F[0, PV + 1], F[0, PV + 2],
                                                     0.0, 3, False)
-        times[m] = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, P[0, PR], P[m, PR], (1.0, 0.0), 3)
+        times[m] = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, F[0, PR], F[m, PR], (1.0, 0.0), 3)
     return kept, times, tw, EV[0, TCOL], EV[0, TCOL2]
 
 
@@ -157,10 +205,48 @@ def test_the_scan_keeps_every_pair_the_exact_root_finds_before_the_next_bounce(
     x0 = np.full(dim, 0.5 * L)
     horizon = float(np.min((0.5 * L - radius) / np.abs(v0)))  # (its next wall bounce)
     P = adversarial_rows(rng, 3000, dim, L, radius, speed, t, horizon, age, at=(x0, v0))
-    kept, times, tw, t1, t2 = _kept_and_found(P, np.zeros(XC_SIZE), 3, t_mirror, t, L, dim)
+    kept, times, tw, t1, t2 = _kept_and_found(P, P, np.zeros(XC_SIZE), 3, t_mirror, t, L, dim,
+                                              False)
     assert tw == pytest.approx(t + horizon, rel=1e-9)
     found = times <= tw
     assert found.sum() > 1000, found.sum()  # (most partners do touch by the horizon)
+    missed = np.flatnonzero(found & ~kept)
+    assert missed.size == 0, (missed[:5], P[missed[:5]])
+    first, second = np.sort(times[found])[:2]
+    assert (t1, t2) == (first, second)
+
+
+@pytest.mark.parametrize("dim, L, radius, speed, t, age", [
+    (3, 1.0, 0.01, 1.0, 0.3, 0.5),
+    (2, 1.0, 0.01, 1.0, 0.3, 0.5),
+    (3, 3.4e-8, 1.7e-10, 400.0, 7.3e-9, 4e-11),  # argon in SI units, late in the run
+])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_periodic_scan_keeps_every_pair_the_exact_root_finds_through_the_images(
+        dim, L, radius, speed, t, age, seed):
+    """A periodic box, 3 cells an axis: particle 0 near a corner of the box (cell 0, a
+    twentieth of the box from its faces), partners set up as in the test above in the frame
+    of the images its scan sees (the box shifted by a third: cells -1, 0, 1 around it), then
+    wrapped into the box, so that many of them sit across a face. Every partner that the
+    exact float64 root, taken in that frame, puts in contact by particle 0's next wrap is kept
+    by the float32 pass, through its cell's image, and the two predictions are the two
+    earliest of them, exactly."""
+    rng = np.random.default_rng(40 + seed)
+    third = L / 3.0
+    v0 = speed * rng.normal(size=dim)
+    x0 = np.full(dim, 0.05 * L)
+    horizon = float(np.min(np.where(v0 > 0.0, L - x0, x0) / np.abs(v0)))  # (its next wrap)
+    F = adversarial_rows(rng, 3000, dim, L, radius, speed, t, horizon, age,
+                         at=(x0 + third, v0))
+    P = F.copy()
+    P[:, :dim] -= third
+    P[:, :dim] += np.where(P[:, :dim] < 0.0, L, 0.0)  # wrapped: across a face, cell 2
+    assert (P[:, :dim] >= 0.0).all() and (P[:, :dim] < L).all()
+    assert np.mean(np.any(F[:, :dim] < third, axis=1)) > 0.25  # many through an image
+    kept, times, tw, t1, t2 = _kept_and_found(P, F, np.zeros(XC_SIZE), 3, 0.0, t, L, dim, True)
+    assert tw == pytest.approx(t + horizon, rel=1e-9)
+    found = times <= tw
+    assert found.sum() > 1000, found.sum()
     missed = np.flatnonzero(found & ~kept)
     assert missed.size == 0, (missed[:5], P[missed[:5]])
     first, second = np.sort(times[found])[:2]

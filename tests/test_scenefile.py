@@ -396,17 +396,27 @@ def test_a_search_given_to_an_engine_that_does_not_search_is_refused(tmp_path, t
     assert json.loads(out)["engine"] == "event" and json.loads(out)["neighbour_lists"]
 
 
-@pytest.mark.parametrize("top, search, words", [
-    ('boundary = "periodic"', "wide", ["neighbours 'wide' searches a box with walls", "is periodic",
-                                       "use 'auto', 'cells' or 'lists'"]),
-    ("gravity = 9.81", "dilute", ["neighbours 'dilute' searches a box with walls", "is under gravity"]),
+@pytest.mark.parametrize("top, search, words, count, length", [
+    ('boundary = "periodic"', "dilute", ["neighbours 'dilute' searches a box with walls",
+                                         "is periodic", "use 'auto', 'cells' or 'lists'"], 10, 1e-7),
+    ("gravity = 9.81", "dilute", ["neighbours 'dilute' searches a box with walls", "is under gravity"],
+     10, 1e-7),
+    ("gravity = 9.81", "wide", ["neighbours 'wide' searches straight flights", "is under gravity"],
+     10, 1e-7),
+    # 2.5 diameters: fewer than 3 cells an axis, a cell would be scanned through two images
+    ('boundary = "periodic"', "wide", ["neighbours 'wide' needs a periodic box 3 particle diameters",
+                                       "this one is 2.51", "raise length"], 2, 9e-10),
 ])
-def test_a_walled_search_forced_where_it_cannot_run_is_refused(tmp_path, top, search, words):
-    """The dilute scan and wide cells bound a straight flight up to the next wall bounce: forced
-    on a periodic box or under gravity they would give way to cells in silence."""
+def test_a_straight_search_forced_where_it_cannot_run_is_refused(tmp_path, top, search, words,
+                                                                 count, length):
+    """The dilute scan and wide cells bound a straight flight up to its horizon (a wall bounce;
+    for wide cells in a periodic box, a wrap): forced under gravity, or the dilute scan on a
+    periodic box, or wide cells on a periodic box too narrow for 3 cells an axis, they would
+    give way to cells in silence."""
     path = tmp_path / "bad.toml"
-    assert_refused_in_one_line(path, f"dim = 2\nduration = 1e-10\nlength = 1e-7\n{top}\n\n[[species]]\n"
-                          f"name = \"Ar\"\ncount = 10\n\n[search]\nneighbours = \"{search}\"\n", words)
+    assert_refused_in_one_line(path, f"dim = 2\nduration = 1e-10\nlength = {length}\n{top}\n\n"
+                               f"[[species]]\nname = \"Ar\"\ncount = {count}\n\n[search]\n"
+                               f"neighbours = \"{search}\"\n", words)
     path.write_text(path.read_text().replace(top, ""))  # the same search with walls runs
     code, out, err = invoke(["simulate", str(path), "--no-db"])
     assert code == 0, err

@@ -150,11 +150,11 @@ def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
     nc = 1 if dilute else sizing.cells_per_axis(D, n, L, pairs, periodic, sigma, h, use_nl)
     mix = None if dilute else plan
     nc = mix.nc if mix is not None else nc
-    # dilute gases with walls: wide cells scanned in float32 (neighbours.wide)
+    # dilute gases without gravity: wide cells scanned in float32 (neighbours.wide)
     wide = sizing.use_wide_cells(choice, D, n, L, periodic, gravity, pairs, use_nl, dilute,
                                  mix is not None, sigma, scene.packing_fraction)
     if wide:
-        nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction)
+        nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction, periodic)
     return use_nl, dilute, mix, nc, h, wide
 
 

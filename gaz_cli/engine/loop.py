@@ -114,16 +114,17 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
     image shift instead of taking the nearest image); MIX cells per size class (:mod:`.neighbours.classes`:
     the coarse table ``T.CL`` beside the fine one, the counts ``T.CV``); DIL a dilute gas
     in a box with walls, no gravity: every particle scans all the others
-    (:mod:`.neighbours.dilute`, one cell, no crossings); WIDE the same gas in wide cells
-    whose blocks that pass scans (:mod:`.neighbours.wide`). The restitution is a run-time
+    (:mod:`.neighbours.dilute`, one cell, no crossings); WIDE a dilute gas without gravity
+    in wide cells whose blocks that pass scans (:mod:`.neighbours.wide`; walls or periodic,
+    at least 3 cells an axis). The restitution is a run-time
     value: its branch sits in the collision rule, off the search paths.
     Returns a namespace holding ``loop``.
     """
     NL = bool(NL and PAIRS and D > 1)
-    IMG = bool(IMG and PER and PAIRS and D > 1 and not NL)
     DIL = bool(DIL and PAIRS and D > 1 and not NL and not PER and not GRAV)
     CELLS = bool(PAIRS and D > 1 and not NL and not DIL)  # cell lists with crossing events
-    WIDE = bool(WIDE and CELLS and not PER and not GRAV)
+    WIDE = bool(WIDE and CELLS and not GRAV)
+    IMG = bool(IMG and PER and PAIRS and D > 1 and not NL and not WIDE)
     MIX = bool(MIX and CELLS and not WIDE)
     SOURCES = _sources_digest()
 
@@ -299,10 +300,13 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             xd, xup = d, up
                         else:
                             old, sl, co = I[k, CELL], I[k, SLOT], cells[I[k, CELL], 0]
+                            # (wide cells, periodic: a wrap is k's horizon, a full scan)
+                            full = WIDE and PER and I[k, C0 + d] == (nc - 1 if up else 0)
                             _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
                             if WIDE and I[k, CELL] != old:
                                 _moved_out(XB, cells, old, sl, co)
-                        lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
+                        if not full:
+                            lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             if DIL and not predicting:
                 _mirror(P, XS, XC, k)  # what the event changed, for the scans below
@@ -359,7 +363,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     n_scanned += n
                 if WIDE and rescan:
                     exact, slots = _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L,
-                                                 g, full, lo0, hi0, lo1, hi1, lo2, hi2, PP, D)
+                                                 g, full, lo0, hi0, lo1, hi1, lo2, hi2, PP, D,
+                                                 PER)
                     n_pairs += exact
                     n_scanned += slots
                 if cellscan:

@@ -12,6 +12,7 @@ import numpy as np
 
 from gaz_cli.engine.layout import GATHER_SLOTS, WIDE_LANES
 from gaz_cli.geometry import UNIT_BALL
+from gaz_cli.scene import PERIODIC_WIDE_CELLS
 
 CELLS_PER_PARTICLE = 2.0
 """At most this many cells per particle (dilute gases); cells stay at least one diameter wide.
@@ -70,6 +71,15 @@ packing 0.01: wide 1.22 / 1.15x faster; 0.02: 1.01x faster / 1.04x slower; 0.03:
 faster; 0.02: 1.02x faster / 1.13x slower). No refit of the model's two constants on
 those 16 scenes did better than this threshold (least squares in log of the measured
 ratios: it lost 15-37 % on the dilute ones)."""
+
+
+WIDE_BELOW_PERIODIC = {2: 0.01, 3: 0.004}
+"""In a periodic box, 'auto' considers wide cells below this packing fraction only (by
+dimension): cells a diameter wide run cheaper there than the model says (argon, periodic,
+CPU per collision, cells / wide both forced, 2 rounds each, 2026-11-24: 3D N = 10^4, packing
+0.0005 / 0.001 / 0.002 / 0.003 / 0.005 / 0.01 / 0.02: 1.7, 1.4, 1.32, 1.11, 1.04, 0.88,
+0.70; N = 2000, 0.0005 / 0.002 / 0.005: 1.15, 1.03, 0.88; 2D N = 10^4, 0.002 / 0.005 / 0.01
+/ 0.02: 1.55, 1.48, 1.02, 0.82; N = 2000, 0.002 / 0.005: 1.25, 1.34)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
@@ -174,22 +184,29 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
                    pairs: bool, use_nl: bool, dilute: bool, classes: bool, sigma: float,
                    packing: float) -> bool:
     """Whether a run uses wide cells scanned by the float32 pass (:mod:`.neighbours.wide`):
-    2D/3D, hard walls, no gravity, no neighbour lists, not the dilute scan, no size classes
-    (``classes``: the run has them).
+    2D/3D, hard walls or a periodic box at least 3 diameters wide (3 cells an axis), no
+    gravity, no neighbour lists, not the dilute scan, no size classes (``classes``: the run
+    has them).
 
     ``choice`` 'wide' forces it where it applies (elsewhere the other searches stay); 'auto'
-    takes it below WIDE_BELOW when the model of :func:`wide_cells_per_axis` costs less
-    than that of cells (:func:`dilute_scan_pays`)."""
-    if not (pairs and D > 1 and not periodic and not gravity and not use_nl and not dilute
-            and not classes):
+    takes it below WIDE_BELOW (periodic: WIDE_BELOW_PERIODIC) when the model of
+    :func:`wide_cells_per_axis` costs less than that of cells (:func:`dilute_scan_pays`)."""
+    if not (pairs and D > 1 and not gravity and not use_nl and not dilute and not classes):
+        return False
+    if periodic and _most_wide_cells(L, sigma) < PERIODIC_WIDE_CELLS:
         return False
     if choice == "wide":
         return True
-    if choice != "auto" or packing >= WIDE_BELOW:
+    if choice != "auto" or packing >= (WIDE_BELOW_PERIODIC[D] if periodic else WIDE_BELOW):
         return False
     path = _path(D, n, L, packing)
-    return (_wide_auto_cost(D, n, L, path, sigma, packing)
+    return (_wide_auto_cost(D, n, L, path, sigma, packing, periodic)
             < _cells_auto_cost(D, n, L, path, sigma))
+
+
+def _most_wide_cells(L: float, sigma: float) -> int:
+    """The most wide cells an axis: each at least a pair's reach (sigma) wide, at most 64."""
+    return max(1, min(64, int(math.floor(L / (sigma * (1.0 + 1e-9))))))
 
 
 WIDE_COST = {"event": 1.46, "slot": 0.00145}
@@ -216,20 +233,24 @@ def _wide_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
 
 
 def _wide_auto_cost(D: int, n: int, L: float, path: float, sigma: float,
-                    packing: float) -> float:
+                    packing: float, periodic: bool = False) -> float:
     """The cost of wide cells as 'auto' weighs them (:func:`_wide_cost` at
     :func:`wide_cells_per_axis`): infinite at WIDE_BELOW and above."""
     if packing >= WIDE_BELOW:
         return math.inf
-    return _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma, packing))
+    return _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma, packing, periodic))
 
 
-def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float) -> int:
+def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float,
+                        periodic: bool = False) -> int:
     """Cells along each axis for wide cells: the count, among those at least a pair's reach
-    (sigma) wide (at most 64), that costs least by the model of :func:`_wide_cost`."""
+    (sigma) wide (at most 64; in a periodic box at least PERIODIC_WIDE_CELLS), that costs
+    least by the model of :func:`_wide_cost` (the same model both ways: a periodic box's
+    wraps are full scans, as a box's wall bounces are)."""
     path = _path(D, n, L, packing)
-    most = max(1, min(64, int(math.floor(L / (sigma * (1.0 + 1e-9))))))
-    return min(range(1, most + 1), key=lambda nc: _wide_cost(D, n, L, path, nc))
+    least = PERIODIC_WIDE_CELLS if periodic else 1
+    most = max(least, _most_wide_cells(L, sigma))
+    return min(range(least, most + 1), key=lambda nc: _wide_cost(D, n, L, path, nc))
 
 
 def cells_per_axis(D: int, n: int, L: float, pairs: bool, periodic: bool, sigma: float,
