@@ -1,4 +1,4 @@
-"""Does 'auto' take the fastest partner search? Dilute gases in a box with walls.
+"""Does 'auto' take the fastest partner search? Dilute gases in a box with walls, or periodic.
 
 Not a test: it prints numbers. For argon at a given number density (3D or 2D, box with
 walls, no gravity), each N of the list runs with every search forced -- the scan of every
@@ -10,6 +10,7 @@ physical events (collisions and wall bounces) per second of CPU time of each, th
     python benchmarks/search_choice.py                       # the 3D densities below
     python benchmarks/search_choice.py --dim 2 --packing 0.01 --n 1000,2000,4000
     python benchmarks/search_choice.py --density 2.5443e25 --n 3000,4000,6000
+    python benchmarks/search_choice.py --periodic   # wide cells or cells (no dilute scan)
 
 Densities: the README example's (1000 atoms in (34 nm)^3, 2.5443e25 m^-3, packing
 0.0006), scene (b)'s of benchmarks/engine.py (packing 0.01) and packing 0.03 (where cells
@@ -54,18 +55,19 @@ def label(extras: dict) -> str:
     return f"{'wide' if extras.get('wide_cells') else 'cells'} {extras['cells_per_axis']}"
 
 
-def measure(dim: int, density: float, n: int, duration: float | None, rounds: int) -> dict:
+def measure(dim: int, density: float, n: int, duration: float | None, rounds: int,
+            searches: tuple = SEARCHES, boundary: str = "walls") -> dict:
     ar = lookup("Ar")
     length = (n / density) ** (1.0 / dim)
     if duration is None:  # five mean free times
         speed = math.sqrt(8 * K_B * 300 / (math.pi * ar.mass))
         duration = 5.0 * float(theory.mean_free_path(dim, density, 2 * ar.radius)) / speed
-    rates = {s: [] for s in SEARCHES}
+    rates = {s: [] for s in searches}
     took = {}
     for r in range(rounds + 1):  # round 0 compiles, not counted
-        for s in SEARCHES:
+        for s in searches:
             scene = Scene(dim=dim, length=length, duration=duration, components=((ar, n),),
-                          seed=1, record="none", extras={"neighbours": s})
+                          seed=1, record="none", extras={"neighbours": s}, boundary=boundary)
             state = initial_state(scene)
             c = time.process_time()
             stats = engine.run(scene, state, Recorder())
@@ -88,7 +90,11 @@ def main() -> None:
     ap.add_argument("--n", default=None, help="particle counts, comma-separated")
     ap.add_argument("--duration", type=float, default=None, help="simulated s")
     ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--periodic", action="store_true",
+                    help="a periodic box (the dilute scan, walls only, left out)")
     args = ap.parse_args()
+    searches = tuple(s for s in SEARCHES if not (args.periodic and s == "dilute"))
+    boundary = "periodic" if args.periodic else "walls"
     ar = lookup("Ar")
     if args.density is None and args.packing is None:
         plans = [(README_DENSITY, "1000,2000,3000,4000,6000,8000"),
@@ -99,19 +105,19 @@ def main() -> None:
     else:
         density = args.density or args.packing / (UNIT_BALL[args.dim] * ar.radius ** args.dim)
         plans = [(density, "1000,2000,4000")]
-    print(f"gaz search choice: {args.dim}D argon, walls; {os.cpu_count()} cores, load "
+    print(f"gaz search choice: {args.dim}D argon, {boundary}; {os.cpu_count()} cores, load "
           f"{os.getloadavg()[0]:.2f}; {args.rounds} rounds; M physical events / s of CPU")
     for density, default_n in plans:
         for n in [int(x) for x in (args.n or default_n).split(",")]:
-            m = measure(args.dim, density, n, args.duration, args.rounds)
+            m = measure(args.dim, density, n, args.duration, args.rounds, searches, boundary)
             rates = m["rates"]
-            best = max(SEARCHES[1:], key=lambda s: rates[s])
+            best = max(searches[1:], key=lambda s: rates[s])
             took = m["took"]
-            same = next(s for s in SEARCHES[1:] if took[s] == took["auto"])
+            same = next(s for s in searches[1:] if took[s] == took["auto"])
             verdict = ("auto took the fastest" if took[best] == took["auto"] else
                        f"the fastest, {best}, runs {rates[best] / rates[same]:.2f}x what auto took")
             print(f"  N = {n}, packing {m['packing']:.2g}, L = {m['length']:.3g} m: "
-                  + ", ".join(f"{s} {rates[s] / 1e6:.3f} ({took[s]})" for s in SEARCHES)
+                  + ", ".join(f"{s} {rates[s] / 1e6:.3f} ({took[s]})" for s in searches)
                   + f"; {verdict}", flush=True)
 
 
