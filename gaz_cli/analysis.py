@@ -911,10 +911,15 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     rate = 2.0 * run.collisions / (run.n * run.duration)
     est = errorbars.NAN_ESTIMATE
     err_note = ""
+    stratified = run.gravity > 0.0 and not run.periodic
     if run.collision_bins is not None and run.restitution >= 1.0:
         width = run.duration / errorbars.BINS
         per_bin = _per_bin(run.collision_bins.BIN, run.collision_bins.NB_CHOCS.to_numpy(dtype=float))
-        est = errorbars.time_average(2.0 * per_bin / (run.n * width), duration=run.duration)
+        if stratified:      # the settled part only, as the pressures: the fall collides less
+            est = _estimate(run, 2.0 * per_bin / (run.n * width))
+            rate = est.mean if math.isfinite(est.mean) else rate
+        else:
+            est = errorbars.time_average(2.0 * per_bin / (run.n * width), duration=run.duration)
     elif run.restitution >= 1.0:
         err_note = "RATE_ERR_HZ needs the collisions' times: --record all; "
     counts, radii, masses = _counts_radii_masses(run)
@@ -924,6 +929,21 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
         rows.append(Expectation(NA, "Enskog", "one species only (mixture: cross-sections and masses differ)"))
     elif not math.isfinite(temperature):
         rows.append(Expectation(NA, "Enskog", "temperature unknown"))
+    elif stratified:
+        exp = _try(f"Enskog, g from {theory.BEST_MODEL[d]}, averaged over the barometric profile",
+                   lambda: theory.gravity_collision_frequency(d, L, temperature, run.n, radii[0], masses[0],
+                                                              run.gravity),
+                   "local density of the hydrostatic profile (the gas is denser low down: more partners); "
+                   "walls: expect O(2R/L) off")
+        if not run.settled:
+            exp.applies = False
+            exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
+                        "fall and thermalisation; run longer")
+        elif run.collision_bins is None:
+            exp.applies = False
+            exp.note = ("under gravity the settled part's rate needs the collisions' times (the count over "
+                        "the run includes the fall): --record all")
+        rows.append(exp)
     elif d == 1:
         rows.append(_try("1D rods, exact (N-1) <|v_rel|>/(L - N sigma)",
                          lambda: theory.rods_collision_frequency(run.n, L, radii[0], temperature, masses[0]),
@@ -949,17 +969,20 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
             return theory.haff_collisions_per_particle(d, run.duration, run.restitution, omega0) / run.duration
         rows = [_try("Enskog omega0, cooled by Haff's law (mean over the run)", haff_rate,
                      "homogeneous cooling only: clusters raise the rate")]
+        if stratified:
+            rows[0].applies = False
+            rows[0].note = "under gravity the cooling gas is not homogeneous: Haff's law does not apply"
     # Enskog and the 1D Maxwellian average carry model errors of a few % (notes): a deviation in
     # sigmas is printed only when the statistical error is larger than that
     frame = []
     for exp in rows:
         approximate = exp.model.startswith("Enskog") or exp.model.startswith("1D rods")
-        fits = not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate)
+        fits = exp.applies and (not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate))
         frame.append({"MODEL": exp.model, "COLLISIONS": run.collisions, "RATE_PER_PARTICLE_HZ": rate,
                       "RATE_ERR_HZ": est.error, "N_EFF": est.n_eff, "THEORY_HZ": exp.value,
                       "DEV_SIGMA": _dev(rate, est.error, exp.value, fits),
                       "REL_DEV": _rel(rate, exp.value),
-                      "NOTE": err_note + exp.note + ("" if fits or not math.isfinite(est.error) else
+                      "NOTE": err_note + exp.note + ("" if fits or not (exp.applies and math.isfinite(est.error)) else
                                                      "; model error (a few %) above the statistical "
                                                      "error: REL_DEV, not DEV_SIGMA")})
     return pd.DataFrame(frame)

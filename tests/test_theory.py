@@ -743,6 +743,21 @@ def test_hard_sphere_gravity_walls_limits_and_balance():
     assert no_g[2] == pytest.approx(th.hard_sphere_wall_pressure(3, 2e-8, 300.0, 1000, 1.7e-10), rel=1e-9)
 
 
+
+def test_gravity_collision_frequency_dilute_limit_and_no_gravity():
+    """Points: <n^2>/<n>^2 of the barometric profile, (x/2) coth(x/2), times Enskog at the mean density;
+    g = 0: Enskog at N/(L - 2R)^D."""
+    kw = dict(dim=3, length=2e-8, temperature=300.0, number=1000, mass=6.63e-26)
+    x = 6.63e-26 * 3.178e12 * 2e-8 / (K_B * 300.0)
+    r = 1e-15
+    mean = th.enskog_collision_frequency(3, 1000 / (2e-8 - 2 * r) ** 3, 2 * r, 300.0, 6.63e-26)
+    omega = th.gravity_collision_frequency(radius=r, gravity=3.178e12, **kw)
+    assert omega / mean == pytest.approx(0.5 * x / math.tanh(0.5 * x), rel=1e-5)
+    r = 1.7e-10
+    flat = th.gravity_collision_frequency(radius=r, gravity=0.0, **kw)
+    assert flat == pytest.approx(th.enskog_collision_frequency(3, 1000 / (2e-8 - 2 * r) ** 3, 2 * r, 300.0,
+                                                               6.63e-26), rel=1e-9)
+
 def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
     eta, sigma = 0.3, 1.0
     n = eta * 6 / math.pi
