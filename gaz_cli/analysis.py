@@ -40,7 +40,7 @@ import pandas as pd
 
 from gaz_cli import errorbars, theory
 from gaz_cli.constants import K_B
-from gaz_cli.errors import GazWarning, SceneError, StoreError
+from gaz_cli.errors import GazError, GazWarning, SceneError, StoreError
 
 NA = math.nan
 """What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
@@ -193,7 +193,13 @@ class Run:
     temperature: float = math.nan
     """The scene's temperature of the initial velocities, K."""
     temperature_error: float = 0.0
-    """Standard error of the temperature theory is evaluated at, K (under gravity: measured from the hits)."""
+    """Standard error of the temperature theory is evaluated at, K (under gravity, from the hits: see report)."""
+    temperature_source: str = "kinetic"
+    """Where the temperature theory is evaluated at comes from: "kinetic" (the kinetic energy),
+    "energy" (under gravity, the conserved energy of the initial state), "hits" (under gravity, the
+    settled part's wall hits)."""
+    scene_file: str | None = None
+    """The run's scene file (SCENE.SC_FILE), from which its initial state is rebuilt; None if not stored."""
     record: str = "bounces"
     ke_start: float = math.nan
     ke_end: float = math.nan
@@ -349,6 +355,8 @@ def load_run(store, si_num: int) -> Run:
         run.gravity, run.restitution = float(sc.SC_GRAVITY), float(sc.SC_RESTITUTION)
         run.wall_restitution = float(sc.SC_WALL_RESTITUTION)
         run.tc, run.temperature, run.record = float(sc.SC_TC), float(sc.SC_TEMPERATURE), str(sc.SC_RECORD)
+        text = sc.get("SC_FILE")
+        run.scene_file = text if isinstance(text, str) and text else None
     rs = _only_row(store, st.resultat, si_num)
     if rs is not None:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
@@ -670,6 +678,61 @@ def settled_temperature(run: Run) -> errorbars.Estimate:
     return _estimate(run, _per_bin(h.BIN, energy), _per_bin(h.BIN, h.NB_REBONDS))
 
 
+EXACT_ENGINES = ("event", "ideal", "reference")
+"""Engines that conserve the energy to round-off (the step engine's leap-frog drifts)."""
+
+
+def initial_state(run: Run):
+    """The run's initial state rebuilt from its stored scene file (a function of the scene and its seed), or None.
+
+    None when the scene file is not stored or does not rebuild the run (its kinetic energy
+    differs from RESULTAT's: another version's placement).
+    """
+    if run.scene_file is None or not math.isfinite(run.ke_start):
+        return None
+    from gaz_cli import scene as scene_module, scenefile
+
+    try:
+        scene, _ = scenefile.loads(run.scene_file)
+        state = scene_module.initial_state(scene)
+    except GazError:
+        return None
+    masses = scene.masses()
+    ke = 0.5 * float(np.sum(masses[:, None] * state.velocities ** 2))
+    if not math.isclose(ke, run.ke_start, rel_tol=1e-9, abs_tol=0.0):
+        return None
+    return scene, state
+
+
+def energy_temperature(run: Run) -> float:
+    """Temperature of the settled gas under gravity from its conserved energy, K (NaN where unknown).
+
+    Elastic dynamics under uniform gravity conserves E = K + sum m g (z - R)
+    exactly; the initial state (rebuilt from the stored scene file) gives E,
+    and the settled gas shares it as (D/2) N k_B T + N m g <z - R>(T)
+    (:func:`gaz_cli.theory.gravity_energy_temperature`). No statistical error:
+    the pressures' own error holds the exchange between kinetic and potential
+    energy over the run. One species, an exact engine, nothing that dissipates.
+    """
+    if (run.gravity <= 0.0 or run.periodic or not run.one_species or run.engine not in EXACT_ENGINES
+            or run.restitution < 1.0 or run.wall_restitution < 1.0):
+        return NA
+    rebuilt = initial_state(run)
+    if rebuilt is None:
+        return NA
+    scene, state = rebuilt
+    if scene.planes or scene.drag > 0.0 or scene.pair_gravity > 0.0:
+        return NA
+    radius = float(run.species.RADIUS_M.iloc[0])
+    mass = float(run.species.MASS_KG.iloc[0])
+    energy = run.ke_start + float(np.sum(scene.masses() * run.gravity * (state.positions[:, -1] - radius)))
+    try:
+        return float(theory.gravity_energy_temperature(run.dim, run.length, energy, run.n, radius, mass,
+                                                       run.gravity))
+    except SceneError:
+        return NA
+
+
 def _gravity_walls(run: Run, temperature: float):
     """(floor, ceiling, side, model, note) of the best gravity model for the run."""
     counts, radii, masses = _counts_radii_masses(run)
@@ -734,6 +797,9 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
             exp.error = abs(mean_gravity(temperature + run.temperature_error) - exp.value)
             exp.note += (f"; T = {temperature:.5g} +- {run.temperature_error:.2g} K from <v_perp^2> of the "
                          "settled part's wall hits (its error is in DEV_SIGMA)")
+        elif exp.known and run.temperature_source == "energy":
+            exp.note += (f"; T = {temperature:.5g} K from the conserved energy of the initial state, "
+                         "kinetic plus potential")
         if not run.settled:
             exp.applies = False
             exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
@@ -1096,8 +1162,10 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         frame["NOTE"] = "cooling gas: theory at the initial temperature"
         frame["DEV_SIGMA"] = NA
     elif run.gravity > 0.0 and len(frame):
+        source = ("the temperature of its conserved energy" if run.temperature_source == "energy" else
+                  "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)")
         frame["NOTE"] = (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
-                         "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)" if run.settled else
+                         f"{source}" if run.settled else
                          "under gravity: the run did not settle (fall and thermalisation take over half of it)")
         if not run.settled:
             frame["DEV_SIGMA"] = NA
@@ -1265,9 +1333,15 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
         run = load_run(store, number)
         temperature = run.kinetic_temperature
         if run.gravity > 0.0 and not run.periodic and run.settled and run.restitution >= 1.0:
-            settled = settled_temperature(run)
-            if math.isfinite(settled.mean) and math.isfinite(settled.error):
+            # the settled gas's temperature: from the conserved energy where the initial state is
+            # known, else from the hits (an error bar that misses the slow exchange between axes)
+            from_energy = energy_temperature(run)
+            settled = settled_temperature(run) if not math.isfinite(from_energy) else None
+            if math.isfinite(from_energy):
+                temperature, run.temperature_source = from_energy, "energy"
+            elif math.isfinite(settled.mean) and math.isfinite(settled.error):
                 temperature, run.temperature_error = settled.mean, settled.error
+                run.temperature_source = "hits"
         per_wall = exam_per_wall(run)
         if sim is not None:
             q35 = exam_q35(run)

@@ -51,7 +51,7 @@ __all__ = [
     "wall_hit_normal_speed_pdf", "wall_hit_mean_normal_speed", "wall_hit_rate",
     "barometric_height_pdf", "ideal_gravity_wall_pressures", "floor_minus_ceiling_pressure",
     "chemical_potential_excess", "hard_sphere_gravity_wall_pressures", "hard_sphere_gravity_profile",
-    "gravity_collision_frequency",
+    "gravity_collision_frequency", "gravity_energy_temperature",
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
     "virial_pressure", "kinetic_temperature", "wall_impulse",
@@ -955,6 +955,49 @@ def gravity_collision_frequency(dim: int, length, temperature, number, radius, m
                        dtype=float)
     weight = n * omega
     return _out(float(np.sum(0.5 * (weight[1:] + weight[:-1])) / np.sum(0.5 * (n[1:] + n[:-1]))))
+
+
+def gravity_energy_temperature(dim: int, length, energy, number, radius, mass, gravity,
+                               model: str = "best") -> float:
+    """Temperature (K) of N hard particles settled under gravity, from their total energy (J).
+
+    ``energy`` E = K + sum m g (z - R): kinetic energy plus the potential one
+    above the lowest centre height R, conserved by elastic dynamics; the
+    settled gas shares it as (D/2) N k_B T + N m g <z - R>(T), the mean height
+    on :func:`hard_sphere_gravity_profile`. Solved for T (monotonic: Illinois
+    false position on 0 < T <= 2E/(D N k_B)). Equilibrium, one species.
+    """
+    dim = _dim(dim)
+    e = float(_positive("energy", energy, "J"))
+    n_total = float(_positive("number of particles", number, ""))
+    m, g = float(_positive("mass", mass, "kg")), float(_nonnegative("gravity", gravity, "m/s^2"))
+
+    def excess(t):
+        z, n = hard_sphere_gravity_profile(dim, length, t, n_total, radius, mass, g, model)
+        mean_z = float(np.sum(0.5 * (n[1:] * z[1:] + n[:-1] * z[:-1])) / np.sum(0.5 * (n[1:] + n[:-1])))
+        return 0.5 * dim * n_total * K_B * t + n_total * m * g * mean_z - e
+
+    lo, hi = 0.0, 2.0 * e / (dim * n_total * K_B)
+    f_lo, f_hi = -e, excess(hi)
+    if f_hi <= 0.0:                   # no potential energy (g = 0): all of it kinetic
+        return hi
+    side = 0
+    for _ in range(100):
+        t = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        f = excess(t)
+        if f > 0.0:
+            hi, f_hi = t, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = t, f
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        if hi - lo < 1e-12 * hi or abs(f) < 1e-13 * e:
+            break
+    return float(t)
 
 
 def floor_minus_ceiling_pressure(counts, masses, gravity, wall_area):

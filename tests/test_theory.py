@@ -758,6 +758,20 @@ def test_gravity_collision_frequency_dilute_limit_and_no_gravity():
     assert flat == pytest.approx(th.enskog_collision_frequency(3, 1000 / (2e-8 - 2 * r) ** 3, 2 * r, 300.0,
                                                                6.63e-26), rel=1e-9)
 
+
+def test_gravity_energy_temperature_shares_the_energy_with_the_barometric_height():
+    """g = 0: all kinetic, T = 2E/(D N k); points under gravity: the ideal barometric mean height
+    <z - R> = lam - h/(e^(h/lam) - 1), lam = kT/(m g), closes (D/2) N k T + N m g <z - R> = E."""
+    n, m, length, r = 1000, 6.63e-26, 2e-8, 1e-15
+    energy = 1.5 * n * K_B * 300.0
+    assert th.gravity_energy_temperature(3, length, energy, n, r, m, 0.0) == pytest.approx(300.0, rel=1e-12)
+    g = 3.178e12
+    t = th.gravity_energy_temperature(3, length, energy, n, r, m, g)
+    lam, h = K_B * t / (m * g), length - 2 * r
+    mean_z = lam - h / math.expm1(h / lam)
+    assert 1.5 * n * K_B * t + n * m * g * mean_z == pytest.approx(energy, rel=1e-5)
+    assert t < 300.0
+
 def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
     eta, sigma = 0.3, 1.0
     n = eta * 6 / math.pi
