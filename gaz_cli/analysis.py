@@ -200,6 +200,9 @@ class Run:
     settled part's wall hits)."""
     scene_file: str | None = None
     """The run's scene file (SCENE.SC_FILE), from which its initial state is rebuilt; None if not stored."""
+    drift_energy: float = 0.0
+    """Periodic box: P^2/(2M) of the total momentum, J, conserved and not thermal (0 when the velocities
+    were drawn by gaz, which removes it; an explicit initial state keeps its own)."""
     record: str = "bounces"
     ke_start: float = math.nan
     ke_end: float = math.nan
@@ -301,10 +304,19 @@ class Run:
             ke = self.ke_end
         else:
             ke = 0.5 * (self.ke_start + self.ke_end)
-        if ke <= 0.0:
+        return self.temperature_of(ke)
+
+    def temperature_of(self, ke: float) -> float:
+        """Temperature of the kinetic energy ``ke`` (J) of this run's gas, K (nan if unknown or not positive).
+
+        Periodic box: the kinetic energy of the conserved total momentum is not thermal
+        (:func:`gaz_cli.theory.kinetic_temperature`).
+        """
+        if not (math.isfinite(ke) and ke > 0.0):
             return math.nan
-        return float(theory.kinetic_temperature(self.dim, ke, self.n,
-                                                periodic=self.periodic and self.n > 1))
+        t = float(theory.kinetic_temperature(self.dim, ke, self.n, periodic=self.periodic and self.n > 1,
+                                             drift_energy=self.drift_energy))
+        return t if t > 0.0 else math.nan
 
     @property
     def walls(self) -> list[int]:
@@ -362,6 +374,8 @@ def load_run(store, si_num: int) -> Run:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
+    if run.periodic and run.n > 1:
+        run.drift_energy = _drift_energy(run)
     bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
     # SQLite groups by sorting: one bin's rows at a time sort faster than the run's; PostgreSQL
     # groups by hashing, nothing to gain (its GROUP BY of 10^7 rows: 5.5 s, by ranges 8-9 s)
@@ -702,6 +716,20 @@ def initial_state(run: Run):
     if not math.isclose(ke, run.ke_start, rel_tol=1e-9, abs_tol=0.0):
         return None
     return scene, state
+
+
+def _drift_energy(run: Run) -> float:
+    """P^2/(2M) of the initial state's total momentum, J: 0 unless an explicit (or preset) initial state
+    set the velocities (gaz removes the momentum of those it draws in a periodic box)."""
+    if run.scene_file is None or "[initial]" not in run.scene_file:
+        return 0.0
+    rebuilt = initial_state(run)
+    if rebuilt is None:
+        return 0.0
+    scene, state = rebuilt
+    masses = scene.masses()
+    p = (masses[:, None] * state.velocities).sum(axis=0)
+    return float(p @ p / (2.0 * masses.sum()))
 
 
 def energy_temperature(run: Run) -> float:
@@ -1217,11 +1245,8 @@ def cooling_frame(run: Run) -> pd.DataFrame:
     """
     d = run.dim
     rows = []
-    periodic = run.periodic and run.n > 1
-    t0 = (float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
-          if math.isfinite(run.ke_start) and run.ke_start > 0 else math.nan)
-    t_end = (float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))
-             if math.isfinite(run.ke_end) and run.ke_end > 0 else math.nan)
+    t0 = run.temperature_of(run.ke_start)
+    t_end = run.temperature_of(run.ke_end)
     err = NA
     counts, radii, masses = _counts_radii_masses(run)
     if run.chocs is not None and run.one_species and math.isfinite(t0):
@@ -1230,7 +1255,8 @@ def cooling_frame(run: Run) -> pd.DataFrame:
                        0, errorbars.BINS - 1)
         est = errorbars.time_average(_per_bin(bins, loss), duration=run.duration)
         # the loss summed over the run is BINS times the mean loss per bin; T is linear in K
-        err = est.error * errorbars.BINS * t0 / run.ke_start
+        thermal = run.ke_start - (run.drift_energy if run.periodic else 0.0)
+        err = est.error * errorbars.BINS * t0 / thermal
     if run.one_species and math.isfinite(t0):
         sigma = 2 * radii[0]
         n = run.n / (run.length if run.periodic else run.length - sigma) ** d
@@ -1598,12 +1624,12 @@ def cooling_series(run: Run, points: int = 200):
     d = run.dim
     t = run.chocs.CH_T.to_numpy(dtype=float)
     loss = _collision_losses(run)
-    periodic = run.periodic and run.n > 1
-    t0 = float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
+    t0 = run.temperature_of(run.ke_start)
     grid = np.linspace(0.0, run.duration, points)
     cum = np.concatenate(([0.0], np.cumsum(loss)))
     ke = run.ke_start - cum[np.searchsorted(t, grid, side="right")]
-    temps = np.array([float(theory.kinetic_temperature(d, max(k, 0.0), run.n, periodic=periodic)) for k in ke])
+    temps = np.array([run.temperature_of(k) for k in ke])
+    temps = np.where(np.isfinite(temps), temps, 0.0)
     sigma = 2 * float(run.species.RADIUS_M.iloc[0])
     m = float(run.species.MASS_KG.iloc[0])
     n = run.n / (run.length if run.periodic else run.length - sigma) ** d
@@ -1612,7 +1638,7 @@ def cooling_series(run: Run, points: int = 200):
         haff = theory.haff_temperature(d, grid, t0, run.restitution, omega0)
     except SceneError:
         haff = None
-    t_end = float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))
+    t_end = run.temperature_of(run.ke_end)
     return {"times": grid, "temperatures": temps, "haff": haff, "t_end": t_end}
 
 

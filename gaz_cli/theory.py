@@ -1109,18 +1109,23 @@ def virial_pressure(dim: int, number, temperature, volume, virial, duration):
     return _out((n * K_B * t + w / (dim * tau)) / v)
 
 
-def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False):
+def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False, drift_energy=0.0):
     """Temperature (K) from the total kinetic energy K (J): k_B T = 2K/(D N).
 
-    With ``periodic`` (total momentum fixed at zero) the D momentum degrees of
-    freedom are removed: k_B T = 2K/(D (N - 1)); except for a single particle, whose
-    momentum gaz keeps (:func:`gaz_cli.scene.initial_state`: removing it would stop the
-    particle), so N = 1 counts its D degrees of freedom, periodic or not.
+    With ``periodic`` the total momentum P is conserved: its D degrees of freedom
+    are not thermal, k_B T = 2 (K - P^2/(2M))/(D (N - 1)), ``drift_energy``
+    P^2/(2M) (J; 0 when the momentum was removed at the start, as gaz does for
+    the velocities it draws: :func:`gaz_cli.scene.initial_state`; an explicit
+    initial state keeps its own). A single particle keeps its momentum and counts
+    its D degrees of freedom, periodic or not (removing it would stop the particle).
     """
     dim = _dim(dim)
     k = _nonnegative("kinetic energy", kinetic_energy, "J")
     n = np.asarray(number, dtype=float)
     if not np.all(n >= 1.0):
         raise SceneError(f"kinetic temperature needs at least 1 particle, got {_show(number)}")
+    drift = _nonnegative("drift energy", drift_energy, "J")
+    if periodic:
+        k = np.where(n > 1.0, np.maximum(k - drift, 0.0), k)
     dof_n = np.where(n > 1.0, n - 1.0, n) if periodic else n
     return _out(2.0 * k / (dim * dof_n * K_B))

@@ -521,6 +521,11 @@ def test_virial_pressure_and_kinetic_temperature():
     assert th.kinetic_temperature(dim, energy, n, periodic=True) == approx(t * n / (n - 1), rel=1e-14)
     # one particle keeps its momentum in a periodic box too (gaz does not stop it)
     assert th.kinetic_temperature(dim, energy, 1, periodic=True) == approx(t * n, rel=1e-14)
+    # a conserved drift P^2/(2M) of a periodic box is not heat; between walls it is
+    drift = 0.25 * energy
+    assert th.kinetic_temperature(dim, energy + drift, n, periodic=True, drift_energy=drift) == approx(
+        t * n / (n - 1), rel=1e-14)
+    assert th.kinetic_temperature(dim, energy, n, periodic=False, drift_energy=drift) == approx(t, rel=1e-14)
 
 
 # --------------------------------------------------------------------- bad arguments
