@@ -302,54 +302,61 @@ def _rate_theory(dim, n, length, radius, t, mass) -> float:
 
 
 def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
-    """Draw Z (and P) against ``key`` with error bars beside theory; return the files written.
-
-    Against the packing fraction the theory is the equation of state's curve
-    Z(eta) (Tonks, Kolafa-Rottner or KLM) with the ideal gas Z = 1 beside, and
-    each point's own finite-box theory as an open marker.
-    """
+    """Draw Z against ``key`` with error bars beside theory, one figure per dimension and
+    boundary (:func:`figure`); return the files written."""
     import os
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from gaz_cli import plots
 
     plots.make_folder(folder)
     written = []
-    col = key.upper()
     for (dim, boundary), whole in table.groupby(["DIM", "BOUNDARY"]):
-        fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True,
-                                      gridspec_kw={"height_ratios": [3, 1.3]})
-        lo, hi = int(whole.RUNS.min()), int(whole.RUNS.max())
-        seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
-        series = list(whole.groupby("SCENE", sort=False)) if "SCENE" in whole else [("", whole)]
-        for k, (name, g) in enumerate(series):  # one scene apart from the key: one series
-            ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color=f"C{2 * k}", capsize=3,
-                        label=f"{name}: measured" if name else f"measured (mean of {seeds} seeds, ±1σ)")
-            ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color=f"C{2 * k + 1}",
-                    label=f"{name}: theory" if name else "theory for each scene")
-            dev.plot(g[col], g.Z_DEV_SIGMA, "o", color=f"C{2 * k}")
-        if key == "packing":
-            eta = np.linspace(0.0, float(whole[col].max()) * 1.05, 200)
-            model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[int(dim)]
-            ax.plot(eta, theory.compressibility_factor(int(dim), eta), "-", color="C1", lw=1,
-                    label=f"{model} (bulk)")
-            dev.set_xlabel("packing fraction η")
-        else:
-            dev.set_xlabel(f"{key} ({KEYS[key]})")
-        ax.axhline(1.0, color="grey", ls="--", lw=1, label="ideal gas")
-        ax.set_ylabel("Z = P V / (N k_B T)")
-        ax.set_title(f"{int(dim)}D, {boundary}: compressibility factor against {key}")
-        ax.legend(fontsize=8)
-        dev.axhspan(-3, 3, color="C2", alpha=0.12, lw=0, label="±3σ")
-        dev.axhline(0.0, color="grey", lw=0.8)
-        dev.set_ylabel("(Z − theory)/σ")
-        top = float(np.nanmax(np.abs(whole.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
-        dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
-        dev.legend(fontsize=8, loc="upper right")
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
-        plots.save(fig, path, dpi=120)
+        plots.save(figure(whole, key), path, dpi=120)
         written.append(path)
     return written
+
+
+def figure(whole: pd.DataFrame, key: str):
+    """The figure of :func:`plot` for the rows of one dimension and boundary (a matplotlib Figure).
+
+    One series per scene (column SCENE), in its own colour: measured Z (filled
+    circles, error bars) and each point's own finite-box theory (open squares).
+    Against the packing fraction the equation of state's curve Z(eta) (Tonks,
+    Kolafa-Rottner or KLM) in the theory style (:data:`gaz_cli.plots.THEORY`,
+    black dashed) and the ideal gas Z = 1 (:data:`gaz_cli.plots.IDEAL`).
+    """
+    from gaz_cli import plots
+
+    plt = plots._pyplot()
+    col = key.upper()
+    dim, boundary = int(whole.DIM.iloc[0]), whole.BOUNDARY.iloc[0]
+    fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+    lo, hi = int(whole.RUNS.min()), int(whole.RUNS.max())
+    seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
+    series = list(whole.groupby("SCENE", sort=False)) if "SCENE" in whole else [("", whole)]
+    for k, (name, g) in enumerate(series):  # one scene apart from the key: one series
+        color = plots.series_color(k)
+        ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color=color, capsize=3,
+                    label=f"{name}: measured" if name else f"measured (mean of {seeds} seeds, ±1σ)")
+        ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color=color,
+                label=f"{name}: theory" if name else "theory for each scene")
+        dev.plot(g[col], g.Z_DEV_SIGMA, "o", color=color)
+    if key == "packing":
+        eta = np.linspace(0.0, float(whole[col].max()) * 1.05, 200)
+        model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[dim]
+        ax.plot(eta, theory.compressibility_factor(dim, eta), **plots.THEORY, label=f"{model} (bulk)")
+        dev.set_xlabel("packing fraction η")
+    else:
+        dev.set_xlabel(f"{key} ({KEYS[key]})")
+    ax.axhline(1.0, **plots.IDEAL, label="ideal gas")
+    ax.set_ylabel("Z = P V / (N k_B T)")
+    ax.set_title(f"{dim}D, {boundary}: compressibility factor against {key}")
+    ax.legend(fontsize=8)
+    dev.axhspan(-3, 3, color="0.85", alpha=0.5, lw=0, label="±3σ")
+    dev.axhline(0.0, color="grey", lw=0.8)
+    dev.set_ylabel("(Z − theory)/σ")
+    top = float(np.nanmax(np.abs(whole.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
+    dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
+    dev.legend(fontsize=8, loc="upper right")
+    return fig

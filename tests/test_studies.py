@@ -88,6 +88,39 @@ def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
     assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
 
 
+
+def test_theory_curve_is_drawn_apart_from_every_data_series(two_scenes_db):
+    """The Tonks curve was drawn in C1, the colour of the first series' theory markers, with the
+    next series in C2, C3: the exact 1D theory looked like one of the series. Now theory curves
+    take plots.THEORY (black, dashed), and each series one colour of the cycle."""
+    import warnings
+
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from gaz_cli import plots
+
+    with Store(two_scenes_db, create=False) as store, warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # the mixture left out, said in a warning
+        table = studies.versus(store, "packing")
+    fig = studies.figure(table, "packing")
+    try:
+        ax = fig.axes[0]
+        tonks = [ln for ln in ax.get_lines() if ln.get_label().startswith("Tonks")]
+        # (series name, colour) of the measured points (errorbar containers) and the theory markers
+        measured = [(c.get_label().rsplit(":", 1)[0], to_rgba(c.lines[0].get_color())) for c in ax.containers]
+        markers = [(ln.get_label().rsplit(":", 1)[0], to_rgba(ln.get_color())) for ln in ax.get_lines()
+                   if ln.get_label().endswith(": theory")]
+        scenes = table.SCENE.nunique()
+        assert len(tonks) == 1 and len(measured) == len(markers) == scenes
+        assert to_rgba(tonks[0].get_color()) == to_rgba(plots.THEORY["color"])
+        assert tonks[0].get_linestyle() == plots.THEORY["ls"]
+        assert all(color != to_rgba(tonks[0].get_color()) for _, color in measured + markers)
+        # one colour per series: its measured points and its theory markers alike, each series its own
+        assert dict(measured) == dict(markers) and len(set(dict(measured).values())) == scenes
+    finally:
+        plt.close(fig)
+
 def test_a_plot_folder_that_cannot_be_made_is_one_line(rods_db, tmp_path):
     """gaz analyse --vs packing --plot FILE/sub ended in 'internal error: NotADirectoryError', exit 3,
     as gaz analyse --sim 1 --plot FILE/sub did not."""
