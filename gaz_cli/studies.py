@@ -103,6 +103,11 @@ FREE = {"packing": ("length",), "density": ("length",), "length": ("length",),
 """What may change along one series against each key, with the key: a sweep over packing
 changes the box (the counts held), over n the counts (and the box, at a packing held)."""
 
+HOLDS = {"n": (("packing",), ("length",))}
+"""Against n, what one series holds beside the scene keys not in FREE: its packing fraction
+(a sweep of n at packings held, the box growing with n) or its box (a sweep at a box held, the
+packing growing with n); whichever splits the runs into fewer series (packing on a tie)."""
+
 LEFT_OUT = {"packing": "a mixture has no single packing fraction (its species differ in size)"}
 """Why a run may have no value of a key."""
 
@@ -139,7 +144,7 @@ def versus(store, key: str) -> pd.DataFrame:
     (:data:`SCENE_KEYS`) but the seed. Scenes that differ in more than ``key`` (and what
     changes with it, :data:`FREE`) are told apart by a column SCENE naming what differs
     (absent when the database holds one series, as after a sweep of one scene file over one
-    key). Runs without a value of ``key`` (a mixture's packing) are left out, said in one
+    key). Against n a series holds its packing or its box (:data:`HOLDS`). Runs without a value of ``key`` (a mixture's packing) are left out, said in one
     warning (:class:`~gaz_cli.errors.GazWarning`).
     """
     import warnings
@@ -161,13 +166,16 @@ def versus(store, key: str) -> pd.DataFrame:
                                  f"having no {key}: {why}"))
         table = table[~missing].reset_index(drop=True)
     series = [k for k in SCENE_KEYS if k not in FREE[key]]
-    ids = pd.DataFrame({k: _same(table[k]) for k in SCENE_KEYS})
+    ids = pd.DataFrame({k: _same(table[k]) for k in (*SCENE_KEYS, "packing")})
+    if key in HOLDS:   # fewest series; min keeps the first of equals
+        series = min(([*series, *held] for held in HOLDS[key]),
+                     key=lambda keys: len(ids[keys].drop_duplicates()))
     ids["SERIES_ID"] = ids[series].apply(tuple, axis=1)
     ids["SCENE_ID"] = ids[list(SCENE_KEYS)].apply(tuple, axis=1)
     ids["X_ID"] = table[key].round(12)
     crowded = ids.groupby(["SERIES_ID", "X_ID"])["SCENE_ID"].transform("nunique") > 1  # scenes alike but in FREE
     several = ids["SERIES_ID"].nunique() > 1 or crowded.any()
-    differ = [k for k in SCENE_KEYS[2:] if ids[k].nunique() > 1]  # beyond DIM and BOUNDARY (columns)
+    differ = [k for k in (*SCENE_KEYS[2:], "packing") if ids[k].nunique() > 1]  # beyond DIM and BOUNDARY
     groups = table.groupby([table.DIM, table.BOUNDARY, ids["SERIES_ID"], ids["X_ID"], ids["SCENE_ID"]], sort=True)
     rows = []
     for (dim, boundary, _, x, _), g in groups:
@@ -177,7 +185,8 @@ def versus(store, key: str) -> pd.DataFrame:
             named = [k for k in differ if k in series or (k != key and crowded[g.index[0]])]
             if "species" in named and "names" in named:
                 named.remove("names")
-            row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named)
+            row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named
+                                    if not (isinstance(first[k], float) and math.isnan(first[k])))  # a mixture's packing
         row.update({key.upper(): int(x) if key == "n" else x, "RUNS": len(g)})  # N = 5, not 5.0
         for name in ("P", "Z", "RATE"):
             mean, err = _mean_err(g[name])

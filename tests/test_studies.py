@@ -228,3 +228,27 @@ def test_n_is_printed_as_a_whole_number(rods_db):
     for fmt in ("csv", "table"):
         res = invoke(["analyse", "--db", rods_db, "--vs", "n", "--format", fmt])
         assert res.exit_code == 0 and " 50 " in res.stdout.replace(",", " ") and "50.0" not in res.stdout, res.stdout
+
+
+def test_vs_n_makes_one_series_per_packing_or_per_box(two_scenes_db, tmp_path):
+    """--vs n over 50 rods at packings 0.2 and 0.5 and 20 rods at 0.2 gave three rows told apart
+    by their box sides ('length=1.79e-08', ...), one point each: the box of a sweep of n at a
+    packing held grows with n. Now the series hold the packing (a sweep of n at a box held: the
+    box), whichever makes fewer series: 20 and 50 rods at 0.2 are one series."""
+    import warnings
+
+    with Store(two_scenes_db, create=False) as store, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = studies.versus(store, "n")
+    rods = table[~table.SCENE.str.contains("He")]       # the mixture: a series of its own
+    assert sorted(zip(rods.SCENE, rods.N)) == [("species=Ar packing=0.2", 20), ("species=Ar packing=0.2", 50),
+                                               ("species=Ar packing=0.5", 50)]
+    # a sweep of n in one box: one series (no SCENE column), whose packing grows with n
+    db = str(tmp_path / "box.db")
+    for n in (20, 40):
+        for seed in (1, 2):
+            simulate(Scene(dim=1, length=20 * 2 * ARGON.radius / 0.2, duration=2e-10,
+                           components=((ARGON, n),), seed=seed), db=db)
+    with Store(db, create=False) as store:
+        box = studies.versus(store, "n")
+    assert "SCENE" not in box and list(box.N) == [20, 40] and list(box.RUNS) == [2, 2]
