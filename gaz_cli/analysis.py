@@ -375,7 +375,7 @@ def load_run(store, si_num: int) -> Run:
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
     if run.periodic and run.n > 1:
-        run.drift_energy = _drift_energy(run)
+        run.drift_energy = drift_energy(run.scene_file, run.ke_start)
     bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
     # SQLite groups by sorting: one bin's rows at a time sort faster than the run's; PostgreSQL
     # groups by hashing, nothing to gain (its GROUP BY of 10^7 rows: 5.5 s, by ranges 8-9 s)
@@ -697,33 +697,40 @@ EXACT_ENGINES = ("event", "ideal", "reference")
 
 
 def initial_state(run: Run):
-    """The run's initial state rebuilt from its stored scene file (a function of the scene and its seed), or None.
+    """The run's initial state rebuilt from its stored scene file, or None (:func:`rebuild_initial_state`)."""
+    return rebuild_initial_state(run.scene_file, run.ke_start)
 
-    None when the scene file is not stored or does not rebuild the run (its kinetic energy
-    differs from RESULTAT's: another version's placement).
+
+def rebuild_initial_state(scene_file: str | None, ke_start: float):
+    """(Scene, State) of a run's start rebuilt from its stored scene file (SCENE.SC_FILE), or None.
+
+    The initial state is a function of the scene and its seed. None when the scene file
+    is not stored or does not rebuild the run: its kinetic energy differs from RESULTAT's
+    ``ke_start`` (J; another version's placement).
     """
-    if run.scene_file is None or not math.isfinite(run.ke_start):
+    if not isinstance(scene_file, str) or not math.isfinite(ke_start):
         return None
     from gaz_cli import scene as scene_module, scenefile
 
     try:
-        scene, _ = scenefile.loads(run.scene_file)
+        scene, _ = scenefile.loads(scene_file)
         state = scene_module.initial_state(scene)
     except GazError:
         return None
     masses = scene.masses()
     ke = 0.5 * float(np.sum(masses[:, None] * state.velocities ** 2))
-    if not math.isclose(ke, run.ke_start, rel_tol=1e-9, abs_tol=0.0):
+    if not math.isclose(ke, ke_start, rel_tol=1e-9, abs_tol=0.0):
         return None
     return scene, state
 
 
-def _drift_energy(run: Run) -> float:
-    """P^2/(2M) of the initial state's total momentum, J: 0 unless an explicit (or preset) initial state
-    set the velocities (gaz removes the momentum of those it draws in a periodic box)."""
-    if run.scene_file is None or "[initial]" not in run.scene_file:
+def drift_energy(scene_file: str | None, ke_start: float) -> float:
+    """P^2/(2M) of a run's initial total momentum, J: 0 unless an explicit (or preset) initial state
+    set the velocities (gaz removes the momentum of those it draws in a periodic box), or where the
+    state cannot be rebuilt (:func:`rebuild_initial_state`)."""
+    if not isinstance(scene_file, str) or "[initial]" not in scene_file:
         return 0.0
-    rebuilt = initial_state(run)
+    rebuilt = rebuild_initial_state(scene_file, ke_start)
     if rebuilt is None:
         return 0.0
     scene, state = rebuilt

@@ -32,7 +32,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from gaz_cli import theory
+from gaz_cli import analysis, theory
 from gaz_cli.errors import GazError, SceneError
 
 KEYS = {
@@ -64,7 +64,9 @@ def runs(store) -> pd.DataFrame:
     out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
                       for d, rho, r in zip(dim, out.density, radius)]
     ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
-    t_kin = np.array([_kinetic_temperature(d, k, nn, p) for d, k, nn, p in zip(dim, ke, n, periodic)])
+    drift = [analysis.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
+             for f, k0, p in zip(out.scene_file, frame.RS_KE_START.to_numpy(dtype=float), periodic)]
+    t_kin = np.array([_kinetic_temperature(d, k, nn, p, e) for d, k, nn, p, e in zip(dim, ke, n, periodic, drift)])
     out["T_KIN"] = t_kin
     duration = frame.SI_DUR.to_numpy(dtype=float)
     wall = frame.MOMENTUM.to_numpy(dtype=float) / (2 * dim * duration * length ** (dim - 1))
@@ -142,6 +144,7 @@ def _scenes(store) -> pd.DataFrame:
                          ",".join(f"{a}:{k}" for a, k in zip(g.PA_NOM, g.CO_N))}
                         for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
     out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
+    out["scene_file"] = scenes.SC_FILE if "SC_FILE" in scenes else None
     return out.merge(mix, on="SI_NUM", how="left")
 
 
@@ -280,9 +283,9 @@ def _z_error_within(store, si_num: int, dim: int, n: float, duration: float, t: 
     return errorbars.reblock(z)[0]
 
 
-def _kinetic_temperature(dim, ke, n, periodic) -> float:
+def _kinetic_temperature(dim, ke, n, periodic, drift=0.0) -> float:
     try:
-        return float(theory.kinetic_temperature(dim, ke, n, periodic=bool(periodic)))
+        return float(theory.kinetic_temperature(dim, ke, n, periodic=bool(periodic), drift_energy=drift))
     except SceneError:
         return math.nan
 
