@@ -30,6 +30,7 @@ not apply.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -40,7 +41,7 @@ import pandas as pd
 
 from gaz_cli import errorbars, theory
 from gaz_cli.constants import K_B
-from gaz_cli.errors import GazWarning, SceneError, StoreError
+from gaz_cli.errors import GazError, GazWarning, SceneError, StoreError
 
 NA = math.nan
 """What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
@@ -193,7 +194,16 @@ class Run:
     temperature: float = math.nan
     """The scene's temperature of the initial velocities, K."""
     temperature_error: float = 0.0
-    """Standard error of the temperature theory is evaluated at, K (under gravity: measured from the hits)."""
+    """Standard error of the temperature theory is evaluated at, K (under gravity, from the hits: see report)."""
+    temperature_source: str = "kinetic"
+    """Where the temperature theory is evaluated at comes from: "kinetic" (the kinetic energy),
+    "energy" (under gravity, the conserved energy of the initial state), "hits" (under gravity, the
+    settled part's wall hits)."""
+    scene_file: str | None = None
+    """The run's scene file (SCENE.SC_FILE), from which its initial state is rebuilt; None if not stored."""
+    drift_energy: float = 0.0
+    """Periodic box: P^2/(2M) of the total momentum, J, conserved and not thermal (0 when the velocities
+    were drawn by gaz, which removes it; an explicit initial state keeps its own)."""
     record: str = "bounces"
     ke_start: float = math.nan
     ke_end: float = math.nan
@@ -274,6 +284,15 @@ class Run:
         return self.settle_bin <= errorbars.BINS // 2
 
     @property
+    def never_settles(self) -> str:
+        """Why the gas never reaches the barometric equilibrium under gravity ('' when it does)."""
+        if self.gravity > 0.0 and self.dim == 1 and self.one_species and not self.periodic:
+            return ("1D rods of one mass under gravity: collisions swap velocities, so each rod's ghost keeps "
+                    "its own energy m g z + m v^2/2 for ever, and the gas never reaches the barometric "
+                    "equilibrium")
+        return ""
+
+    @property
     def window(self) -> float:
         """Duration of the analysed part of the run, s."""
         return self.duration * (errorbars.BINS - self.settle_bin) / errorbars.BINS
@@ -295,10 +314,19 @@ class Run:
             ke = self.ke_end
         else:
             ke = 0.5 * (self.ke_start + self.ke_end)
-        if ke <= 0.0:
+        return self.temperature_of(ke)
+
+    def temperature_of(self, ke: float) -> float:
+        """Temperature of the kinetic energy ``ke`` (J) of this run's gas, K (nan if unknown or not positive).
+
+        Periodic box: the kinetic energy of the conserved total momentum is not thermal
+        (:func:`gaz_cli.theory.kinetic_temperature`).
+        """
+        if not (math.isfinite(ke) and ke > 0.0):
             return math.nan
-        return float(theory.kinetic_temperature(self.dim, ke, self.n,
-                                                periodic=self.periodic and self.n > 1))
+        t = float(theory.kinetic_temperature(self.dim, ke, self.n, periodic=self.periodic and self.n > 1,
+                                             drift_energy=self.drift_energy))
+        return t if t > 0.0 else math.nan
 
     @property
     def walls(self) -> list[int]:
@@ -349,11 +377,15 @@ def load_run(store, si_num: int) -> Run:
         run.gravity, run.restitution = float(sc.SC_GRAVITY), float(sc.SC_RESTITUTION)
         run.wall_restitution = float(sc.SC_WALL_RESTITUTION)
         run.tc, run.temperature, run.record = float(sc.SC_TC), float(sc.SC_TEMPERATURE), str(sc.SC_RECORD)
+        text = sc.get("SC_FILE")
+        run.scene_file = text if isinstance(text, str) and text else None
     rs = _only_row(store, st.resultat, si_num)
     if rs is not None:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
+    if run.periodic and run.n > 1:
+        run.drift_energy = drift_energy(run.scene_file, run.ke_start)
     bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)
     # SQLite groups by sorting: one bin's rows at a time sort faster than the run's; PostgreSQL
     # groups by hashing, nothing to gain (its GROUP BY of 10^7 rows: 5.5 s, by ranges 8-9 s)
@@ -670,6 +702,82 @@ def settled_temperature(run: Run) -> errorbars.Estimate:
     return _estimate(run, _per_bin(h.BIN, energy), _per_bin(h.BIN, h.NB_REBONDS))
 
 
+EXACT_ENGINES = ("event", "ideal", "reference")
+"""Engines that conserve the energy to round-off (the step engine's leap-frog drifts)."""
+
+
+def initial_state(run: Run):
+    """The run's initial state rebuilt from its stored scene file, or None (:func:`rebuild_initial_state`)."""
+    return rebuild_initial_state(run.scene_file, run.ke_start)
+
+
+def rebuild_initial_state(scene_file: str | None, ke_start: float):
+    """(Scene, State) of a run's start rebuilt from its stored scene file (SCENE.SC_FILE), or None.
+
+    The initial state is a function of the scene and its seed. None when the scene file
+    is not stored or does not rebuild the run: its kinetic energy differs from RESULTAT's
+    ``ke_start`` (J; another version's placement).
+    """
+    if not isinstance(scene_file, str) or not math.isfinite(ke_start):
+        return None
+    from gaz_cli import scene as scene_module, scenefile
+
+    try:
+        scene, _ = scenefile.loads(scene_file)
+        state = scene_module.initial_state(scene)
+    except GazError:
+        return None
+    masses = scene.masses()
+    ke = 0.5 * float(np.sum(masses[:, None] * state.velocities ** 2))
+    if not math.isclose(ke, ke_start, rel_tol=1e-9, abs_tol=0.0):
+        return None
+    return scene, state
+
+
+def drift_energy(scene_file: str | None, ke_start: float) -> float:
+    """P^2/(2M) of a run's initial total momentum, J: 0 unless an explicit (or preset) initial state
+    set the velocities (gaz removes the momentum of those it draws in a periodic box), or where the
+    state cannot be rebuilt (:func:`rebuild_initial_state`)."""
+    if not isinstance(scene_file, str) or "[initial]" not in scene_file:
+        return 0.0
+    rebuilt = rebuild_initial_state(scene_file, ke_start)
+    if rebuilt is None:
+        return 0.0
+    scene, state = rebuilt
+    masses = scene.masses()
+    p = (masses[:, None] * state.velocities).sum(axis=0)
+    return float(p @ p / (2.0 * masses.sum()))
+
+
+def energy_temperature(run: Run) -> float:
+    """Temperature of the settled gas under gravity from its conserved energy, K (NaN where unknown).
+
+    Elastic dynamics under uniform gravity conserves E = K + sum m g (z - R)
+    exactly; the initial state (rebuilt from the stored scene file) gives E,
+    and the settled gas shares it as (D/2) N k_B T + N m g <z - R>(T)
+    (:func:`gaz_cli.theory.gravity_energy_temperature`). No statistical error:
+    the pressures' own error holds the exchange between kinetic and potential
+    energy over the run. One species, an exact engine, nothing that dissipates.
+    """
+    if (run.gravity <= 0.0 or run.periodic or not run.one_species or run.engine not in EXACT_ENGINES
+            or run.restitution < 1.0 or run.wall_restitution < 1.0):
+        return NA
+    rebuilt = initial_state(run)
+    if rebuilt is None:
+        return NA
+    scene, state = rebuilt
+    if scene.planes or scene.drag > 0.0 or scene.pair_gravity > 0.0:
+        return NA
+    radius = float(run.species.RADIUS_M.iloc[0])
+    mass = float(run.species.MASS_KG.iloc[0])
+    energy = run.ke_start + float(np.sum(scene.masses() * run.gravity * (state.positions[:, -1] - radius)))
+    try:
+        return float(theory.gravity_energy_temperature(run.dim, run.length, energy, run.n, radius, mass,
+                                                       run.gravity))
+    except SceneError:
+        return NA
+
+
 def _gravity_walls(run: Run, temperature: float):
     """(floor, ceiling, side, model, note) of the best gravity model for the run."""
     counts, radii, masses = _counts_radii_masses(run)
@@ -734,7 +842,12 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
             exp.error = abs(mean_gravity(temperature + run.temperature_error) - exp.value)
             exp.note += (f"; T = {temperature:.5g} +- {run.temperature_error:.2g} K from <v_perp^2> of the "
                          "settled part's wall hits (its error is in DEV_SIGMA)")
-        if not run.settled:
+        elif exp.known and run.temperature_source == "energy":
+            exp.note += (f"; T = {temperature:.5g} K from the conserved energy of the initial state, "
+                         "kinetic plus potential")
+        if run.never_settles:
+            exp.applies, exp.note = False, run.never_settles
+        elif not run.settled:
             exp.applies = False
             exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
                         "fall and thermalisation; run longer")
@@ -911,10 +1024,15 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     rate = 2.0 * run.collisions / (run.n * run.duration)
     est = errorbars.NAN_ESTIMATE
     err_note = ""
+    stratified = run.gravity > 0.0 and not run.periodic
     if run.collision_bins is not None and run.restitution >= 1.0:
         width = run.duration / errorbars.BINS
         per_bin = _per_bin(run.collision_bins.BIN, run.collision_bins.NB_CHOCS.to_numpy(dtype=float))
-        est = errorbars.time_average(2.0 * per_bin / (run.n * width), duration=run.duration)
+        if stratified:      # the settled part only, as the pressures: the fall collides less
+            est = _estimate(run, 2.0 * per_bin / (run.n * width))
+            rate = est.mean if math.isfinite(est.mean) else rate
+        else:
+            est = errorbars.time_average(2.0 * per_bin / (run.n * width), duration=run.duration)
     elif run.restitution >= 1.0:
         err_note = "RATE_ERR_HZ needs the collisions' times: --record all; "
     counts, radii, masses = _counts_radii_masses(run)
@@ -924,6 +1042,23 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
         rows.append(Expectation(NA, "Enskog", "one species only (mixture: cross-sections and masses differ)"))
     elif not math.isfinite(temperature):
         rows.append(Expectation(NA, "Enskog", "temperature unknown"))
+    elif stratified:
+        exp = _try(f"Enskog, g from {theory.BEST_MODEL[d]}, averaged over the barometric profile",
+                   lambda: theory.gravity_collision_frequency(d, L, temperature, run.n, radii[0], masses[0],
+                                                              run.gravity),
+                   "local density of the hydrostatic profile (the gas is denser low down: more partners); "
+                   "walls: expect O(2R/L) off")
+        if run.never_settles:
+            exp.applies, exp.note = False, run.never_settles
+        elif not run.settled:
+            exp.applies = False
+            exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
+                        "fall and thermalisation; run longer")
+        elif run.collision_bins is None:
+            exp.applies = False
+            exp.note = ("under gravity the settled part's rate needs the collisions' times (the count over "
+                        "the run includes the fall): --record all")
+        rows.append(exp)
     elif d == 1:
         rows.append(_try("1D rods, exact (N-1) <|v_rel|>/(L - N sigma)",
                          lambda: theory.rods_collision_frequency(run.n, L, radii[0], temperature, masses[0]),
@@ -949,17 +1084,20 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
             return theory.haff_collisions_per_particle(d, run.duration, run.restitution, omega0) / run.duration
         rows = [_try("Enskog omega0, cooled by Haff's law (mean over the run)", haff_rate,
                      "homogeneous cooling only: clusters raise the rate")]
+        if stratified:
+            rows[0].applies = False
+            rows[0].note = "under gravity the cooling gas is not homogeneous: Haff's law does not apply"
     # Enskog and the 1D Maxwellian average carry model errors of a few % (notes): a deviation in
     # sigmas is printed only when the statistical error is larger than that
     frame = []
     for exp in rows:
         approximate = exp.model.startswith("Enskog") or exp.model.startswith("1D rods")
-        fits = not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate)
+        fits = exp.applies and (not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate))
         frame.append({"MODEL": exp.model, "COLLISIONS": run.collisions, "RATE_PER_PARTICLE_HZ": rate,
                       "RATE_ERR_HZ": est.error, "N_EFF": est.n_eff, "THEORY_HZ": exp.value,
                       "DEV_SIGMA": _dev(rate, est.error, exp.value, fits),
                       "REL_DEV": _rel(rate, exp.value),
-                      "NOTE": err_note + exp.note + ("" if fits or not math.isfinite(est.error) else
+                      "NOTE": err_note + exp.note + ("" if fits or not (exp.applies and math.isfinite(est.error)) else
                                                      "; model error (a few %) above the statistical "
                                                      "error: REL_DEV, not DEV_SIGMA")})
     return pd.DataFrame(frame)
@@ -1025,8 +1163,18 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
 
     Error: reblocking plus the spread of the N_s speeds drawn at the start
     (frozen until collisions redraw them, for ever for equal-mass rods).
-    Under gravity, over the settled part of the run only.
+    Under gravity, over the settled part of the run only, against the temperature of
+    the same hits' <m v_perp^2> = 2 k_B T (:func:`settled_temperature`): a test of the
+    flux-weighted Maxwell-Boltzmann shape. Against the conserved energy's temperature the
+    slow exchange of kinetic and potential energy, over a few falls across the box in the
+    run, would enter the comparison unseen by the reblocking (10 disk seeds: rms of
+    DEV_SIGMA 1.36, one at 3.5).
     """
+    if run.gravity > 0.0 and not run.periodic and run.settled and run.temperature_source == "energy":
+        hits = settled_temperature(run)
+        if math.isfinite(hits.mean) and math.isfinite(hits.error):
+            run = dataclasses.replace(run, temperature_error=hits.error, temperature_source="hits")
+            temperature = hits.mean
     h = run.hits
     rows = []
     expected_all = 0.0
@@ -1073,24 +1221,40 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         frame["NOTE"] = "cooling gas: theory at the initial temperature"
         frame["DEV_SIGMA"] = NA
     elif run.gravity > 0.0 and len(frame):
-        frame["NOTE"] = (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
-                         "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)" if run.settled else
-                         "under gravity: the run did not settle (fall and thermalisation take over half of it)")
-        if not run.settled:
+        source = ("the temperature of its conserved energy" if run.temperature_source == "energy" else
+                  "its temperature from <m v_perp^2> = 2kT of its hits (error in DEV_SIGMA)")
+        frame["NOTE"] = (run.never_settles or
+                         (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
+                          f"{source}" if run.settled else
+                          "under gravity: the run did not settle (fall and thermalisation take over half of it)"))
+        if not run.settled or run.never_settles:
             frame["DEV_SIGMA"] = NA
     return frame
 
 
 def gravity_frame(run: Run, temperature: float) -> pd.DataFrame:
-    """Floor minus ceiling force against N m g (N), and the ceiling/floor hit ratio against its theory."""
+    """Floor minus ceiling force against N m g (N), and the ceiling/floor hit ratio against its theory.
+
+    Over the analysed window tau the floor - ceiling impulse is exactly
+    N m g tau + (P_end - P_start) along the vertical: the force's error is that of the
+    momentum change, sqrt(2 sum_s N_s m_s k_B T)/tau (start and end momenta independent
+    Maxwellian draws), where reblocking the per-bin forces reads the hits' noise, which
+    the momentum carried from bin to bin cancels (it scattered from 0.3 to 6 times that).
+    """
     d = run.dim
     pressures = wall_bin_pressures(run)
-    est = _estimate(run, (pressures[-d] - pressures[d]) * run.wall_measure)
+    series = (pressures[-d] - pressures[d]) * run.wall_measure
+    est = _estimate(run, series)
     counts, radii, masses = _counts_radii_masses(run)
+    if math.isfinite(est.mean) and math.isfinite(temperature) and len(run.species) and run.window > 0:
+        error = math.sqrt(2.0 * float(np.sum(counts * masses)) * K_B * temperature) / run.window
+        var1 = float(np.var(series[run.settle_bin:], ddof=1)) if series.size - run.settle_bin > 1 else NA
+        est = errorbars.Estimate(est.mean, error, var1 / error ** 2, NA, False, 0.0)
     weight = float(np.sum(counts * masses) * run.gravity)
     rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": est.mean, "ERR": est.error, "N_EFF": est.n_eff,
              "THEORY": weight, "DEV_SIGMA": _dev(est.mean, est.error, weight), "REL_DEV": _rel(est.mean, weight),
-             "NOTE": "sum N m g: exact momentum balance (settled part of the run)"}]
+             "NOTE": "sum N m g: exact momentum balance (settled part of the run); ERR: that of the gas's "
+                     "vertical momentum at its two ends"}]
     h = run.hits
     start = run.settle_bin
     wall = h.RE_DIR.to_numpy(dtype=np.int64) if len(h) else np.zeros(0, dtype=np.int64)
@@ -1109,9 +1273,11 @@ def gravity_frame(run: Run, temperature: float) -> pd.DataFrame:
                    "for an ideal gas")
     else:
         exp = Expectation(NA, "Boltzmann", "one species only")
+    if run.never_settles:
+        exp.applies, exp.note = False, run.never_settles
     rows.append({"QUANTITY": "ceiling/floor hit ratio", "MEASURED": ratio_est.mean, "ERR": ratio_est.error,
                  "N_EFF": ratio_est.n_eff, "THEORY": exp.value,
-                 "DEV_SIGMA": _dev(ratio_est.mean, ratio_est.error, exp.value, run.settled),
+                 "DEV_SIGMA": _dev(ratio_est.mean, ratio_est.error, exp.value, run.settled and exp.applies),
                  "REL_DEV": _rel(ratio_est.mean, exp.value),
                  "NOTE": f"settled part, {int(floor[start:].sum())} floor and {int(ceiling[start:].sum())} "
                          f"ceiling hits; {exp.note}"})
@@ -1126,11 +1292,8 @@ def cooling_frame(run: Run) -> pd.DataFrame:
     """
     d = run.dim
     rows = []
-    periodic = run.periodic and run.n > 1
-    t0 = (float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
-          if math.isfinite(run.ke_start) and run.ke_start > 0 else math.nan)
-    t_end = (float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))
-             if math.isfinite(run.ke_end) and run.ke_end > 0 else math.nan)
+    t0 = run.temperature_of(run.ke_start)
+    t_end = run.temperature_of(run.ke_end)
     err = NA
     counts, radii, masses = _counts_radii_masses(run)
     if run.chocs is not None and run.one_species and math.isfinite(t0):
@@ -1139,7 +1302,8 @@ def cooling_frame(run: Run) -> pd.DataFrame:
                        0, errorbars.BINS - 1)
         est = errorbars.time_average(_per_bin(bins, loss), duration=run.duration)
         # the loss summed over the run is BINS times the mean loss per bin; T is linear in K
-        err = est.error * errorbars.BINS * t0 / run.ke_start
+        thermal = run.ke_start - (run.drift_energy if run.periodic else 0.0)
+        err = est.error * errorbars.BINS * t0 / thermal
     if run.one_species and math.isfinite(t0):
         sigma = 2 * radii[0]
         n = run.n / (run.length if run.periodic else run.length - sigma) ** d
@@ -1242,9 +1406,15 @@ def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
         run = load_run(store, number)
         temperature = run.kinetic_temperature
         if run.gravity > 0.0 and not run.periodic and run.settled and run.restitution >= 1.0:
-            settled = settled_temperature(run)
-            if math.isfinite(settled.mean) and math.isfinite(settled.error):
+            # the settled gas's temperature: from the conserved energy where the initial state is
+            # known, else from the hits (an error bar that misses the slow exchange between axes)
+            from_energy = energy_temperature(run)
+            settled = settled_temperature(run) if not math.isfinite(from_energy) else None
+            if math.isfinite(from_energy):
+                temperature, run.temperature_source = from_energy, "energy"
+            elif math.isfinite(settled.mean) and math.isfinite(settled.error):
                 temperature, run.temperature_error = settled.mean, settled.error
+                run.temperature_source = "hits"
         per_wall = exam_per_wall(run)
         if sim is not None:
             q35 = exam_q35(run)
@@ -1501,12 +1671,12 @@ def cooling_series(run: Run, points: int = 200):
     d = run.dim
     t = run.chocs.CH_T.to_numpy(dtype=float)
     loss = _collision_losses(run)
-    periodic = run.periodic and run.n > 1
-    t0 = float(theory.kinetic_temperature(d, run.ke_start, run.n, periodic=periodic))
+    t0 = run.temperature_of(run.ke_start)
     grid = np.linspace(0.0, run.duration, points)
     cum = np.concatenate(([0.0], np.cumsum(loss)))
     ke = run.ke_start - cum[np.searchsorted(t, grid, side="right")]
-    temps = np.array([float(theory.kinetic_temperature(d, max(k, 0.0), run.n, periodic=periodic)) for k in ke])
+    temps = np.array([run.temperature_of(k) for k in ke])
+    temps = np.where(np.isfinite(temps), temps, 0.0)
     sigma = 2 * float(run.species.RADIUS_M.iloc[0])
     m = float(run.species.MASS_KG.iloc[0])
     n = run.n / (run.length if run.periodic else run.length - sigma) ** d
@@ -1515,7 +1685,7 @@ def cooling_series(run: Run, points: int = 200):
         haff = theory.haff_temperature(d, grid, t0, run.restitution, omega0)
     except SceneError:
         haff = None
-    t_end = float(theory.kinetic_temperature(d, run.ke_end, run.n, periodic=periodic))
+    t_end = run.temperature_of(run.ke_end)
     return {"times": grid, "temperatures": temps, "haff": haff, "t_end": t_end}
 
 

@@ -351,7 +351,10 @@ def _print_diagnostic(values: dict) -> None:
                    "q34, q35, q36, overview, simulation, pressure, collisions, speed, gravity, cooling, figures.")
 @click.option("--vs", "vs", default=None, metavar="KEY",
               help="Across runs: the pressure, Z = PV/(NkT) and collision rate against KEY (packing, "
-                   "temperature, n, length, density), averaged over seeds, beside theory (with a sweep).")
+                   "temperature, n, length, density), averaged over seeds, beside theory (with a sweep). "
+                   "One series per scene apart from KEY, named in column SCENE: against packing, length "
+                   "or density one per N; against n one per packing (a sweep at packings held) or per box "
+                   "side (at a box held), whichever gives fewer series.")
 def analyse(db, sim, fmt, plot, table, vs):
     """Run the packaged SQL queries (Q34, Q35, Q36, pressure) and compare with theory.
 

@@ -17,6 +17,18 @@ from gaz_cli.errors import GazError
 
 WALL_NAMES = {1: "x", 2: "y", 3: "z"}
 
+THEORY = {"color": "black", "ls": "--", "lw": 1.4}
+"""Style of a theory curve in every figure: black, dashed. Measured data take the colour
+cycle (C0, C1, ...: never black), so a theory never looks like a data series."""
+
+IDEAL = {"color": "tab:gray", "ls": ":", "lw": 1.2}
+"""Style of the ideal-gas (or any limiting) line drawn beside the theory."""
+
+
+def series_color(k: int) -> str:
+    """Colour of the k-th data series (the colour cycle: never the theory's black)."""
+    return f"C{k % 10}"
+
 
 def _pyplot():
     import matplotlib
@@ -78,7 +90,7 @@ def placement_histogram(path: str, edges, counts, exact, repeat: int, title: str
                     elinewidth=0.8, alpha=0.8)
     if exact is not None:
         x = np.linspace(edges[0], edges[-1], 2000)
-        ax.plot(x, exact(x), "k-", lw=1.4, label="exact density, uniform placement")
+        ax.plot(x, exact(x), **THEORY, label="exact density, uniform placement")
     ax.set_xlabel("x of a centre (m)")
     ax.set_ylabel("probability density (1/m)")
     ax.set_title(title, fontsize=10)
@@ -110,10 +122,10 @@ def wall_hit_speeds(path: str, dim: int, speeds, normal_speeds, temperature: flo
             hit = sum(w * (theory.wall_hit_normal_speed_pdf(v, temperature, m) if normal
                            else theory.wall_hit_speed_pdf(dim, v, temperature, m))
                       for _, m, w, _ in species)
-            ax.plot(v, hit, "k-", lw=1.6, label="flux-weighted Maxwell-Boltzmann")
+            ax.plot(v, hit, **THEORY, label="flux-weighted Maxwell-Boltzmann")
             if not normal:
                 gas = sum(c * theory.speed_pdf(dim, v, temperature, m) for _, m, _, c in species)
-                ax.plot(v, gas, "--", color="tab:gray", lw=1.2, label="speeds in the gas (not weighted)")
+                ax.plot(v, gas, **IDEAL, label="speeds in the gas (not weighted)")
                 mean_hit = sum(w * theory.wall_hit_mean_speed(dim, temperature, m) for _, m, w, _ in species)
                 ax.axvline(mean_hit, color="k", ls=":", lw=1.0)
                 ax.axvline(float(data.mean()) if data.size else mean_hit, color="tab:red", ls=":", lw=1.2,
@@ -170,7 +182,7 @@ def pressure_against_time(path: str, times, running, band, block_times, block_va
     bv = np.asarray(block_values, dtype=float)
     ax.plot(block_times, bv, "o", color="tab:orange", ms=4, alpha=0.8, label=f"pressure in each of {bv.size} time blocks")
     if theory is not None:
-        ax.axhline(theory, color="k", lw=1.3, ls="--", label=f"theory: {theory_label}")
+        ax.axhline(theory, **THEORY, label=f"theory: {theory_label}")
     styles = iter([("tab:red", ":"), ("tab:purple", "-."), ("tab:green", ":")])
     for label, value in others:
         color, ls = next(styles, ("tab:gray", ":"))
@@ -197,7 +209,7 @@ def density_profile(path: str, heights, measured, expected, scale_height: float,
     heights = np.asarray(heights, dtype=float)
     ax.step(heights, measured, where="mid", color="tab:blue", lw=1.5,
             label="rebuilt from the floor hits (free flights)")
-    ax.plot(heights, expected, "k--", lw=1.4, label=f"barometric law, kT/(mg) = {scale_height:.3g} m")
+    ax.plot(heights, expected, **THEORY, label=f"barometric law, kT/(mg) = {scale_height:.3g} m")
     ax.set_xlabel("height of a centre above the floor (m)")
     ax.set_ylabel("centres per unit height (1/m)")
     ax.set_ylim(bottom=0)
@@ -212,7 +224,7 @@ def cooling(path: str, times, temperatures, haff, t_end: float, title: str) -> N
     fig, ax = plt.subplots(figsize=(7.5, 4.4))
     ax.plot(times, temperatures, color="tab:blue", lw=1.6, label="from the collision impulses (CHOC)")
     if haff is not None:
-        ax.plot(times, haff, "k--", lw=1.3, label="Haff: T0/(1 + t/t0)^2, Enskog rate")
+        ax.plot(times, haff, **THEORY, label="Haff: T0/(1 + t/t0)^2, Enskog rate")
     ax.plot([times[-1]], [t_end], "o", color="tab:red", label="final kinetic energy (RESULTAT)")
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("kinetic temperature (K)")

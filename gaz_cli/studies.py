@@ -32,7 +32,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from gaz_cli import theory
+from gaz_cli import analysis, theory
 from gaz_cli.errors import GazError, SceneError
 
 KEYS = {
@@ -64,7 +64,9 @@ def runs(store) -> pd.DataFrame:
     out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
                       for d, rho, r in zip(dim, out.density, radius)]
     ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
-    t_kin = np.array([_kinetic_temperature(d, k, nn, p) for d, k, nn, p in zip(dim, ke, n, periodic)])
+    drift = [analysis.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
+             for f, k0, p in zip(out.scene_file, frame.RS_KE_START.to_numpy(dtype=float), periodic)]
+    t_kin = np.array([_kinetic_temperature(d, k, nn, p, e) for d, k, nn, p, e in zip(dim, ke, n, periodic, drift)])
     out["T_KIN"] = t_kin
     duration = frame.SI_DUR.to_numpy(dtype=float)
     wall = frame.MOMENTUM.to_numpy(dtype=float) / (2 * dim * duration * length ** (dim - 1))
@@ -85,7 +87,24 @@ def runs(store) -> pd.DataFrame:
     mass = frame.PA_M.to_numpy(dtype=float)
     out["RATE_THEORY"] = [_rate_theory(d, nn, L, r, t, m) for d, nn, L, r, t, m in
                           zip(dim, n, length, radius, t_kin, mass)]
+    out["NO_THEORY"] = [_no_theory(r) for r in out.itertuples()]
+    off = out.NO_THEORY != ""
+    out.loc[off, ["P_THEORY", "Z_THEORY", "RATE_THEORY", "SYST_REL"]] = math.nan
     return out
+
+
+def _no_theory(run) -> str:
+    """Why the uniform equilibrium theories of this module do not describe a run ('' when they do)."""
+    if run.gravity > 0:
+        return (f"gravity {run.gravity:g} m/s^2: a stratified gas, not the uniform one of this table's "
+                "theory; gaz analyse --sim N compares each run with the barometric theory")
+    if run.restitution < 1 or run.wall_restitution < 1:
+        return "restitution < 1: the gas cools, it has no equilibrium pressure or rate"
+    if run.drag > 0:
+        return f"drag {run.drag:g} 1/s slows the gas: no equilibrium"
+    if run.pair_gravity > 0:
+        return "pair gravity: not a hard-sphere gas"
+    return ""
 
 
 SETTINGS = {"SC_GRAVITY": "gravity", "SC_RESTITUTION": "restitution", "SC_TC": "tc",
@@ -102,6 +121,11 @@ FREE = {"packing": ("length",), "density": ("length",), "length": ("length",),
         "temperature": ("temperature",), "n": ("n", "species", "length")}  # names held
 """What may change along one series against each key, with the key: a sweep over packing
 changes the box (the counts held), over n the counts (and the box, at a packing held)."""
+
+HOLDS = {"n": (("packing",), ("length",))}
+"""Against n, what one series holds beside the scene keys not in FREE: its packing fraction
+(a sweep of n at packings held, the box growing with n) or its box (a sweep at a box held, the
+packing growing with n); whichever splits the runs into fewer series (packing on a tie)."""
 
 LEFT_OUT = {"packing": "a mixture has no single packing fraction (its species differ in size)"}
 """Why a run may have no value of a key."""
@@ -120,6 +144,7 @@ def _scenes(store) -> pd.DataFrame:
                          ",".join(f"{a}:{k}" for a, k in zip(g.PA_NOM, g.CO_N))}
                         for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
     out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
+    out["scene_file"] = scenes.SC_FILE if "SC_FILE" in scenes else None
     return out.merge(mix, on="SI_NUM", how="left")
 
 
@@ -139,7 +164,7 @@ def versus(store, key: str) -> pd.DataFrame:
     (:data:`SCENE_KEYS`) but the seed. Scenes that differ in more than ``key`` (and what
     changes with it, :data:`FREE`) are told apart by a column SCENE naming what differs
     (absent when the database holds one series, as after a sweep of one scene file over one
-    key). Runs without a value of ``key`` (a mixture's packing) are left out, said in one
+    key). Against n a series holds its packing or its box (:data:`HOLDS`). Runs without a value of ``key`` (a mixture's packing) are left out, said in one
     warning (:class:`~gaz_cli.errors.GazWarning`).
     """
     import warnings
@@ -161,13 +186,16 @@ def versus(store, key: str) -> pd.DataFrame:
                                  f"having no {key}: {why}"))
         table = table[~missing].reset_index(drop=True)
     series = [k for k in SCENE_KEYS if k not in FREE[key]]
-    ids = pd.DataFrame({k: _same(table[k]) for k in SCENE_KEYS})
+    ids = pd.DataFrame({k: _same(table[k]) for k in (*SCENE_KEYS, "packing")})
+    if key in HOLDS:   # fewest series; min keeps the first of equals
+        series = min(([*series, *held] for held in HOLDS[key]),
+                     key=lambda keys: len(ids[keys].drop_duplicates()))
     ids["SERIES_ID"] = ids[series].apply(tuple, axis=1)
     ids["SCENE_ID"] = ids[list(SCENE_KEYS)].apply(tuple, axis=1)
     ids["X_ID"] = table[key].round(12)
     crowded = ids.groupby(["SERIES_ID", "X_ID"])["SCENE_ID"].transform("nunique") > 1  # scenes alike but in FREE
     several = ids["SERIES_ID"].nunique() > 1 or crowded.any()
-    differ = [k for k in SCENE_KEYS[2:] if ids[k].nunique() > 1]  # beyond DIM and BOUNDARY (columns)
+    differ = [k for k in (*SCENE_KEYS[2:], "packing") if ids[k].nunique() > 1]  # beyond DIM and BOUNDARY
     groups = table.groupby([table.DIM, table.BOUNDARY, ids["SERIES_ID"], ids["X_ID"], ids["SCENE_ID"]], sort=True)
     rows = []
     for (dim, boundary, _, x, _), g in groups:
@@ -177,7 +205,8 @@ def versus(store, key: str) -> pd.DataFrame:
             named = [k for k in differ if k in series or (k != key and crowded[g.index[0]])]
             if "species" in named and "names" in named:
                 named.remove("names")
-            row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named)
+            row["SCENE"] = " ".join(f"{'species' if k == 'names' else k}={_shown(first[k])}" for k in named
+                                    if not (isinstance(first[k], float) and math.isnan(first[k])))  # a mixture's packing
         row.update({key.upper(): int(x) if key == "n" else x, "RUNS": len(g)})  # N = 5, not 5.0
         for name in ("P", "Z", "RATE"):
             mean, err = _mean_err(g[name])
@@ -194,7 +223,9 @@ def versus(store, key: str) -> pd.DataFrame:
         row["P_IDEAL"] = g.P_IDEAL.mean()
         row["SYST_REL"] = g.SYST_REL.mean()
         row["NOTE"] = "" if len(g) > 1 else "one run: no error bar (give --seeds 2 or more)"
-        if not row["SYST_REL"] <= row["Z_ERR"] / row["Z_THEORY"]:
+        if g.NO_THEORY.iloc[0]:     # the scene's settings: the same for all its runs
+            row["NOTE"] = "; ".join(filter(None, [g.NO_THEORY.iloc[0], row["NOTE"]]))
+        elif not row["SYST_REL"] <= row["Z_ERR"] / row["Z_THEORY"]:
             # the wall theory's own error (next order: wall adsorption) exceeds the measurement's:
             # a deviation in sigma would measure the model, not the run (as in gaz analyse)
             for name in ("P", "Z"):
@@ -252,9 +283,9 @@ def _z_error_within(store, si_num: int, dim: int, n: float, duration: float, t: 
     return errorbars.reblock(z)[0]
 
 
-def _kinetic_temperature(dim, ke, n, periodic) -> float:
+def _kinetic_temperature(dim, ke, n, periodic, drift=0.0) -> float:
     try:
-        return float(theory.kinetic_temperature(dim, ke, n, periodic=bool(periodic)))
+        return float(theory.kinetic_temperature(dim, ke, n, periodic=bool(periodic), drift_energy=drift))
     except SceneError:
         return math.nan
 
@@ -302,54 +333,61 @@ def _rate_theory(dim, n, length, radius, t, mass) -> float:
 
 
 def plot(table: pd.DataFrame, key: str, folder: str) -> list[str]:
-    """Draw Z (and P) against ``key`` with error bars beside theory; return the files written.
-
-    Against the packing fraction the theory is the equation of state's curve
-    Z(eta) (Tonks, Kolafa-Rottner or KLM) with the ideal gas Z = 1 beside, and
-    each point's own finite-box theory as an open marker.
-    """
+    """Draw Z against ``key`` with error bars beside theory, one figure per dimension and
+    boundary (:func:`figure`); return the files written."""
     import os
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from gaz_cli import plots
 
     plots.make_folder(folder)
     written = []
-    col = key.upper()
     for (dim, boundary), whole in table.groupby(["DIM", "BOUNDARY"]):
-        fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True,
-                                      gridspec_kw={"height_ratios": [3, 1.3]})
-        lo, hi = int(whole.RUNS.min()), int(whole.RUNS.max())
-        seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
-        series = list(whole.groupby("SCENE", sort=False)) if "SCENE" in whole else [("", whole)]
-        for k, (name, g) in enumerate(series):  # one scene apart from the key: one series
-            ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color=f"C{2 * k}", capsize=3,
-                        label=f"{name}: measured" if name else f"measured (mean of {seeds} seeds, ±1σ)")
-            ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color=f"C{2 * k + 1}",
-                    label=f"{name}: theory" if name else "theory for each scene")
-            dev.plot(g[col], g.Z_DEV_SIGMA, "o", color=f"C{2 * k}")
-        if key == "packing":
-            eta = np.linspace(0.0, float(whole[col].max()) * 1.05, 200)
-            model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[int(dim)]
-            ax.plot(eta, theory.compressibility_factor(int(dim), eta), "-", color="C1", lw=1,
-                    label=f"{model} (bulk)")
-            dev.set_xlabel("packing fraction η")
-        else:
-            dev.set_xlabel(f"{key} ({KEYS[key]})")
-        ax.axhline(1.0, color="grey", ls="--", lw=1, label="ideal gas")
-        ax.set_ylabel("Z = P V / (N k_B T)")
-        ax.set_title(f"{int(dim)}D, {boundary}: compressibility factor against {key}")
-        ax.legend(fontsize=8)
-        dev.axhspan(-3, 3, color="C2", alpha=0.12, lw=0, label="±3σ")
-        dev.axhline(0.0, color="grey", lw=0.8)
-        dev.set_ylabel("(Z − theory)/σ")
-        top = float(np.nanmax(np.abs(whole.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
-        dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
-        dev.legend(fontsize=8, loc="upper right")
         path = os.path.join(folder, f"vs_{key}_{int(dim)}d_{boundary}.png")
-        plots.save(fig, path, dpi=120)
+        plots.save(figure(whole, key), path, dpi=120)
         written.append(path)
     return written
+
+
+def figure(whole: pd.DataFrame, key: str):
+    """The figure of :func:`plot` for the rows of one dimension and boundary (a matplotlib Figure).
+
+    One series per scene (column SCENE), in its own colour: measured Z (filled
+    circles, error bars) and each point's own finite-box theory (open squares).
+    Against the packing fraction the equation of state's curve Z(eta) (Tonks,
+    Kolafa-Rottner or KLM) in the theory style (:data:`gaz_cli.plots.THEORY`,
+    black dashed) and the ideal gas Z = 1 (:data:`gaz_cli.plots.IDEAL`).
+    """
+    from gaz_cli import plots
+
+    plt = plots._pyplot()
+    col = key.upper()
+    dim, boundary = int(whole.DIM.iloc[0]), whole.BOUNDARY.iloc[0]
+    fig, (ax, dev) = plt.subplots(2, 1, figsize=(6, 5.6), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+    lo, hi = int(whole.RUNS.min()), int(whole.RUNS.max())
+    seeds = f"{lo}" if lo == hi else f"{lo}-{hi}"
+    series = list(whole.groupby("SCENE", sort=False)) if "SCENE" in whole else [("", whole)]
+    for k, (name, g) in enumerate(series):  # one scene apart from the key: one series
+        color = plots.series_color(k)
+        ax.errorbar(g[col], g.Z, yerr=g.Z_ERR.fillna(0), fmt="o", color=color, capsize=3,
+                    label=f"{name}: measured" if name else f"measured (mean of {seeds} seeds, ±1σ)")
+        ax.plot(g[col], g.Z_THEORY, "s", mfc="none", color=color,
+                label=f"{name}: theory" if name else "theory for each scene")
+        dev.plot(g[col], g.Z_DEV_SIGMA, "o", color=color)
+    if key == "packing":
+        eta = np.linspace(0.0, float(whole[col].max()) * 1.05, 200)
+        model = {1: "Tonks", 2: "Kolafa-Rottner", 3: "KLM"}[dim]
+        ax.plot(eta, theory.compressibility_factor(dim, eta), **plots.THEORY, label=f"{model} (bulk)")
+        dev.set_xlabel("packing fraction η")
+    else:
+        dev.set_xlabel(f"{key} ({KEYS[key]})")
+    ax.axhline(1.0, **plots.IDEAL, label="ideal gas")
+    ax.set_ylabel("Z = P V / (N k_B T)")
+    ax.set_title(f"{dim}D, {boundary}: compressibility factor against {key}")
+    ax.legend(fontsize=8)
+    dev.axhspan(-3, 3, color="0.85", alpha=0.5, lw=0, label="±3σ")
+    dev.axhline(0.0, color="grey", lw=0.8)
+    dev.set_ylabel("(Z − theory)/σ")
+    top = float(np.nanmax(np.abs(whole.Z_DEV_SIGMA.to_numpy(dtype=float)), initial=0.0))
+    dev.set_ylim(-max(4.0, 1.2 * top), max(4.0, 1.2 * top))
+    dev.legend(fontsize=8, loc="upper right")
+    return fig

@@ -50,7 +50,8 @@ __all__ = [
     "wall_hit_speed_pdf", "wall_hit_mean_speed",
     "wall_hit_normal_speed_pdf", "wall_hit_mean_normal_speed", "wall_hit_rate",
     "barometric_height_pdf", "ideal_gravity_wall_pressures", "floor_minus_ceiling_pressure",
-    "chemical_potential_excess", "hard_sphere_gravity_wall_pressures",
+    "chemical_potential_excess", "hard_sphere_gravity_wall_pressures", "hard_sphere_gravity_profile",
+    "gravity_collision_frequency", "gravity_energy_temperature",
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
     "virial_pressure", "kinetic_temperature", "wall_impulse",
@@ -848,23 +849,16 @@ def chemical_potential_excess(dim: int, packing_fraction, model: str = "best"):
     return _out(value if np.ndim(packing_fraction) else value[0])
 
 
-def hard_sphere_gravity_wall_pressures(dim: int, length, temperature, number, radius, mass, gravity,
-                                       model: str = "best", points: int = 2001):
-    """Floor, ceiling and side-wall pressures of N hard particles under gravity (Pa per full wall area L^(D-1)).
+def hard_sphere_gravity_profile(dim: int, length, temperature, number, radius, mass, gravity,
+                                model: str = "best", points: int = 2001):
+    """Density of centres n(z) of N hard particles under gravity, in hydrostatic equilibrium.
 
-    Local-density approximation: the density of centres n(z) on the heights
-    R <= z <= L - R they reach obeys the hydrostatic balance of the bulk
-    equation of state, ln n + beta mu_ex(eta(z)) + (z - R)/lam = const
-    (lam = k_B T/(m g), :func:`chemical_potential_excess`), normalised to
-    N = (L - 2R)^(D-1) int n dz. Then P(z) = n k_B T Z(eta(z)) and
-
-        floor = P(R) ((L - 2R)/L)^(D-1), ceiling = P(L - R) ((L - 2R)/L)^(D-1),
-        side = (L - 2R)^(D-2) int P dz / L^(D-1)   (D > 1; 0 in 1D).
-
-    Z = 1 gives :func:`ideal_gravity_wall_pressures`; floor - ceiling = N m g/L^(D-1)
-    exactly (hydrostatics). At g = 0 the side value is :func:`hard_sphere_wall_pressure`.
-    Like it, first order in the wall corrections (adsorption, layering) and
-    blind to the O(1/N) of a finite box. One species; gravity along the last axis.
+    Local-density approximation: on the heights R <= z <= L - R the centres
+    reach, ln n + beta mu_ex(eta(z)) + (z - R)/lam = const (lam = k_B T/(m g),
+    :func:`chemical_potential_excess`), normalised to N = (L - 2R)^(D-1) int n dz.
+    Returns (z, n): (points,) heights above the lowest centre z - R, m, and
+    densities, 1/m^D. Blind to the walls' layering and the O(1/N) of a finite
+    box; one species; gravity along the last axis.
     """
     dim = _dim(dim)
     length = float(_positive("box length", length, "m"))
@@ -912,14 +906,98 @@ def hard_sphere_gravity_wall_pressures(dim: int, length, temperature, number, ra
             hi = mid
         if hi - lo < 1e-13:
             break
-    n = profile(0.5 * (lo + hi))
+    return z, profile(0.5 * (lo + hi))
+
+
+def hard_sphere_gravity_wall_pressures(dim: int, length, temperature, number, radius, mass, gravity,
+                                       model: str = "best", points: int = 2001):
+    """Floor, ceiling and side-wall pressures of N hard particles under gravity (Pa per full wall area L^(D-1)).
+
+    On the density profile n(z) of :func:`hard_sphere_gravity_profile`,
+    P(z) = n k_B T Z(eta(z)) and
+
+        floor = P(R) ((L - 2R)/L)^(D-1), ceiling = P(L - R) ((L - 2R)/L)^(D-1),
+        side = (L - 2R)^(D-2) int P dz / L^(D-1)   (D > 1; 0 in 1D).
+
+    Z = 1 gives :func:`ideal_gravity_wall_pressures`; floor - ceiling = N m g/L^(D-1)
+    exactly (hydrostatics). At g = 0 the side value is :func:`hard_sphere_wall_pressure`.
+    Like it, first order in the wall corrections (adsorption, layering) and
+    blind to the O(1/N) of a finite box. One species; gravity along the last axis.
+    """
+    z, n = hard_sphere_gravity_profile(dim, length, temperature, number, radius, mass, gravity, model, points)
+    dim = _dim(dim)
+    length = float(length)
+    kt = K_B * float(temperature)
+    inner = float(z[-1])
+    v = float(ball_volume(dim, float(radius)))
     eta = n * v
     p = n * kt * (compressibility_factor(dim, eta, model) if v > 0 else 1.0)
-    scale = lateral / length ** (dim - 1)
+    scale = inner ** (dim - 1) / length ** (dim - 1)
     floor, ceiling = float(p[0] * scale), float(p[-1] * scale)
     side = (float(np.sum(0.5 * (p[1:] + p[:-1])) * (z[1] - z[0])) * inner ** (dim - 2) / length ** (dim - 1)
             if dim > 1 else 0.0)
     return floor, ceiling, side
+
+
+def gravity_collision_frequency(dim: int, length, temperature, number, radius, mass, gravity,
+                                model: str = "best", points: int = 2001):
+    """Enskog collision frequency per particle averaged over the barometric profile (1/s).
+
+    omega_bar = int n(z) omega(n(z)) dz / int n(z) dz, omega the
+    :func:`enskog_collision_frequency` at the local density of
+    :func:`hard_sphere_gravity_profile`: a particle low in the box, where the
+    gas is denser, meets more partners, so the mean exceeds omega at the mean
+    density N/(L - 2R)^D by <n^2>/<n>^2 (x/2) coth(x/2), x = m g (L - 2R)/(k_B T),
+    in the dilute limit. One species, equilibrium; walls as in the profile.
+    """
+    z, n = hard_sphere_gravity_profile(dim, length, temperature, number, radius, mass, gravity, model, points)
+    omega = np.asarray(enskog_collision_frequency(dim, n, 2.0 * float(radius), temperature, mass, model),
+                       dtype=float)
+    weight = n * omega
+    return _out(float(np.sum(0.5 * (weight[1:] + weight[:-1])) / np.sum(0.5 * (n[1:] + n[:-1]))))
+
+
+def gravity_energy_temperature(dim: int, length, energy, number, radius, mass, gravity,
+                               model: str = "best") -> float:
+    """Temperature (K) of N hard particles settled under gravity, from their total energy (J).
+
+    ``energy`` E = K + sum m g (z - R): kinetic energy plus the potential one
+    above the lowest centre height R, conserved by elastic dynamics; the
+    settled gas shares it as (D/2) N k_B T + N m g <z - R>(T), the mean height
+    on :func:`hard_sphere_gravity_profile`. Solved for T (monotonic: Illinois
+    false position on 0 < T <= 2E/(D N k_B)). Equilibrium, one species.
+    """
+    dim = _dim(dim)
+    e = float(_positive("energy", energy, "J"))
+    n_total = float(_positive("number of particles", number, ""))
+    m, g = float(_positive("mass", mass, "kg")), float(_nonnegative("gravity", gravity, "m/s^2"))
+
+    def excess(t):
+        z, n = hard_sphere_gravity_profile(dim, length, t, n_total, radius, mass, g, model)
+        mean_z = float(np.sum(0.5 * (n[1:] * z[1:] + n[:-1] * z[:-1])) / np.sum(0.5 * (n[1:] + n[:-1])))
+        return 0.5 * dim * n_total * K_B * t + n_total * m * g * mean_z - e
+
+    lo, hi = 0.0, 2.0 * e / (dim * n_total * K_B)
+    f_lo, f_hi = -e, excess(hi)
+    if f_hi <= 0.0:                   # no potential energy (g = 0): all of it kinetic
+        return hi
+    side = 0
+    for _ in range(100):
+        t = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        f = excess(t)
+        if f > 0.0:
+            hi, f_hi = t, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = t, f
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+        if hi - lo < 1e-12 * hi or abs(f) < 1e-13 * e:
+            break
+    return float(t)
 
 
 def floor_minus_ceiling_pressure(counts, masses, gravity, wall_area):
@@ -1031,18 +1109,23 @@ def virial_pressure(dim: int, number, temperature, volume, virial, duration):
     return _out((n * K_B * t + w / (dim * tau)) / v)
 
 
-def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False):
+def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False, drift_energy=0.0):
     """Temperature (K) from the total kinetic energy K (J): k_B T = 2K/(D N).
 
-    With ``periodic`` (total momentum fixed at zero) the D momentum degrees of
-    freedom are removed: k_B T = 2K/(D (N - 1)); except for a single particle, whose
-    momentum gaz keeps (:func:`gaz_cli.scene.initial_state`: removing it would stop the
-    particle), so N = 1 counts its D degrees of freedom, periodic or not.
+    With ``periodic`` the total momentum P is conserved: its D degrees of freedom
+    are not thermal, k_B T = 2 (K - P^2/(2M))/(D (N - 1)), ``drift_energy``
+    P^2/(2M) (J; 0 when the momentum was removed at the start, as gaz does for
+    the velocities it draws: :func:`gaz_cli.scene.initial_state`; an explicit
+    initial state keeps its own). A single particle keeps its momentum and counts
+    its D degrees of freedom, periodic or not (removing it would stop the particle).
     """
     dim = _dim(dim)
     k = _nonnegative("kinetic energy", kinetic_energy, "J")
     n = np.asarray(number, dtype=float)
     if not np.all(n >= 1.0):
         raise SceneError(f"kinetic temperature needs at least 1 particle, got {_show(number)}")
+    drift = _nonnegative("drift energy", drift_energy, "J")
+    if periodic:
+        k = np.where(n > 1.0, np.maximum(k - drift, 0.0), k)
     dof_n = np.where(n > 1.0, n - 1.0, n) if periodic else n
     return _out(2.0 * k / (dim * dof_n * K_B))

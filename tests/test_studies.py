@@ -88,6 +88,39 @@ def test_plot_draws_one_figure_per_dimension_and_boundary(rods_db, tmp_path):
     assert (tmp_path / "figs" / "vs_packing_1d_walls.png").stat().st_size > 1000
 
 
+
+def test_theory_curve_is_drawn_apart_from_every_data_series(two_scenes_db):
+    """The Tonks curve was drawn in C1, the colour of the first series' theory markers, with the
+    next series in C2, C3: the exact 1D theory looked like one of the series. Now theory curves
+    take plots.THEORY (black, dashed), and each series one colour of the cycle."""
+    import warnings
+
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgba
+
+    from gaz_cli import plots
+
+    with Store(two_scenes_db, create=False) as store, warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # the mixture left out, said in a warning
+        table = studies.versus(store, "packing")
+    fig = studies.figure(table, "packing")
+    try:
+        ax = fig.axes[0]
+        tonks = [ln for ln in ax.get_lines() if ln.get_label().startswith("Tonks")]
+        # (series name, colour) of the measured points (errorbar containers) and the theory markers
+        measured = [(c.get_label().rsplit(":", 1)[0], to_rgba(c.lines[0].get_color())) for c in ax.containers]
+        markers = [(ln.get_label().rsplit(":", 1)[0], to_rgba(ln.get_color())) for ln in ax.get_lines()
+                   if ln.get_label().endswith(": theory")]
+        scenes = table.SCENE.nunique()
+        assert len(tonks) == 1 and len(measured) == len(markers) == scenes
+        assert to_rgba(tonks[0].get_color()) == to_rgba(plots.THEORY["color"])
+        assert tonks[0].get_linestyle() == plots.THEORY["ls"]
+        assert all(color != to_rgba(tonks[0].get_color()) for _, color in measured + markers)
+        # one colour per series: its measured points and its theory markers alike, each series its own
+        assert dict(measured) == dict(markers) and len(set(dict(measured).values())) == scenes
+    finally:
+        plt.close(fig)
+
 def test_a_plot_folder_that_cannot_be_made_is_one_line(rods_db, tmp_path):
     """gaz analyse --vs packing --plot FILE/sub ended in 'internal error: NotADirectoryError', exit 3,
     as gaz analyse --sim 1 --plot FILE/sub did not."""
@@ -195,3 +228,43 @@ def test_n_is_printed_as_a_whole_number(rods_db):
     for fmt in ("csv", "table"):
         res = invoke(["analyse", "--db", rods_db, "--vs", "n", "--format", fmt])
         assert res.exit_code == 0 and " 50 " in res.stdout.replace(",", " ") and "50.0" not in res.stdout, res.stdout
+
+
+def test_vs_n_makes_one_series_per_packing_or_per_box(two_scenes_db, tmp_path):
+    """--vs n over 50 rods at packings 0.2 and 0.5 and 20 rods at 0.2 gave three rows told apart
+    by their box sides ('length=1.79e-08', ...), one point each: the box of a sweep of n at a
+    packing held grows with n. Now the series hold the packing (a sweep of n at a box held: the
+    box), whichever makes fewer series: 20 and 50 rods at 0.2 are one series."""
+    import warnings
+
+    with Store(two_scenes_db, create=False) as store, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        table = studies.versus(store, "n")
+    rods = table[~table.SCENE.str.contains("He")]       # the mixture: a series of its own
+    assert sorted(zip(rods.SCENE, rods.N)) == [("species=Ar packing=0.2", 20), ("species=Ar packing=0.2", 50),
+                                               ("species=Ar packing=0.5", 50)]
+    # a sweep of n in one box: one series (no SCENE column), whose packing grows with n
+    db = str(tmp_path / "box.db")
+    for n in (20, 40):
+        for seed in (1, 2):
+            simulate(Scene(dim=1, length=20 * 2 * ARGON.radius / 0.2, duration=2e-10,
+                           components=((ARGON, n),), seed=seed), db=db)
+    with Store(db, create=False) as store:
+        box = studies.versus(store, "n")
+    assert "SCENE" not in box and list(box.N) == [20, 40] and list(box.RUNS) == [2, 2]
+
+
+def test_runs_under_gravity_get_no_uniform_theory(tmp_path):
+    """--vs temperature over 24 runs of argon under gravity (3D, g = 1e12 m/s^2) printed Z_DEV_SIGMA
+    31 and RATE_DEV_SIGMA 15 against the uniform gas's theories: the gas is stratified. Now no
+    theory, the reason in NOTE (gaz analyse --sim N has the barometric one)."""
+    db = str(tmp_path / "g.db")
+    for seed in (1, 2):
+        simulate(Scene(dim=1, length=N * 2 * ARGON.radius / 0.2, duration=2e-10, components=((ARGON, N),),
+                       gravity=1e13, seed=seed), db=db)
+    with Store(db, create=False) as store:
+        row = studies.versus(store, "temperature").iloc[0]
+    assert row.RUNS == 2 and math.isfinite(row.P) and math.isfinite(row.RATE)
+    for name in ("P", "Z", "RATE"):
+        assert math.isnan(row[f"{name}_THEORY"]) and math.isnan(row[f"{name}_DEV_SIGMA"]), row
+    assert "gravity" in row.NOTE and "--sim" in row.NOTE

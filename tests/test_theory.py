@@ -521,6 +521,11 @@ def test_virial_pressure_and_kinetic_temperature():
     assert th.kinetic_temperature(dim, energy, n, periodic=True) == approx(t * n / (n - 1), rel=1e-14)
     # one particle keeps its momentum in a periodic box too (gaz does not stop it)
     assert th.kinetic_temperature(dim, energy, 1, periodic=True) == approx(t * n, rel=1e-14)
+    # a conserved drift P^2/(2M) of a periodic box is not heat; between walls it is
+    drift = 0.25 * energy
+    assert th.kinetic_temperature(dim, energy + drift, n, periodic=True, drift_energy=drift) == approx(
+        t * n / (n - 1), rel=1e-14)
+    assert th.kinetic_temperature(dim, energy, n, periodic=False, drift_energy=drift) == approx(t, rel=1e-14)
 
 
 # --------------------------------------------------------------------- bad arguments
@@ -742,6 +747,35 @@ def test_hard_sphere_gravity_walls_limits_and_balance():
     no_g = th.hard_sphere_gravity_wall_pressures(radius=1.7e-10, **{**kw, "gravity": 0.0})
     assert no_g[2] == pytest.approx(th.hard_sphere_wall_pressure(3, 2e-8, 300.0, 1000, 1.7e-10), rel=1e-9)
 
+
+
+def test_gravity_collision_frequency_dilute_limit_and_no_gravity():
+    """Points: <n^2>/<n>^2 of the barometric profile, (x/2) coth(x/2), times Enskog at the mean density;
+    g = 0: Enskog at N/(L - 2R)^D."""
+    kw = dict(dim=3, length=2e-8, temperature=300.0, number=1000, mass=6.63e-26)
+    x = 6.63e-26 * 3.178e12 * 2e-8 / (K_B * 300.0)
+    r = 1e-15
+    mean = th.enskog_collision_frequency(3, 1000 / (2e-8 - 2 * r) ** 3, 2 * r, 300.0, 6.63e-26)
+    omega = th.gravity_collision_frequency(radius=r, gravity=3.178e12, **kw)
+    assert omega / mean == pytest.approx(0.5 * x / math.tanh(0.5 * x), rel=1e-5)
+    r = 1.7e-10
+    flat = th.gravity_collision_frequency(radius=r, gravity=0.0, **kw)
+    assert flat == pytest.approx(th.enskog_collision_frequency(3, 1000 / (2e-8 - 2 * r) ** 3, 2 * r, 300.0,
+                                                               6.63e-26), rel=1e-9)
+
+
+def test_gravity_energy_temperature_shares_the_energy_with_the_barometric_height():
+    """g = 0: all kinetic, T = 2E/(D N k); points under gravity: the ideal barometric mean height
+    <z - R> = lam - h/(e^(h/lam) - 1), lam = kT/(m g), closes (D/2) N k T + N m g <z - R> = E."""
+    n, m, length, r = 1000, 6.63e-26, 2e-8, 1e-15
+    energy = 1.5 * n * K_B * 300.0
+    assert th.gravity_energy_temperature(3, length, energy, n, r, m, 0.0) == pytest.approx(300.0, rel=1e-12)
+    g = 3.178e12
+    t = th.gravity_energy_temperature(3, length, energy, n, r, m, g)
+    lam, h = K_B * t / (m * g), length - 2 * r
+    mean_z = lam - h / math.expm1(h / lam)
+    assert 1.5 * n * K_B * t + n * m * g * mean_z == pytest.approx(energy, rel=1e-5)
+    assert t < 300.0
 
 def test_bmcsl_reduces_to_carnahan_starling_and_its_contact_value():
     eta, sigma = 0.3, 1.0
