@@ -869,7 +869,7 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
             if stat_rel > 0 and not exp.syst <= stat_rel:
                 exp.applies = False
                 dense = exp.syst > 10 * stat_rel
-                exp.note = ((f"no theory for this scene: " if dense else "") +
+                exp.note = (("no theory for this scene: " if dense else "") +
                             f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
                             f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
                             "compare REL_DEV with SYST_REL" +
