@@ -59,7 +59,9 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
     snapshot (points padded to 3D, SI units, one vertex cell per particle, point
     data velocity, species, radius; use a Glyph filter scaled by radius to see
     the disks) and a ``STEM.pvd`` collection that gives ParaView the times (and
-    gaz the dimension and the box, in a comment). Open the .pvd.
+    gaz the dimension and the box, in a comment). Open the .pvd. Writing over an earlier
+    .pvd first deletes it and the .vtu files it lists (those only, and only plain names
+    beside it), so that no snapshot of the earlier run is left among the new ones.
 """
 
 from __future__ import annotations
@@ -408,11 +410,37 @@ class VTKWriter(TrajectoryWriter):
         self.pvd = self.path.with_suffix(".pvd")
         self.stem = self.path.with_suffix("")
         self.entries: list[tuple[float, str]] = []
+        self._remove_earlier()
         self._closed = False
         n = scene.n
         self._cells = [("vertex", np.arange(n, dtype=np.int64).reshape(n, 1))]
         self._species = scene.kinds().astype(np.int32)
         self._radius = scene.radii()
+
+    def _remove_earlier(self) -> None:
+        """Delete the collection written over and the snapshots it lists (module docstring):
+        a run with fewer snapshots would otherwise leave the earlier run's last ones beside it.
+        Only .vtu files named plainly (no folder) in the collection; nothing for a file that
+        is not a readable collection."""
+        import xml.etree.ElementTree as ET
+
+        if not self.pvd.is_file():
+            return
+        try:
+            names = [e.get("file") or "" for e in ET.parse(self.pvd).getroot().iter("DataSet")]
+        except (OSError, ET.ParseError):
+            return
+        for name in names:
+            if Path(name).name == name and name.lower().endswith(".vtu"):
+                try:
+                    (self.pvd.parent / name).unlink(missing_ok=True)
+                except OSError as err:
+                    raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: its earlier snapshot "
+                                      f"{name!r} cannot be removed ({_reason(err)})") from None
+        try:
+            self.pvd.unlink()
+        except OSError as err:
+            raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {_reason(err)}") from None
 
     def _write(self, t, positions, velocities, images=None):
         import meshio

@@ -99,6 +99,34 @@ def test_vtk_round_trip_through_meshio(tmp_path, name):
         np.testing.assert_array_equal(mesh.point_data["radius"], sc.radii())
 
 
+def test_a_pvd_written_over_leaves_none_of_the_earlier_snapshots(tmp_path):
+    """gaz simulate ... --trajectory out.pvd over an earlier run with more snapshots left that
+    run's last .vtu files beside the new ones (a glob of the folder mixed them in). Now the
+    earlier collection's own snapshots go, and nothing else: not a .vtu it does not list, not
+    one it names outside its folder."""
+    sc = small_scene(dim=2)
+    outside = tmp_path / "outside.vtu"
+    outside.write_text("not gaz's")
+    (tmp_path / "sub").mkdir()
+    unrelated = tmp_path / "sub" / "run_00009.vtu"
+    unrelated.write_text("not listed")
+    with open_trajectory(tmp_path / "sub" / "run.pvd", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=5):
+            w.add_snapshot(t, x, v)
+    pvd = tmp_path / "sub" / "run.pvd"
+    pvd.write_text(pvd.read_text().replace("</Collection>",
+                                           '<DataSet timestep="1" file="../outside.vtu"/></Collection>'))
+    snaps = snapshots(sc, count=2, seed=1)
+    with open_trajectory(pvd, 0.05, sc) as w:
+        for t, x, v in snaps:
+            w.add_snapshot(t, x, v)
+    assert sorted(p.name for p in (tmp_path / "sub").iterdir()) == \
+        ["run.pvd", "run_00000.vtu", "run_00001.vtu", "run_00009.vtu"]
+    assert outside.read_text() == "not gaz's" and unrelated.read_text() == "not listed"
+    data = read_trajectory(pvd)
+    np.testing.assert_array_equal(data["positions"][1], snaps[1][1])
+
+
 def test_writer_errors(tmp_path):
     sc = small_scene()
     with pytest.raises(SceneError, match="extension"):
