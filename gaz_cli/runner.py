@@ -1,10 +1,11 @@
 """One simulation from scene to database: the driver behind ``gaz simulate``.
 
-Order of operations: validate the scene and fix its seed; open the store
-(its schema checked, created or migrated: a database that cannot take the
-run fails here, before any simulation); place the particles and draw their
-velocities (:func:`gaz_cli.scene.initial_state`, independent of the
-engine); let the engine stream its events into the run's writer (staged or
+Order of operations: validate the scene and fix its seed; place the particles
+and draw their velocities (:func:`gaz_cli.scene.initial_state`, independent of
+the engine: a placement that gives up is refused before any database is
+created or touched); open the store (its schema checked, created or migrated:
+a database that cannot take the run fails here, before any simulation); let
+the engine stream its events into the run's writer (staged or
 in an open transaction, see :mod:`gaz_cli.store`); then everything that can
 still fail -- the trajectory's last write, the final state file, the
 summary -- and only then the commit. A failure or an interrupt (SIGINT or
@@ -240,13 +241,15 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
+            if state is None:
+                # before the database: a placement refused ("random placement stuck...") never
+                # creates nor touches one
+                state = initial_state(scene)
             if db is not None:
                 # a SQLite file without SQLAlchemy's import when it can (gaz_cli.sqlite_writer)
                 from gaz_cli.sqlite_writer import open_for_writing
-                store = stack.enter_context(open_for_writing(db))  # refused or failing: before placing
+                store = stack.enter_context(open_for_writing(db))  # refused or failing: before the engine
                 writer = stack.enter_context(store.simulation(scene))
-            if state is None:
-                state = initial_state(scene)
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.trajectory import open_trajectory

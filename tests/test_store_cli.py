@@ -198,6 +198,25 @@ def test_foreign_database_is_refused_untouched(tmp_path):
     assert leftovers(tmp_path, {"theirs.db"}) == []
 
 
+def test_a_refused_placement_creates_no_database(tmp_path):
+    """A placement that gives up (100 disks of radius 0.05 m in a 1.2 m box by rejection, packing
+    0.55) exited 1 with 'random placement stuck...' but left --db new.db behind, an empty gaz
+    database: the store was opened, and created, before placing. Now nothing is created, and an
+    existing database is left byte for byte."""
+    args = ["simulate", "--dim", "2", "--n", "100", "--radius", "0.05", "--mass", "1", "--length", "1.2",
+            "--duration", "1e-3", "--seed", "1", "--method", "rejection"]
+    res = invoke([*args, "--db", str(tmp_path / "new.db")])
+    assert res.exit_code == 1 and res.stdout == "", res.output
+    assert res.stderr.count("\n") == 1 and "random placement stuck" in res.stderr, res.stderr
+    assert leftovers(tmp_path, set()) == []
+    db = tmp_path / "gaz.db"
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    before = db.read_bytes()
+    res = invoke([*args, "--db", str(db)])
+    assert res.exit_code == 1 and "random placement stuck" in res.stderr, res.stderr
+    assert db.read_bytes() == before and leftovers(tmp_path, {"gaz.db"}) == []
+
+
 @pytest.mark.parametrize("url", [False, True])
 def test_another_applications_sqlite_file_is_refused_untouched(tmp_path, url):
     """A SQLite file holding other tables and none of gaz's got gaz's nine tables added beside
