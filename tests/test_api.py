@@ -63,6 +63,26 @@ def test_a_scene_written_from_python_loads_back(tmp_path):
     assert gaz.load_scene(tmp_path / "s.toml") == scene
 
 
+@pytest.mark.parametrize("given", [{"dim": 2}, "scene.toml", None])
+def test_writing_something_else_than_a_scene_says_what_is_expected(tmp_path, given):
+    """gaz.scene_text({'dim': 2}) and gaz.write_scene(path, 'hello') raised AttributeError "'dict'
+    object has no attribute 'dim'" from scenefile.py; the arguments swapped, write_scene(scene,
+    path), a TypeError about os.PathLike. Now a SceneError (a ValueError) naming the Scene
+    expected, nothing written."""
+    import gaz_cli as gaz
+
+    expected = rf"^expected a Scene \(from gaz.make_scene or gaz.load_scene\), got {type(given).__name__} "
+    with pytest.raises(gaz.SceneError, match=expected):
+        gaz.scene_text(given)
+    with pytest.raises(ValueError, match=expected):
+        gaz.write_scene(tmp_path / "s.toml", given)
+    scene = gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-12, seed=1)
+    with pytest.raises(gaz.SceneError, match=r"^write_scene\(path, scene\) was given a Scene first and a "
+                                             r"PosixPath second: the path comes first$"):
+        gaz.write_scene(scene, tmp_path / "s.toml")
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("sim", ["1", 1.0, True])
 def test_analyse_refuses_a_sim_that_is_not_an_int(tmp_path, sim):
     """gaz.analyse(db, sim="1") said 'simulation 1 is not in ...; it holds SI_NUM 1'."""
