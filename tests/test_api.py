@@ -63,6 +63,24 @@ def test_a_scene_written_from_python_loads_back(tmp_path):
     assert gaz.load_scene(tmp_path / "s.toml") == scene
 
 
+def test_every_exception_of_the_library_is_at_the_top_level(tmp_path):
+    """gaz.StoreError raised AttributeError (only GazError and SceneError were exported), while
+    gaz.open_store and gaz.simulate(db=...) raise it: a notebook could not catch it by the
+    package's name. Now every exception and warning of gaz_cli.errors is there."""
+    import inspect
+
+    import gaz_cli as gaz
+    from gaz_cli import errors
+
+    mine = {name for name, value in vars(errors).items()
+            if inspect.isclass(value) and issubclass(value, BaseException) and value.__module__ == errors.__name__}
+    assert {"GazError", "StoreError", "OutputError", "Interrupted", "GazWarning"} <= mine
+    for name in mine:
+        assert getattr(gaz, name) is getattr(errors, name) and name in gaz.__all__, name
+    with pytest.raises(gaz.StoreError, match="does not exist"):
+        gaz.open_store(tmp_path / "none.db")
+
+
 @pytest.mark.parametrize("given", [{"dim": 2}, "scene.toml", None])
 def test_writing_something_else_than_a_scene_says_what_is_expected(tmp_path, given):
     """gaz.scene_text({'dim': 2}) and gaz.write_scene(path, 'hello') raised AttributeError "'dict'
