@@ -39,6 +39,29 @@ MAX_POINTS = 100_000
 """A sweep larger than this is refused (a typo in START:STOP:COUNT, most likely)."""
 
 
+def cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system says; else the
+    machine's count): the local cluster's default size and its bound."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):  # no affinity on this system (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def check_workers(workers) -> None:
+    """Raise SceneError unless ``workers`` (``--workers``) is None or a whole number from 1 to
+    :func:`cores`: each worker is a process running one simulation at a time, so more than the
+    cores only share them (and a huge count would start that many processes)."""
+    if workers is None:
+        return
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise SceneError(f"--workers {workers!r} must be a whole number from 1 to the {cores()} cores of "
+                         "this machine (or leave it out: one worker per core)")
+    if workers > cores():
+        raise SceneError(f"--workers {workers} is more than the {cores()} cores of this machine (each worker "
+                         f"runs one simulation at a time); give --workers {cores()} or fewer, or leave it out")
+
+
 # --- the plan -------------------------------------------------------------------
 def parse_vary(text: str) -> tuple[str, list]:
     """``KEY=V1,V2,...`` or ``KEY=START:STOP:COUNT`` (COUNT values, both ends included).
@@ -258,7 +281,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
     ``key(scene)`` is the text by which a run already stored is recognised among
     SCENE.SC_FILE's (default :func:`key_of`, the scene file itself). ``workers``: LocalCluster size (default the
-    core count); ``scheduler``: address of an existing Dask scheduler instead.
+    core count, :func:`cores`; more is refused, :func:`check_workers`); ``scheduler``: address of an existing Dask scheduler instead.
     ``progress``: a progress bar on stderr (default: when stderr is a terminal).
     Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
     was stored.
@@ -266,6 +289,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.runner import prepare
     from gaz_cli.store import Store
 
+    check_workers(workers)
     key = key or key_of
     report = Report(db=db)
     built = []
@@ -396,7 +420,7 @@ class _client:
                                f"({' '.join(str(err).split()) or type(err).__name__}); "
                                "check the address, or leave --scheduler out to run here") from None
             return self.client
-        workers = self.workers or os.cpu_count() or 1
+        workers = self.workers or cores()
         self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
                                     processes=True, dashboard_address=":0",
                                     silence_logs=logging.ERROR)

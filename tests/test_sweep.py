@@ -113,7 +113,7 @@ def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
     once, with exactly the rows of the same scene run alone (same seed, same rows)."""
     db = str(tmp_path / "sweep.db")
     points = sweep.plan([("n", [10, 5000, 20])], seeds=2, base_seed=BASE.seed)
-    report = sweep.run(points, scene_of, key_of, db, workers=2, progress=False)
+    report = sweep.run(points, scene_of, key_of, db, workers=min(2, sweep.cores()), progress=False)  # at most the cores
     stored = [r for r in report.rows if r[1] == "stored"]
     failed = [r for r in report.rows if r[1] == "failed"]
     assert len(stored) == 4 and len(failed) == 2
@@ -289,6 +289,33 @@ def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cl
     lines = res.stderr.splitlines()
     assert res.exit_code == 1 and len(lines) == 1 and line in lines[0], res.stderr
     assert res.stdout == "" and not db.exists()
+
+
+def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_path, monkeypatch):
+    """gaz sweep rods.toml --vary temperature=100,200 --workers 100000 started a LocalCluster of
+    as many worker processes as runs, whatever the cores (100,000 runs: 100,000 processes). Now
+    one line naming the cores; no database, no cluster. The cores themselves are accepted."""
+    from cli_helpers import invoke
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    n = sweep.cores()
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--workers", str(n + 1),
+                  "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert f"--workers {n + 1} is more than the {n} cores of this machine" in lines[0], lines[0]
+    assert f"give --workers {n} or fewer" in lines[0], lines[0]
+    assert res.stdout == "" and not db.exists()
+    for wrong in (0, -3, 2.5, True):
+        with pytest.raises(SceneError, match=rf"^--workers {wrong!r} must be a whole number from 1 to the {n} cores"):
+            sweep.check_workers(wrong)
+    sweep.check_workers(n)
+    sweep.check_workers(None)
 
 
 @pytest.mark.parametrize("vary, wrong", [("temperature=-5,abc", "'abc'"), ("temperature=abc,300", "'abc'"),
