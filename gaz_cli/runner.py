@@ -229,7 +229,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
     check_outputs(scene, trajectory, every)
     if sqlite_file(db):
-        check_database_space(scene, sqlite_file(db))
+        check_database_space([scene], sqlite_file(db))
     if write_scene:
         from gaz_cli import scenefile
 
