@@ -9,6 +9,11 @@ touching the database: the client alone writes, one run at a time, as runs
 finish (:func:`run`). So SQLite works, a crash of a worker loses only its
 run, and an interrupt keeps every run already stored.
 
+Before any cluster starts, a sweep into a SQLite file whose runs would not fit on its
+disk is refused, as ``gaz simulate`` refuses one run
+(:func:`gaz_cli.scene.check_database_space`: every run's rows, and the largest one's
+copy in the WAL file and scratch file); a new file is not created for that.
+
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
 interrupted one. A run that fails is reported and the others go on.
@@ -286,7 +291,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
     was stored.
     """
-    from gaz_cli.runner import prepare
+    from gaz_cli.runner import prepare, sqlite_file
+    from gaz_cli.scene import check_database_space
     from gaz_cli.store import Store
 
     check_workers(workers)
@@ -300,8 +306,12 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             report.rows.append((point, "failed", None, str(err)))
     _refuse_a_sweep_that_cannot_run(points, report.rows)
     todo = []
-    with Store(db) as store:
-        done = set(store.scene_files())
+    path = sqlite_file(db)
+    if path is not None and not os.path.exists(os.path.expanduser(path)):
+        done = set()  # a new file: every point runs, and the file is created after the checks
+    else:
+        with Store(db) as store:
+            done = set(store.scene_files())
     for point, scene in built:
         if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))
@@ -309,8 +319,13 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             todo.append((point, scene))
     if not todo:
         return report
-    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, \
-            Store(db) as store, _Bar(len(todo), progress) as bar:
+    if path is not None:  # the runs to do, one after the other, on the database's disk
+        try:
+            check_database_space([scene for _, scene in todo], path, fix="vary fewer values or seeds, shorten `duration`")
+        except SceneError as err:
+            raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+    with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
+            _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:
             _run_all(client, store, todo, report, bar)

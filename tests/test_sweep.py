@@ -291,6 +291,35 @@ def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cl
     assert res.stdout == "" and not db.exists()
 
 
+def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_any_run(tmp_path, monkeypatch,
+                                                                                      tiny_disk):
+    """gaz sweep had no disk check (gaz simulate has one): four runs of 0.2 to 0.4 MB of rows
+    each, 1.3 MB in all, into a new database on a 1 MiB disk started the cluster and ran them
+    until the disk was full. Now one line naming the runs, the growth and the peak (all the
+    runs' rows, and the largest one's WAL copy), in the scene file's words; no database, no
+    cluster. One of the runs alone fits."""
+    from cli_helpers import invoke
+
+    from gaz_cli.scene import check_database_space
+    from gaz_cli.scenefile import load
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "disks.toml"
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    db = tiny_disk / "s.db"
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200,300,400", "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert f"database '{db}' would grow by about 1.3" in lines[0] and "(4 runs, " in lines[0], lines[0]
+    assert "needs about 1.7" in lines[0] and "its disk has 1.0" in lines[0], lines[0]
+    assert "vary fewer values or seeds, shorten duration, use record none" in lines[0], lines[0]
+    assert res.stdout == "" and list(tiny_disk.iterdir()) == []
+    check_database_space([load(scene)[0]], db)  # the file's own run alone (300 K): 2 x 0.38 MB
+
+
 def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_path, monkeypatch):
     """gaz sweep rods.toml --vary temperature=100,200 --workers 100000 started a LocalCluster of
     as many worker processes as runs, whatever the cores (100,000 runs: 100,000 processes). Now
