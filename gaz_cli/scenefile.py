@@ -384,4 +384,51 @@ def stored(db: str, si_num: int) -> str:
     if not isinstance(text, str) or not text:
         raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
                          "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
-    return text
+    return without_builtin_clash(text)
+
+
+def without_builtin_clash(text: str) -> str:
+    """A stored scene file that runs today: ``text`` itself, unless a custom species of it bears a
+    built-in name with other values (stored by a gaz older than that check,
+    :func:`gaz_cli.scene.check_builtin_clash`, which now refuses the file): then the file with
+    that species renamed NAME-custom (NAME-custom2... if taken), said in its heading comment
+    and in a :class:`~gaz_cli.errors.GazWarning`. The run is the same (a name moves nothing):
+    the same seed gives the same rows, its PARTICULE row named anew."""
+    import warnings
+
+    from gaz_cli.errors import GazWarning
+    from gaz_cli.species import builtin_named
+
+    try:
+        doc = parse(text)
+    except SceneError:
+        return text
+    tables = doc.get("species")
+    if not isinstance(tables, list):
+        return text
+    names = {str(t.get("name")) for t in tables if isinstance(t, dict)}
+    renamed = []
+    for t in tables:
+        if not (isinstance(t, dict) and isinstance(t.get("name"), str) and _type_ok(REAL, t.get("mass"))
+                and _type_ok(REAL, t.get("radius"))):
+            continue
+        builtin = builtin_named(t["name"])
+        if builtin is None or (math.isclose(t["mass"], builtin.mass, rel_tol=1e-12, abs_tol=0)
+                               and math.isclose(t["radius"], builtin.radius, rel_tol=1e-12, abs_tol=0)):
+            continue
+        new = next(f"{t['name']}-custom{k if k > 1 else ''}" for k in range(1, len(names) + 2)
+                   if f"{t['name']}-custom{k if k > 1 else ''}" not in names)
+        names.add(new)
+        renamed.append(f"species {t['name']!r} (mass {t['mass']:g} kg, radius {t['radius']:g} m) renamed {new!r}")
+        t["name"] = new
+    if not renamed:
+        return text
+    try:
+        scene, outputs = build(doc)
+    except SceneError:  # refused for another reason too: the file as stored, and its own refusal
+        return text
+    said = "; ".join(renamed)
+    warnings.warn(f"{said}: a custom species may no longer bear a built-in name (the run is the same)",
+                  GazWarning, stacklevel=2)
+    return dumps(scene, outputs, comment=f"gaz scene file (docs/scenes.md)\n{said}: stored by an older gaz "
+                                         "under a built-in name, which a custom species may no longer bear")
