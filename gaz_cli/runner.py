@@ -129,10 +129,18 @@ class Diagnostics(Recorder):
 
 
 def _check_writable(path: str | None, option: str) -> None:
+    """Refuse, before the database is opened, an output file that cannot be written: its folder
+    missing, or the path an existing folder (the command line's flags check that too; a scene
+    file's [output] and the Python API come here)."""
     if path:
-        parent = Path(path).expanduser().resolve().parent
+        where = Path(path).expanduser()
+        parent = where.resolve().parent
         if not parent.is_dir():
-            raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
+            raise SceneError(f"{option} {str(path)!r}: folder {str(parent)!r} does not exist")
+        if where.is_dir():
+            example = {"--save-state": "state.csv", "--trajectory": "run.h5"}.get(option, "scene.toml")
+            raise SceneError(f"{option} {str(path)!r} is a folder, not a file; give a file path "
+                             f"(e.g. {str(Path(path) / example)!r})")
 
 
 def sqlite_file(db: str | None) -> str | None:

@@ -217,6 +217,30 @@ def test_a_refused_placement_creates_no_database(tmp_path):
     assert db.read_bytes() == before and leftovers(tmp_path, {"gaz.db"}) == []
 
 
+@pytest.mark.parametrize("key, option", [("save_state", "--save-state"), ("trajectory", "--trajectory")])
+def test_an_output_that_is_a_folder_is_refused_before_the_database(tmp_path, key, option):
+    """A scene file's [output] save_state (or trajectory) naming a folder: the run created its
+    database, ran (save_state: the whole simulation), then failed, 'cannot write --save-state
+    'out.h5': Is a directory', exit 1, with gaz.db left behind; gaz.simulate(..., save_state=)
+    the same. (The command line's flags refuse a folder themselves.) Now one line before the
+    database: nothing created."""
+    import gaz_cli as gaz
+
+    (tmp_path / "out.h5").mkdir()
+    scene = tmp_path / "s.toml"
+    every = "every = 1e-12\n" if key == "trajectory" else ""
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\n'
+                     f'count = 5\n[output]\ndb = "{tmp_path / "gaz.db"}"\n{key} = "{tmp_path / "out.h5"}"\n{every}')
+    res = invoke(["simulate", str(scene)])
+    assert res.exit_code == 1 and res.stdout == "" and res.stderr.count("\n") == 1, res.output
+    assert f"{option} '{tmp_path / 'out.h5'}' is a folder, not a file; give a file path" in res.stderr, res.stderr
+    assert leftovers(tmp_path, {"out.h5", "s.toml"}) == []
+    extra = {"every": 1e-12} if key == "trajectory" else {}
+    with pytest.raises(gaz.SceneError, match="is a folder, not a file"):
+        gaz.simulate(gaz.load_scene(scene), db=str(tmp_path / "gaz.db"), **{key: str(tmp_path / "out.h5")}, **extra)
+    assert leftovers(tmp_path, {"out.h5", "s.toml"}) == []
+
+
 @pytest.mark.parametrize("url", [False, True])
 def test_another_applications_sqlite_file_is_refused_untouched(tmp_path, url):
     """A SQLite file holding other tables and none of gaz's got gaz's nine tables added beside
