@@ -895,6 +895,10 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
         known = ", ".join(sorted(FORMATS))
         raise field_error(f"`trajectory` {str(trajectory)!r}: unknown extension {suffix!r}; "
                           f"use one of {known} (.h5: HDF5/H5MD, .gsd: HOOMD, .pvd: VTK for ParaView)")
+    if FORMATS[suffix] == "gsd":
+        from gaz_cli.trajectory import gsd_hoomd_module
+
+        gsd_hoomd_module()  # the optional gsd package, asked for before any database is created
     if scene.engine == "reference":
         raise field_error("`engine` reference (the exam's algorithm) writes no trajectory; "
                           "use `engine` event with `trajectory`")

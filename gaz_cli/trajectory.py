@@ -316,7 +316,7 @@ class GSDWriter(TrajectoryWriter):
 
     def __init__(self, path: Path, every: float, scene: Scene):
         super().__init__(path, every, scene)
-        gsd_hoomd = _gsd()
+        gsd_hoomd = gsd_hoomd_module()
         try:
             self.file = gsd_hoomd.open(name=str(self.path), mode="w")
         except OSError as err:
@@ -390,7 +390,7 @@ class GSDWriter(TrajectoryWriter):
             pass
 
 
-def _gsd():
+def gsd_hoomd_module():
     """The gsd package's ``gsd.hoomd``, or one OutputError line naming the extra to install."""
     try:
         import gsd.hoomd
@@ -562,7 +562,7 @@ def read_h5md(path: str | os.PathLike) -> dict:
 
 def read_gsd(path: str | os.PathLike) -> dict:
     """Read a GSD trajectory written by :class:`GSDWriter` (see :func:`read_trajectory`)."""
-    gsd_hoomd = _gsd()
+    gsd_hoomd = gsd_hoomd_module()
     try:
         f = gsd_hoomd.open(name=str(path), mode="r")
     except (OSError, RuntimeError, ValueError) as err:

@@ -351,6 +351,29 @@ def test_missing_gsd_names_the_extra(tmp_path, monkeypatch):
         open_trajectory(tmp_path / "run.gsd", 0.05, small_scene())
 
 
+def test_missing_gsd_is_refused_before_the_database_is_created(tmp_path, monkeypatch):
+    """gaz simulate ... --db new.db --trajectory t.gsd without the gsd package created new.db,
+    placed the particles, then said 'GSD trajectories (.gsd) need the gsd package', exit 1: an
+    empty gaz database left. Now the same line comes from the door (check_outputs), before it."""
+    import builtins
+
+    from cli_helpers import invoke
+
+    real = builtins.__import__
+
+    def no_gsd(name, *args, **kw):
+        if name.startswith("gsd"):
+            raise ImportError(name)
+        return real(name, *args, **kw)
+
+    monkeypatch.setattr(builtins, "__import__", no_gsd)
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(tmp_path / "new.db"), "--trajectory", str(tmp_path / "t.gsd"), "--every", "1e-12"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert "GSD trajectories (.gsd) need the gsd package: pip install 'gaz[gsd]'" in res.stderr, res.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_more_than_max_snapshots_is_refused_naming_the_fix(tmp_path):
     sc = small_scene()  # duration 0.1 s
     out = tmp_path / "run.h5"
