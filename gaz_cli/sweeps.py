@@ -295,7 +295,10 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.scene import check_database_space
     from gaz_cli.store import Store
 
+    from gaz_cli.sqlite_writer import database_name
+
     check_workers(workers)
+    db = database_name(db)  # a pathlib.Path as its text
     key = key or key_of
     report = Report(db=db)
     built = []

@@ -152,6 +152,15 @@ def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
     assert report.count("stored") == 2
 
 
+def test_a_database_given_as_a_pathlib_path_is_used(tmp_path, cluster):
+    """gaz.sweep(..., db=pathlib.Path) raised TypeError "argument of type 'PosixPath' is not
+    iterable" (the disk check's look at the SQLite file); gaz.simulate takes a Path."""
+    db = tmp_path / "s.db"
+    report = sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, db, scheduler=cluster, progress=False)
+    assert [r[1] for r in report.rows] == ["stored"] and report.db == str(db)
+    assert len(_rows(str(db), report.rows[0][2])) > 0
+
+
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
     with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
