@@ -53,12 +53,16 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def check_workers(workers) -> None:
+def check_workers(workers, scheduler: str | None = None) -> None:
     """Raise SceneError unless ``workers`` (``--workers``) is None or a whole number from 1 to
     :func:`cores`: each worker is a process running one simulation at a time, so more than the
-    cores only share them (and a huge count would start that many processes)."""
+    cores only share them (and a huge count would start that many processes). With a
+    ``scheduler`` it would be ignored (that cluster's workers run the sweep): refused too."""
     if workers is None:
         return
+    if scheduler:
+        raise SceneError(f"--workers {workers!r} sizes the local cluster, and --scheduler {scheduler!r} runs the "
+                         "sweep on its own cluster's workers: drop --workers (or --scheduler, to run here)")
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise SceneError(f"--workers {workers!r} must be a whole number from 1 to the {cores()} cores of "
                          "this machine (or leave it out: one worker per core)")
@@ -297,7 +301,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
 
     from gaz_cli.sqlite_writer import database_name
 
-    check_workers(workers)
+    check_workers(workers, scheduler)
     db = database_name(db)  # a pathlib.Path as its text
     key = key or key_of
     report = Report(db=db)

@@ -356,6 +356,22 @@ def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_
     sweep.check_workers(None)
 
 
+def test_workers_with_a_scheduler_is_refused_in_one_line(tmp_path):
+    """gaz sweep FILE --vary ... --scheduler tcp://host:8786 --workers 1 ran on the scheduler's
+    cluster, all its workers, and ignored --workers without a word. Now one line saying which
+    to drop, before any database or cluster."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--workers", "1", "--scheduler",
+                  "tcp://127.0.0.1:9", "--db", str(db), "--quiet"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert ("--workers 1 sizes the local cluster, and --scheduler 'tcp://127.0.0.1:9' runs the sweep on its own "
+            "cluster's workers: drop --workers") in res.stderr, res.stderr
+    assert not db.exists()
+
+
 @pytest.mark.parametrize("vary, wrong", [("temperature=-5,abc", "'abc'"), ("temperature=abc,300", "'abc'"),
                                          ("count=10,2x0", "'2x0'")])
 def test_a_value_not_a_number_is_named_itself(tmp_path, vary, wrong):
