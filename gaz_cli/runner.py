@@ -18,6 +18,7 @@ keeps the snapshots written so far, and the
 from __future__ import annotations
 
 import contextlib
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -156,21 +157,37 @@ def sqlite_file(db: str | None) -> str | None:
 
 def _check_distinct(db: str | None, outputs: dict) -> None:
     """No two of a run's files the same: an output written over the SQLite database (or over
-    another output) would destroy it. ``outputs``: option -> path (None when not given)."""
+    another output) would destroy it. ``outputs``: option -> path (None when not given). A VTK
+    trajectory (.pvd or .vtu) writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it:
+    each of those counts (--db run.pvd with --trajectory run.vtu lost the database to the
+    collection written over it)."""
     taken = []
     path = sqlite_file(db)
     if path:
-        taken.append(("--db", db, Path(path).expanduser().resolve()))
+        taken.append(("--db", db, *_written(path, "--db")))
     for option, path in outputs.items():
         if not path:
             continue
-        resolved = Path(path).expanduser().resolve()
-        for other, given, where in taken:
-            if resolved == where:
+        resolved, writes = _written(path, option)
+        for other, given, where, wrote in taken:
+            if writes(where) or wrote(resolved):
                 what = "the database" if other == "--db" else f"the {other} file"
-                raise SceneError(f"{option} {path!r} is also {other} {given!r}: writing it would destroy "
-                                 f"{what}; give {option} another file")
-        taken.append((option, path, resolved))
+                vtk = ("" if where == resolved else
+                       " (a VTK trajectory writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it)")
+                raise SceneError(f"{option} {str(path)!r} is also {other} {str(given)!r}{vtk}: writing it would "
+                                 f"destroy {what}; give {option} another file")
+        taken.append((option, path, resolved, writes))
+
+
+def _written(path, option: str):
+    """(the resolved path, a test of whether the output ``option`` writes a given resolved path)."""
+    resolved = Path(path).expanduser().resolve()
+    if option != "--trajectory" or resolved.suffix.lower() not in (".pvd", ".vtu"):
+        return resolved, lambda p: p == resolved
+    collection = resolved.with_suffix(".pvd")
+    snapshot = re.compile(re.escape(resolved.stem) + r"_\d{5,}\.vtu")
+    return resolved, lambda p: p in (resolved, collection) or (p.parent == resolved.parent
+                                                               and snapshot.fullmatch(p.name) is not None)
 
 
 @dataclass

@@ -241,6 +241,27 @@ def test_an_output_that_is_a_folder_is_refused_before_the_database(tmp_path, key
     assert leftovers(tmp_path, {"out.h5", "s.toml"}) == []
 
 
+@pytest.mark.parametrize("db, trajectory", [("run.pvd", "run.vtu"), ("run_00001.vtu", "run.pvd"),
+                                             ("run_00001.vtu", "run.vtu")])
+def test_a_vtk_trajectory_whose_files_would_overwrite_the_database_is_refused(tmp_path, db, trajectory):
+    """--db run.pvd --trajectory run.vtu: the run's collection run.pvd was written over the
+    database, exit 1 ('database disk image is malformed'), the database lost; --db run_00001.vtu
+    was lost to a snapshot the same way. Only the paths themselves were compared. Now one line
+    naming the files a VTK trajectory writes; the database byte for byte."""
+    db = tmp_path / db
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    before = db.read_bytes()
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(db), "--trajectory", str(tmp_path / trajectory), "--every", "5e-12"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert (f"--trajectory '{tmp_path / trajectory}' is also --db '{db}' (a VTK trajectory writes STEM.pvd and "
+            "STEM_00000.vtu, STEM_00001.vtu... beside it): writing it would destroy the database") in res.stderr
+    assert db.read_bytes() == before and leftovers(tmp_path, {db.name}) == []
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(db), "--trajectory", str(tmp_path / "other.pvd"), "--every", "5e-12"])
+    assert res.exit_code == 0, res.output  # another stem: no clash
+
+
 @pytest.mark.parametrize("url", [False, True])
 def test_another_applications_sqlite_file_is_refused_untouched(tmp_path, url):
     """A SQLite file holding other tables and none of gaz's got gaz's nine tables added beside
