@@ -60,8 +60,9 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
     data velocity, species, radius; use a Glyph filter scaled by radius to see
     the disks) and a ``STEM.pvd`` collection that gives ParaView the times (and
     gaz the dimension and the box, in a comment). Open the .pvd. Writing over an earlier
-    .pvd first deletes it and the .vtu files it lists (those only, and only plain names
-    beside it), so that no snapshot of the earlier run is left among the new ones.
+    .pvd first deletes it and the snapshots it lists that gaz would have written there
+    (STEM_NNNNN.vtu beside it; not another .vtu it names), so that no snapshot of the
+    earlier run is left among the new ones.
 """
 
 from __future__ import annotations
@@ -420,9 +421,13 @@ class VTKWriter(TrajectoryWriter):
     def _remove_earlier(self) -> None:
         """Delete the collection written over and the snapshots it lists (module docstring):
         a run with fewer snapshots would otherwise leave the earlier run's last ones beside it.
-        Only .vtu files named plainly (no folder) in the collection; nothing for a file that
-        is not a readable collection."""
+        Only the names this writer gives its snapshots (STEM_NNNNN.vtu, no folder): a .vtu of
+        the user's that a collection made elsewhere lists stays. Nothing for a file that is not
+        a readable collection."""
+        import re
         import xml.etree.ElementTree as ET
+
+        ours = re.compile(re.escape(self.stem.name) + r"_\d{5,}\.vtu")
 
         if not self.pvd.is_file():
             return
@@ -431,7 +436,7 @@ class VTKWriter(TrajectoryWriter):
         except (OSError, ET.ParseError):
             return
         for name in names:
-            if Path(name).name == name and name.lower().endswith(".vtu"):
+            if ours.fullmatch(name):
                 try:
                     (self.pvd.parent / name).unlink(missing_ok=True)
                 except OSError as err:

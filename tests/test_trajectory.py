@@ -103,7 +103,7 @@ def test_a_pvd_written_over_leaves_none_of_the_earlier_snapshots(tmp_path):
     """gaz simulate ... --trajectory out.pvd over an earlier run with more snapshots left that
     run's last .vtu files beside the new ones (a glob of the folder mixed them in). Now the
     earlier collection's own snapshots go, and nothing else: not a .vtu it does not list, not
-    one it names outside its folder."""
+    one it names outside its folder, not one named otherwise than gaz names its snapshots."""
     sc = small_scene(dim=2)
     outside = tmp_path / "outside.vtu"
     outside.write_text("not gaz's")
@@ -114,15 +114,18 @@ def test_a_pvd_written_over_leaves_none_of_the_earlier_snapshots(tmp_path):
         for t, x, v in snapshots(sc, count=5):
             w.add_snapshot(t, x, v)
     pvd = tmp_path / "sub" / "run.pvd"
-    pvd.write_text(pvd.read_text().replace("</Collection>",
-                                           '<DataSet timestep="1" file="../outside.vtu"/></Collection>'))
+    mine = tmp_path / "sub" / "mine.vtu"  # a mesh of the user's, which a collection made elsewhere lists
+    mine.write_text("the user's")
+    pvd.write_text(pvd.read_text().replace("</Collection>", '<DataSet timestep="1" file="../outside.vtu"/>'
+                                           '<DataSet timestep="2" file="mine.vtu"/></Collection>'))
     snaps = snapshots(sc, count=2, seed=1)
     with open_trajectory(pvd, 0.05, sc) as w:
         for t, x, v in snaps:
             w.add_snapshot(t, x, v)
     assert sorted(p.name for p in (tmp_path / "sub").iterdir()) == \
-        ["run.pvd", "run_00000.vtu", "run_00001.vtu", "run_00009.vtu"]
+        ["mine.vtu", "run.pvd", "run_00000.vtu", "run_00001.vtu", "run_00009.vtu"]
     assert outside.read_text() == "not gaz's" and unrelated.read_text() == "not listed"
+    assert mine.read_text() == "the user's"
     data = read_trajectory(pvd)
     np.testing.assert_array_equal(data["positions"][1], snaps[1][1])
 
