@@ -18,6 +18,7 @@ keeps the snapshots written so far, and the
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -133,6 +134,8 @@ def _check_writable(path: str | None, option: str) -> None:
     """Refuse, before the database is opened, an output file that cannot be written: its folder
     missing, or the path an existing folder (the command line's flags check that too; a scene
     file's [output] and the Python API come here)."""
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise SceneError(f"{option} {path!r} is not a file path; give a path (text or pathlib.Path), or None")
     if path:
         where = Path(path).expanduser()
         parent = where.resolve().parent

@@ -81,6 +81,25 @@ def test_every_exception_of_the_library_is_at_the_top_level(tmp_path):
         gaz.open_store(tmp_path / "none.db")
 
 
+@pytest.mark.parametrize("key", ["trajectory", "save_state", "write_scene"])
+def test_an_output_path_of_another_type_is_refused_in_one_line(tmp_path, key):
+    """gaz.simulate(scene, save_state=5) (or trajectory=5, write_scene=5) raised TypeError
+    'expected str, bytes or os.PathLike object, not int' from pathlib; a database given the
+    same way was already one line. Now a SceneError naming the option, before anything runs;
+    a pathlib.Path is taken."""
+    import gaz_cli as gaz
+
+    scene = gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-11, seed=1)
+    every = {"every": 5e-12} if key == "trajectory" else {}
+    option = "--" + key.replace("_", "-")
+    with pytest.raises(gaz.SceneError, match=rf"^{option} 5 is not a file path; give a path"):
+        gaz.simulate(scene, db=str(tmp_path / "g.db"), **{key: 5}, **every)
+    assert list(tmp_path.iterdir()) == []
+    name = {"trajectory": "t.h5", "save_state": "s.csv", "write_scene": "s.toml"}[key]
+    gaz.simulate(scene, **{key: tmp_path / name}, **every)
+    assert (tmp_path / name).is_file()
+
+
 @pytest.mark.parametrize("given", [{"dim": 2}, "scene.toml", None])
 def test_writing_something_else_than_a_scene_says_what_is_expected(tmp_path, given):
     """gaz.scene_text({'dim': 2}) and gaz.write_scene(path, 'hello') raised AttributeError "'dict'
