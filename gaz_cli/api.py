@@ -100,9 +100,15 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     """Run a sweep (``gaz sweep``): the scene file with each ``vary`` (``"KEY=V1,V2"`` or
     ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``
     (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
-    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed)."""
+    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed).
+    One ``vary`` may be given as a string."""
     from gaz_cli import scenefile, sweeps
 
+    if isinstance(vary, str):
+        vary = [vary]
+    if not (isinstance(vary, (list, tuple)) and all(isinstance(v, str) for v in vary)):
+        raise SceneError(f"vary {vary!r} is not a list of 'KEY=V1,V2' or 'KEY=START:STOP:COUNT' strings "
+                         "(e.g. ['packing=0.1:0.6:6'])")
     varies = [sweeps.parse_vary(v) for v in vary]
     scene_of, base_seed, outputs = sweeps.scenes_of_file(scene_file, [k for k, _ in varies])
     points = sweeps.plan(varies, seeds, base_seed)

@@ -168,8 +168,8 @@ class Point:
 
 def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = None) -> list[Point]:
     """The sweep's points: the cartesian product of ``varies`` times ``seeds`` seeds."""
-    if seeds < 1:
-        raise SceneError(f"--seeds {seeds}: give at least 1")
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise SceneError(f"--seeds {seeds!r}: give a whole number, at least 1")
     keys = [k for k, _ in varies]
     repeated = sorted({k for k in keys if keys.count(k) > 1})
     if repeated:

@@ -356,6 +356,33 @@ def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_
     sweep.check_workers(None)
 
 
+def test_gaz_sweep_takes_one_vary_as_a_string_and_refuses_seeds_of_another_type(tmp_path, monkeypatch):
+    """gaz.sweep(FILE, 'temperature=100,200') iterated the string's characters: "--vary 't': write
+    KEY=V1,V2,..."; seeds='3' raised TypeError "'<' not supported between instances of 'str' and
+    'int'", seeds=2.5 made a range() of a float. Now one string is one vary, and seeds is a
+    whole number or one line; nothing runs."""
+    import gaz_cli as gaz
+
+    planned = []
+
+    def no_run(points, *args, **kw):  # the plan is what is tested: no cluster, no database
+        planned.extend(points)
+        return sweep.Report()
+
+    monkeypatch.setattr(sweep, "run", no_run)
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    gaz.sweep(scene, "temperature=100,200", seeds=2, db=str(tmp_path / "r.db"))
+    assert [p.label for p in planned] == ["temperature=100 seed=5", "temperature=100 seed=6",
+                                          "temperature=200 seed=5", "temperature=200 seed=6"]
+    for seeds in ("3", 2.5, True, 0):
+        with pytest.raises(SceneError, match=rf"^--seeds {seeds!r}: give a whole number, at least 1$"):
+            gaz.sweep(scene, ["temperature=100"], seeds=seeds, db=str(tmp_path / "r.db"))
+    with pytest.raises(SceneError, match=r"^vary 5 is not a list of 'KEY=V1,V2'"):
+        gaz.sweep(scene, 5, db=str(tmp_path / "r.db"))
+    assert not (tmp_path / "r.db").exists()
+
+
 def test_workers_with_a_scheduler_is_refused_in_one_line(tmp_path):
     """gaz sweep FILE --vary ... --scheduler tcp://host:8786 --workers 1 ran on the scheduler's
     cluster, all its workers, and ignored --workers without a word. Now one line saying which
