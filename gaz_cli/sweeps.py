@@ -234,6 +234,15 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     outputs = doc.get("output")
     if outputs is not None:
         scenefile.check({"output": outputs}, where)  # its db must be a path before the store opens it
+        ignored = [k for k in outputs if k != "db"]
+        if ignored:
+            import warnings
+
+            from gaz_cli.errors import GazWarning
+
+            warnings.warn(f"{where}[output] {', '.join(ignored)} not written by a sweep (its runs would write "
+                          "over each other's files); only [output] db is used: run one point with gaz simulate "
+                          "for its files", GazWarning, stacklevel=2)
     return (scene_of, seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
             dict(outputs or {}))
 

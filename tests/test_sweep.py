@@ -383,6 +383,32 @@ def test_gaz_sweep_takes_one_vary_as_a_string_and_refuses_seeds_of_another_type(
     assert not (tmp_path / "r.db").exists()
 
 
+def test_a_scene_files_outputs_other_than_db_are_said_to_be_ignored_by_a_sweep(tmp_path, monkeypatch):
+    """A scene file with [output] trajectory, every and save_state, swept: the runs were stored
+    and no file written, nothing said. Now one warning line naming them (the runs would write
+    over each other's files) and what to do; the sweep goes on into [output] db."""
+    from cli_helpers import invoke
+
+    seen = []
+
+    def no_run(points, scene_of, key, db, **kw):
+        seen.append(db)
+        return sweep.Report(db=db)
+
+    monkeypatch.setattr(sweep, "run", no_run)
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS + f'[output]\ndb = "{tmp_path / "r.db"}"\ntrajectory = "{tmp_path / "t.h5"}"\n'
+                            f'every = 1e-12\nsave_state = "{tmp_path / "s.csv"}"\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--quiet"])
+    assert res.exit_code == 0 and seen == [str(tmp_path / "r.db")], res.output
+    assert res.stderr.splitlines()[0] == (
+        f"gaz: warning: {scene}: [output] trajectory, every, save_state not written by a sweep (its runs would "
+        "write over each other's files); only [output] db is used: run one point with gaz simulate for its files")
+    scene.write_text(RODS + f'[output]\ndb = "{tmp_path / "r.db"}"\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--quiet"])
+    assert res.exit_code == 0 and "warning" not in res.stderr, res.stderr
+
+
 def test_workers_with_a_scheduler_is_refused_in_one_line(tmp_path):
     """gaz sweep FILE --vary ... --scheduler tcp://host:8786 --workers 1 ran on the scheduler's
     cluster, all its workers, and ignored --workers without a word. Now one line saying which
