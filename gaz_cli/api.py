@@ -53,13 +53,25 @@ def load_scene(path) -> Scene:
 
 
 def write_scene(path, scene: Scene) -> None:
-    """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly."""
+    """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
+    the door refuses (:func:`gaz_cli.scene.validate`, SceneError) is not written."""
+    _checked(scene, path)
     scenefile.write(path, scene)
 
 
 def scene_text(scene: Scene) -> str:
-    """The scene file of ``scene``, as text."""
+    """The scene file of ``scene``, as text (a scene the door refuses: SceneError)."""
+    _checked(scene)
     return scenefile.dumps(scene)
+
+
+def _checked(scene, path=None) -> None:
+    """Refuse what :func:`load_scene` would refuse of the file: no Scene, or an invalid one
+    (a Scene made by hand, not through :func:`make_scene`)."""
+    from gaz_cli.scene import validate
+
+    scenefile.require_scene(scene, path)
+    validate(scene)
 
 
 def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,

@@ -331,7 +331,7 @@ def _value(v) -> str:
     raise TypeError(f"cannot write {v!r} in a scene file")
 
 
-def _a_scene(scene, path=None) -> None:
+def require_scene(scene, path=None) -> None:
     """Raise SceneError (a ValueError) naming what was expected when ``scene`` is no Scene
     (the Python API's write_scene and scene_text; the command line always hands one)."""
     if isinstance(scene, Scene):
@@ -345,7 +345,7 @@ def _a_scene(scene, path=None) -> None:
 
 def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None) -> str:
     """The scene file of ``scene`` (and its outputs), units in comments."""
-    _a_scene(scene)
+    require_scene(scene)
     doc = to_doc(scene, outputs)
     lines = [f"# {line}" for line in (comment or "gaz scene file (docs/scenes.md)").splitlines()]
     lines.append(f"# packing fraction {scene.packing_fraction:.6g}, {scene.n} particles")
@@ -365,7 +365,7 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
 
 def write(path, scene: Scene, outputs: dict | None = None) -> None:
     """Write the scene file of ``scene`` to ``path``; SceneError if it cannot be written."""
-    _a_scene(scene, path)
+    require_scene(scene, path)
     try:
         Path(path).write_text(dumps(scene, outputs), encoding="utf-8")
     except OSError as err:

@@ -100,6 +100,26 @@ def test_an_output_path_of_another_type_is_refused_in_one_line(tmp_path, key):
     assert (tmp_path / name).is_file()
 
 
+def test_a_scene_the_door_refuses_is_not_written(tmp_path):
+    """gaz.write_scene(path, gaz.Scene(..., duration=-1.0)) (a Scene made by hand) wrote a file
+    that gaz.load_scene then refused, 'duration must be a positive number, got -1.0'; its
+    docstring promises a file that reads back. Now the same SceneError, and no file; a valid
+    scene made by hand is written and reads back."""
+    import gaz_cli as gaz
+    from gaz_cli.species import BUILTIN
+
+    bad = gaz.Scene(dim=2, length=1e-7, duration=-1.0, components=((BUILTIN["Ar"], 5),), seed=1)
+    with pytest.raises(gaz.SceneError, match="duration must be a positive number, got -1.0"):
+        gaz.write_scene(tmp_path / "s.toml", bad)
+    with pytest.raises(gaz.SceneError, match="duration must be a positive number, got -1.0"):
+        gaz.scene_text(bad)
+    assert list(tmp_path.iterdir()) == []
+    good = gaz.Scene(dim=2, length=1e-7, duration=1e-11, components=((BUILTIN["Ar"], 5),), seed=1)
+    gaz.write_scene(tmp_path / "s.toml", good)
+    assert gaz.load_scene(tmp_path / "s.toml") == gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7,
+                                                                 duration=1e-11, seed=1)
+
+
 @pytest.mark.parametrize("given", [{"dim": 2}, "scene.toml", None])
 def test_writing_something_else_than_a_scene_says_what_is_expected(tmp_path, given):
     """gaz.scene_text({'dim': 2}) and gaz.write_scene(path, 'hello') raised AttributeError "'dict'
