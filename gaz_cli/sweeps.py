@@ -299,7 +299,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
     ``key(scene)`` is the text by which a run already stored is recognised among
     SCENE.SC_FILE's (default :func:`key_of`, the scene file itself). ``workers``: LocalCluster size (default the
-    core count, :func:`cores`; more is refused, :func:`check_workers`); ``scheduler``: address of an existing Dask scheduler instead.
+    core count, :func:`cores`; more is refused, :func:`check_workers`); ``scheduler``: address of an
+    existing Dask scheduler instead.
     ``progress``: a progress bar on stderr (default: when stderr is a terminal).
     Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
     was stored.
@@ -337,7 +338,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         return report
     if path is not None:  # the runs to do, one after the other, on the database's disk
         try:
-            check_database_space([scene for _, scene in todo], path, fix="vary fewer values or seeds, shorten `duration`")
+            check_database_space([scene for _, scene in todo], path,
+                                 fix="vary fewer values or seeds, shorten `duration`")
         except SceneError as err:
             raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
     with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
