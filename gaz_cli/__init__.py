@@ -2,8 +2,11 @@
 
 The Python API (README "From Python"): :func:`make_scene`, :func:`load_scene`,
 :func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, :func:`sweep`,
-:func:`versus`, and the types
-:class:`Scene`, :class:`Species`, :class:`State`. They load on first use (PEP 562), so
+:func:`versus`, the types
+:class:`Scene`, :class:`Species`, :class:`State`, :class:`Run`, and the exceptions of
+:mod:`gaz_cli.errors` (:class:`GazError`, the base of :class:`SceneError`,
+:class:`StoreError`, :class:`PlacementError`, :class:`OutputError`, :class:`EngineError`,
+:class:`QueryError`; :class:`Interrupted`; the warning :class:`GazWarning`). They load on first use (PEP 562), so
 ``import gaz_cli`` itself imports nothing heavy (no numpy, pandas, SQLAlchemy, matplotlib).
 """
 
@@ -13,7 +16,9 @@ _LAZY = {
     "make_scene": "gaz_cli.api", "load_scene": "gaz_cli.api", "write_scene": "gaz_cli.api",
     "scene_text": "gaz_cli.api", "simulate": "gaz_cli.api", "open_store": "gaz_cli.api",
     "analyse": "gaz_cli.api", "sweep": "gaz_cli.api", "versus": "gaz_cli.api", "Run": "gaz_cli.runner", "Scene": "gaz_cli.scene", "State": "gaz_cli.scene",
-    "Species": "gaz_cli.species", "GazError": "gaz_cli.errors", "SceneError": "gaz_cli.errors",
+    "Species": "gaz_cli.species",
+    **{name: "gaz_cli.errors" for name in ("GazError", "SceneError", "StoreError", "PlacementError", "OutputError",
+                                           "EngineError", "QueryError", "Interrupted", "GazWarning")},
 }
 __all__ = ["__version__", *_LAZY]
 

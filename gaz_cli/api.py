@@ -53,13 +53,25 @@ def load_scene(path) -> Scene:
 
 
 def write_scene(path, scene: Scene) -> None:
-    """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly."""
+    """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
+    the door refuses (:func:`gaz_cli.scene.validate`, SceneError) is not written."""
+    _checked(scene, path)
     scenefile.write(path, scene)
 
 
 def scene_text(scene: Scene) -> str:
-    """The scene file of ``scene``, as text."""
+    """The scene file of ``scene``, as text (a scene the door refuses: SceneError)."""
+    _checked(scene)
     return scenefile.dumps(scene)
+
+
+def _checked(scene, path=None) -> None:
+    """Refuse what :func:`load_scene` would refuse of the file: no Scene, or an invalid one
+    (a Scene made by hand, not through :func:`make_scene`)."""
+    from gaz_cli.scene import validate
+
+    scenefile.require_scene(scene, path)
+    validate(scene)
 
 
 def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,
@@ -100,9 +112,15 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     """Run a sweep (``gaz sweep``): the scene file with each ``vary`` (``"KEY=V1,V2"`` or
     ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``
     (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
-    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed)."""
+    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed).
+    One ``vary`` may be given as a string."""
     from gaz_cli import scenefile, sweeps
 
+    if isinstance(vary, str):
+        vary = [vary]
+    if not (isinstance(vary, (list, tuple)) and all(isinstance(v, str) for v in vary)):
+        raise SceneError(f"vary {vary!r} is not a list of 'KEY=V1,V2' or 'KEY=START:STOP:COUNT' strings "
+                         "(e.g. ['packing=0.1:0.6:6'])")
     varies = [sweeps.parse_vary(v) for v in vary]
     scene_of, base_seed, outputs = sweeps.scenes_of_file(scene_file, [k for k, _ in varies])
     points = sweeps.plan(varies, seeds, base_seed)

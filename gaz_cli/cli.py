@@ -416,7 +416,8 @@ def analyse(db, sim, fmt, plot, table, vs):
 @click.option("--seeds", type=click.IntRange(1), default=1, show_default=True,
               help="Runs per point, seeds from the file's seed on (1 if it has none).")
 @click.option("--workers", type=click.IntRange(1), default=None,
-              help="Worker processes of the local Dask cluster.  [default: the core count]")
+              help="Worker processes of the local Dask cluster, at most the core count.  "
+                   "[default: the core count]")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing Dask cluster (e.g. tcp://host:8786) instead of a local one.")
 @db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")

@@ -1,10 +1,11 @@
 """One simulation from scene to database: the driver behind ``gaz simulate``.
 
-Order of operations: validate the scene and fix its seed; open the store
-(its schema checked, created or migrated: a database that cannot take the
-run fails here, before any simulation); place the particles and draw their
-velocities (:func:`gaz_cli.scene.initial_state`, independent of the
-engine); let the engine stream its events into the run's writer (staged or
+Order of operations: validate the scene and fix its seed; place the particles
+and draw their velocities (:func:`gaz_cli.scene.initial_state`, independent of
+the engine: a placement that gives up is refused before any database is
+created or touched); open the store (its schema checked, created or migrated:
+a database that cannot take the run fails here, before any simulation); let
+the engine stream its events into the run's writer (staged or
 in an open transaction, see :mod:`gaz_cli.store`); then everything that can
 still fail -- the trajectory's last write, the final state file, the
 summary -- and only then the commit. A failure or an interrupt (SIGINT or
@@ -17,6 +18,8 @@ keeps the snapshots written so far, and the
 from __future__ import annotations
 
 import contextlib
+import os
+import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -128,10 +131,20 @@ class Diagnostics(Recorder):
 
 
 def _check_writable(path: str | None, option: str) -> None:
+    """Refuse, before the database is opened, an output file that cannot be written: its folder
+    missing, or the path an existing folder (the command line's flags check that too; a scene
+    file's [output] and the Python API come here)."""
+    if path is not None and not isinstance(path, (str, os.PathLike)):
+        raise SceneError(f"{option} {path!r} is not a file path; give a path (text or pathlib.Path), or None")
     if path:
-        parent = Path(path).expanduser().resolve().parent
+        where = Path(path).expanduser()
+        parent = where.resolve().parent
         if not parent.is_dir():
-            raise SceneError(f"{option} {path!r}: folder {str(parent)!r} does not exist")
+            raise SceneError(f"{option} {str(path)!r}: folder {str(parent)!r} does not exist")
+        if where.is_dir():
+            example = {"--save-state": "state.csv", "--trajectory": "run.h5"}.get(option, "scene.toml")
+            raise SceneError(f"{option} {str(path)!r} is a folder, not a file; give a file path "
+                             f"(e.g. {str(Path(path) / example)!r})")
 
 
 def sqlite_file(db: str | None) -> str | None:
@@ -147,21 +160,37 @@ def sqlite_file(db: str | None) -> str | None:
 
 def _check_distinct(db: str | None, outputs: dict) -> None:
     """No two of a run's files the same: an output written over the SQLite database (or over
-    another output) would destroy it. ``outputs``: option -> path (None when not given)."""
+    another output) would destroy it. ``outputs``: option -> path (None when not given). A VTK
+    trajectory (.pvd or .vtu) writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it:
+    each of those counts (--db run.pvd with --trajectory run.vtu lost the database to the
+    collection written over it)."""
     taken = []
     path = sqlite_file(db)
     if path:
-        taken.append(("--db", db, Path(path).expanduser().resolve()))
+        taken.append(("--db", db, *_written(path, "--db")))
     for option, path in outputs.items():
         if not path:
             continue
-        resolved = Path(path).expanduser().resolve()
-        for other, given, where in taken:
-            if resolved == where:
+        resolved, writes = _written(path, option)
+        for other, given, where, wrote in taken:
+            if writes(where) or wrote(resolved):
                 what = "the database" if other == "--db" else f"the {other} file"
-                raise SceneError(f"{option} {path!r} is also {other} {given!r}: writing it would destroy "
-                                 f"{what}; give {option} another file")
-        taken.append((option, path, resolved))
+                vtk = ("" if where == resolved else
+                       " (a VTK trajectory writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it)")
+                raise SceneError(f"{option} {str(path)!r} is also {other} {str(given)!r}{vtk}: writing it would "
+                                 f"destroy {what}; give {option} another file")
+        taken.append((option, path, resolved, writes))
+
+
+def _written(path, option: str):
+    """(the resolved path, a test of whether the output ``option`` writes a given resolved path)."""
+    resolved = Path(path).expanduser().resolve()
+    if option != "--trajectory" or resolved.suffix.lower() not in (".pvd", ".vtu"):
+        return resolved, lambda p: p == resolved
+    collection = resolved.with_suffix(".pvd")
+    snapshot = re.compile(re.escape(resolved.stem) + r"_\d{5,}\.vtu")
+    return resolved, lambda p: p in (resolved, collection) or (p.parent == resolved.parent
+                                                               and snapshot.fullmatch(p.name) is not None)
 
 
 @dataclass
@@ -228,7 +257,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
     check_outputs(scene, trajectory, every)
     if sqlite_file(db):
-        check_database_space(scene, sqlite_file(db))
+        check_database_space([scene], sqlite_file(db))
     if write_scene:
         from gaz_cli import scenefile
 
@@ -240,13 +269,15 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
+            if state is None:
+                # before the database: a placement refused ("random placement stuck...") never
+                # creates nor touches one
+                state = initial_state(scene)
             if db is not None:
                 # a SQLite file without SQLAlchemy's import when it can (gaz_cli.sqlite_writer)
                 from gaz_cli.sqlite_writer import open_for_writing
-                store = stack.enter_context(open_for_writing(db))  # refused or failing: before placing
+                store = stack.enter_context(open_for_writing(db))  # refused or failing: before the engine
                 writer = stack.enter_context(store.simulation(scene))
-            if state is None:
-                state = initial_state(scene)
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.trajectory import open_trajectory

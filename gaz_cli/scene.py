@@ -64,8 +64,13 @@ events x particles run without --force."""
 BYTES_PER_ROW = {"bounces": 47, "collisions": 53}
 """Growth of a SQLite database per recorded row, bytes: a REBOND row 46.6 (1,026,501 bounces
 of one argon rod, 1D, L = 3.6e-10 m: 45 kB -> 47.8 MB), a CHOC row 53.1 (798,800
-collisions, 2000 argon atoms, 3D periodic, packing 0.22: 45 kB -> 42.5 MB). While the rows
-are committed the staging file beside the database holds them too: the peak is higher."""
+collisions, 2000 argon atoms, 3D periodic, packing 0.22: 45 kB -> 42.5 MB). The disk holds
+more than that while a run commits: see :func:`database_peak`."""
+STAGED_BYTES_PER_ROW = {"bounces": 71, "collisions": 62}
+"""Size of a row in the scratch file a run of more than :data:`gaz_cli.staging.MEMORY_ROWS`
+rows stages beside the database until its commit, bytes: a REBOND row 70.7 (256,694 bounces,
+20 argon disks, L = 1e-7 m, 3e-6 s: 18.2 MB), a CHOC row 61.3 (67,187 collisions, 2000 argon
+atoms, 3D periodic, packing 0.2: 4.1 MB); staging.MEMORY_ROWS lowered to 1000 for both."""
 MAX_SNAPSHOTS = 10_000
 """Most trajectory snapshots written without `force` (a run of 10^6 particles at that
 is 0.5 TB of H5MD)."""
@@ -906,6 +911,10 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
         known = ", ".join(sorted(FORMATS))
         raise field_error(f"`trajectory` {str(trajectory)!r}: unknown extension {suffix!r}; "
                           f"use one of {known} (.h5: HDF5/H5MD, .gsd: HOOMD, .pvd: VTK for ParaView)")
+    if FORMATS[suffix] == "gsd":
+        from gaz_cli.trajectory import gsd_hoomd_module
+
+        gsd_hoomd_module()  # the optional gsd package, asked for before any database is created
     if scene.engine == "reference":
         raise field_error("`engine` reference (the exam's algorithm) writes no trajectory; "
                           "use `engine` event with `trajectory`")
@@ -937,30 +946,61 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
                          "free; raise `every` or free some space (or add `force`)")
 
 
-def check_database_space(scene: Scene, path) -> None:
-    """Refuse, unless ``scene.force``, a run whose rows (:func:`work_estimate`'s wall bounces,
-    and collisions with ``record`` all, times :data:`BYTES_PER_ROW`) would not fit in the free
-    space of the disk of SQLite file ``path``. Exact engines from a Maxwell state only: the
-    estimate's rates assume speeds at ``temperature`` (a preset's state has its own; the
-    step engine's bounces against damped walls and planes are not estimated)."""
-    if scene.record == "none" or scene.force or scene.engine == "step" or scene.initial is not None:
-        return
-    est = work_estimate(scene)
-    size = est["bounces"] * BYTES_PER_ROW["bounces"]
-    if scene.record == "all":
-        size += est["collisions"] * BYTES_PER_ROW["collisions"]
-    try:
-        import shutil
+def database_peak(scene: Scene) -> tuple[float, float, float] | None:
+    """(rows, growth, staged) of a run into a SQLite file: the rows it records
+    (:func:`work_estimate`'s wall bounces, and collisions with ``record`` all), the file's
+    growth (times :data:`BYTES_PER_ROW`) and the scratch file that stages them when they are
+    more than :data:`gaz_cli.staging.MEMORY_ROWS` (times :data:`STAGED_BYTES_PER_ROW`; else 0),
+    bytes. None when not estimated: ``record`` none, ``force``, the step engine (its bounces
+    against damped walls and planes), a preset's state (its speeds are not ``temperature``'s).
 
-        free = shutil.disk_usage(os.path.dirname(os.path.abspath(os.path.expanduser(str(path))))).free
+    While the run commits, the disk holds the scratch file, the rows in the database's WAL
+    file, and (a checkpoint at the commit) the same rows copied into the database: the peak is
+    2 growth + staged (measured, 256,694 bounces: 11.7 MB of growth, a peak of 41.7 MB staged,
+    23.5 MB in memory)."""
+    if scene.record == "none" or scene.force or scene.engine == "step" or scene.initial is not None:
+        return None
+    from gaz_cli.staging import MEMORY_ROWS
+
+    est = work_estimate(scene)
+    counts = {"bounces": est["bounces"], "collisions": est["collisions"] if scene.record == "all" else 0.0}
+    rows = sum(counts.values())
+    growth = sum(k * BYTES_PER_ROW[kind] for kind, k in counts.items())
+    staged = sum(k * STAGED_BYTES_PER_ROW[kind] for kind, k in counts.items()) if rows > MEMORY_ROWS else 0.0
+    return rows, growth, staged
+
+
+def _free_space(path) -> float | None:
+    """Free bytes of the disk of the file ``path`` (None when its folder cannot be asked)."""
+    import shutil
+
+    try:
+        return shutil.disk_usage(os.path.dirname(os.path.abspath(os.path.expanduser(str(path))))).free
     except OSError:
+        return None
+
+
+def check_database_space(scenes: list[Scene], path, fix: str = "shorten `duration`") -> None:
+    """Refuse the runs of ``scenes`` (one run's, or a sweep's, committed one after the other)
+    when their peak on the disk of SQLite file ``path`` would not fit in its free space: every
+    run's growth, plus the largest run's WAL copy and scratch file (:func:`database_peak`).
+    Runs not estimated are left out (``force`` among them). ``fix``: the first fix named."""
+    peaks = [(s, p) for s in scenes if (p := database_peak(s)) is not None]
+    if not peaks:
         return
-    if size > free:
-        rows = est["bounces"] + (est["collisions"] if scene.record == "all" else 0.0)
-        raise field_error(f"database {str(path)!r} would grow by about {_bytes(size)} ({rows:.3g} rows "
-                          f"recorded with `record` {scene.record}); its disk has {_bytes(free)} free; "
-                          "shorten `duration`, use `record` none, or give --db a file on another disk "
-                          "(or add `force`)")
+    rows = sum(p[0] for _, p in peaks)
+    growth = sum(p[1] for _, p in peaks)
+    need = growth + max(p[1] for _, p in peaks) + max(p[2] for _, p in peaks)
+    free = _free_space(path)
+    if free is None or need <= free:
+        return
+    runs = f"{len(peaks)} runs, " if len(peaks) > 1 else ""
+    record = " and ".join(sorted({s.record for s, _ in peaks}))
+    staged = " (and a scratch file beside it before)" if any(p[2] for _, p in peaks) else ""
+    raise field_error(f"database {str(path)!r} would grow by about {_bytes(growth)} ({runs}{rows:.3g} rows "
+                      f"recorded with `record` {record}) and needs about {_bytes(need)} free while committing "
+                      f"(the rows go through its WAL file{staged}); its disk has {_bytes(free)} free; {fix}, "
+                      "use `record` none, or give --db a file on another disk (or add `force`)")
 
 
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:

@@ -331,8 +331,21 @@ def _value(v) -> str:
     raise TypeError(f"cannot write {v!r} in a scene file")
 
 
+def require_scene(scene, path=None) -> None:
+    """Raise SceneError (a ValueError) naming what was expected when ``scene`` is no Scene
+    (the Python API's write_scene and scene_text; the command line always hands one)."""
+    if isinstance(scene, Scene):
+        return
+    if isinstance(path, Scene):
+        raise SceneError(f"write_scene(path, scene) was given a {type(path).__name__} first and a "
+                         f"{type(scene).__name__} second: the path comes first")
+    raise SceneError(f"expected a Scene (from gaz.make_scene or gaz.load_scene), got "
+                     f"{type(scene).__name__} {_shown(scene, 40)}")
+
+
 def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None) -> str:
     """The scene file of ``scene`` (and its outputs), units in comments."""
+    require_scene(scene)
     doc = to_doc(scene, outputs)
     lines = [f"# {line}" for line in (comment or "gaz scene file (docs/scenes.md)").splitlines()]
     lines.append(f"# packing fraction {scene.packing_fraction:.6g}, {scene.n} particles")
@@ -352,6 +365,7 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
 
 def write(path, scene: Scene, outputs: dict | None = None) -> None:
     """Write the scene file of ``scene`` to ``path``; SceneError if it cannot be written."""
+    require_scene(scene, path)
     try:
         Path(path).write_text(dumps(scene, outputs), encoding="utf-8")
     except OSError as err:
@@ -370,4 +384,51 @@ def stored(db: str, si_num: int) -> str:
     if not isinstance(text, str) or not text:
         raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
                          "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
-    return text
+    return without_builtin_clash(text)
+
+
+def without_builtin_clash(text: str) -> str:
+    """A stored scene file that runs today: ``text`` itself, unless a custom species of it bears a
+    built-in name with other values (stored by a gaz older than that check,
+    :func:`gaz_cli.scene.check_builtin_clash`, which now refuses the file): then the file with
+    that species renamed NAME-custom (NAME-custom2... if taken), said in its heading comment
+    and in a :class:`~gaz_cli.errors.GazWarning`. The run is the same (a name moves nothing):
+    the same seed gives the same rows, its PARTICULE row named anew."""
+    import warnings
+
+    from gaz_cli.errors import GazWarning
+    from gaz_cli.species import builtin_named
+
+    try:
+        doc = parse(text)
+    except SceneError:
+        return text
+    tables = doc.get("species")
+    if not isinstance(tables, list):
+        return text
+    names = {str(t.get("name")) for t in tables if isinstance(t, dict)}
+    renamed = []
+    for t in tables:
+        if not (isinstance(t, dict) and isinstance(t.get("name"), str) and _type_ok(REAL, t.get("mass"))
+                and _type_ok(REAL, t.get("radius"))):
+            continue
+        builtin = builtin_named(t["name"])
+        if builtin is None or (math.isclose(t["mass"], builtin.mass, rel_tol=1e-12, abs_tol=0)
+                               and math.isclose(t["radius"], builtin.radius, rel_tol=1e-12, abs_tol=0)):
+            continue
+        new = next(f"{t['name']}-custom{k if k > 1 else ''}" for k in range(1, len(names) + 2)
+                   if f"{t['name']}-custom{k if k > 1 else ''}" not in names)
+        names.add(new)
+        renamed.append(f"species {t['name']!r} (mass {t['mass']:g} kg, radius {t['radius']:g} m) renamed {new!r}")
+        t["name"] = new
+    if not renamed:
+        return text
+    try:
+        scene, outputs = build(doc)
+    except SceneError:  # refused for another reason too: the file as stored, and its own refusal
+        return text
+    said = "; ".join(renamed)
+    warnings.warn(f"{said}: a custom species may no longer bear a built-in name (the run is the same)",
+                  GazWarning, stacklevel=2)
+    return dumps(scene, outputs, comment=f"gaz scene file (docs/scenes.md)\n{said}: stored by an older gaz "
+                                         "under a built-in name, which a custom species may no longer bear")

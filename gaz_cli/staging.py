@@ -57,6 +57,7 @@ the thread after each chunk (the COMMIT ~4 ms shorter), a smaller page cache (no
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import sqlite3
 import tempfile
@@ -273,7 +274,8 @@ def remove_stale(database: Path) -> None:
     """Delete the scratch files left beside ``database`` by processes that no longer exist."""
     database = Path(database)
     with contextlib.suppress(OSError):
-        for path in database.resolve().parent.glob(f".{database.name}.*{SUFFIX}"):
+        # the name escaped: 'run[1].db' is a name, not a pattern ('[1]' matched '1', never itself)
+        for path in database.resolve().parent.glob(f".{glob.escape(database.name)}.*{SUFFIX}"):
             pid = path.name[len(database.name) + 2:].split(".", 1)[0]
             if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
                 path.unlink(missing_ok=True)

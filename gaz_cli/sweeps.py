@@ -9,6 +9,11 @@ touching the database: the client alone writes, one run at a time, as runs
 finish (:func:`run`). So SQLite works, a crash of a worker loses only its
 run, and an interrupt keeps every run already stored.
 
+Before any cluster starts, a sweep into a SQLite file whose runs would not fit on its
+disk is refused, as ``gaz simulate`` refuses one run
+(:func:`gaz_cli.scene.check_database_space`: every run's rows, and the largest one's
+copy in the WAL file and scratch file); a new file is not created for that.
+
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
 interrupted one. A run that fails is reported and the others go on.
@@ -37,6 +42,33 @@ SCHEDULER_TIMEOUT_S = 10
 
 MAX_POINTS = 100_000
 """A sweep larger than this is refused (a typo in START:STOP:COUNT, most likely)."""
+
+
+def cores() -> int:
+    """The cores this process may run on (its CPU affinity where the system says; else the
+    machine's count): the local cluster's default size and its bound."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):  # no affinity on this system (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def check_workers(workers, scheduler: str | None = None) -> None:
+    """Raise SceneError unless ``workers`` (``--workers``) is None or a whole number from 1 to
+    :func:`cores`: each worker is a process running one simulation at a time, so more than the
+    cores only share them (and a huge count would start that many processes). With a
+    ``scheduler`` it would be ignored (that cluster's workers run the sweep): refused too."""
+    if workers is None:
+        return
+    if scheduler:
+        raise SceneError(f"--workers {workers!r} sizes the local cluster, and --scheduler {scheduler!r} runs the "
+                         "sweep on its own cluster's workers: drop --workers (or --scheduler, to run here)")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise SceneError(f"--workers {workers!r} must be a whole number from 1 to the {cores()} cores of "
+                         "this machine (or leave it out: one worker per core)")
+    if workers > cores():
+        raise SceneError(f"--workers {workers} is more than the {cores()} cores of this machine (each worker "
+                         f"runs one simulation at a time); give --workers {cores()} or fewer, or leave it out")
 
 
 # --- the plan -------------------------------------------------------------------
@@ -136,8 +168,8 @@ class Point:
 
 def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = None) -> list[Point]:
     """The sweep's points: the cartesian product of ``varies`` times ``seeds`` seeds."""
-    if seeds < 1:
-        raise SceneError(f"--seeds {seeds}: give at least 1")
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
+        raise SceneError(f"--seeds {seeds!r}: give a whole number, at least 1")
     keys = [k for k, _ in varies]
     repeated = sorted({k for k in keys if keys.count(k) > 1})
     if repeated:
@@ -202,6 +234,15 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     outputs = doc.get("output")
     if outputs is not None:
         scenefile.check({"output": outputs}, where)  # its db must be a path before the store opens it
+        ignored = [k for k in outputs if k != "db"]
+        if ignored:
+            import warnings
+
+            from gaz_cli.errors import GazWarning
+
+            warnings.warn(f"{where}[output] {', '.join(ignored)} not written by a sweep (its runs would write "
+                          "over each other's files); only [output] db is used: run one point with gaz simulate "
+                          "for its files", GazWarning, stacklevel=2)
     return (scene_of, seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
             dict(outputs or {}))
 
@@ -258,14 +299,20 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
     ``key(scene)`` is the text by which a run already stored is recognised among
     SCENE.SC_FILE's (default :func:`key_of`, the scene file itself). ``workers``: LocalCluster size (default the
-    core count); ``scheduler``: address of an existing Dask scheduler instead.
+    core count, :func:`cores`; more is refused, :func:`check_workers`); ``scheduler``: address of an
+    existing Dask scheduler instead.
     ``progress``: a progress bar on stderr (default: when stderr is a terminal).
     Raises :class:`~gaz_cli.errors.Interrupted` on SIGINT/SIGTERM, saying what
     was stored.
     """
-    from gaz_cli.runner import prepare
+    from gaz_cli.runner import prepare, sqlite_file
+    from gaz_cli.scene import check_database_space
     from gaz_cli.store import Store
 
+    from gaz_cli.sqlite_writer import database_name
+
+    check_workers(workers, scheduler)
+    db = database_name(db)  # a pathlib.Path as its text
     key = key or key_of
     report = Report(db=db)
     built = []
@@ -276,8 +323,12 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             report.rows.append((point, "failed", None, str(err)))
     _refuse_a_sweep_that_cannot_run(points, report.rows)
     todo = []
-    with Store(db) as store:
-        done = set(store.scene_files())
+    path = sqlite_file(db)
+    if path is not None and not os.path.exists(os.path.expanduser(path)):
+        done = set()  # a new file: every point runs, and the file is created after the checks
+    else:
+        with Store(db) as store:
+            done = set(store.scene_files())
     for point, scene in built:
         if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))
@@ -285,8 +336,14 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             todo.append((point, scene))
     if not todo:
         return report
-    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, \
-            Store(db) as store, _Bar(len(todo), progress) as bar:
+    if path is not None:  # the runs to do, one after the other, on the database's disk
+        try:
+            check_database_space([scene for _, scene in todo], path,
+                                 fix="vary fewer values or seeds, shorten `duration`")
+        except SceneError as err:
+            raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+    with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
+            _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:
             _run_all(client, store, todo, report, bar)
@@ -396,7 +453,7 @@ class _client:
                                f"({' '.join(str(err).split()) or type(err).__name__}); "
                                "check the address, or leave --scheduler out to run here") from None
             return self.client
-        workers = self.workers or os.cpu_count() or 1
+        workers = self.workers or cores()
         self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
                                     processes=True, dashboard_address=":0",
                                     silence_logs=logging.ERROR)

@@ -59,7 +59,10 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
     snapshot (points padded to 3D, SI units, one vertex cell per particle, point
     data velocity, species, radius; use a Glyph filter scaled by radius to see
     the disks) and a ``STEM.pvd`` collection that gives ParaView the times (and
-    gaz the dimension and the box, in a comment). Open the .pvd.
+    gaz the dimension and the box, in a comment). Open the .pvd. Writing over an earlier
+    .pvd first deletes it and the snapshots it lists that gaz would have written there
+    (STEM_NNNNN.vtu beside it; not another .vtu it names), so that no snapshot of the
+    earlier run is left among the new ones.
 """
 
 from __future__ import annotations
@@ -314,7 +317,7 @@ class GSDWriter(TrajectoryWriter):
 
     def __init__(self, path: Path, every: float, scene: Scene):
         super().__init__(path, every, scene)
-        gsd_hoomd = _gsd()
+        gsd_hoomd = gsd_hoomd_module()
         try:
             self.file = gsd_hoomd.open(name=str(self.path), mode="w")
         except OSError as err:
@@ -388,7 +391,7 @@ class GSDWriter(TrajectoryWriter):
             pass
 
 
-def _gsd():
+def gsd_hoomd_module():
     """The gsd package's ``gsd.hoomd``, or one OutputError line naming the extra to install."""
     try:
         import gsd.hoomd
@@ -408,11 +411,41 @@ class VTKWriter(TrajectoryWriter):
         self.pvd = self.path.with_suffix(".pvd")
         self.stem = self.path.with_suffix("")
         self.entries: list[tuple[float, str]] = []
+        self._remove_earlier()
         self._closed = False
         n = scene.n
         self._cells = [("vertex", np.arange(n, dtype=np.int64).reshape(n, 1))]
         self._species = scene.kinds().astype(np.int32)
         self._radius = scene.radii()
+
+    def _remove_earlier(self) -> None:
+        """Delete the collection written over and the snapshots it lists (module docstring):
+        a run with fewer snapshots would otherwise leave the earlier run's last ones beside it.
+        Only the names this writer gives its snapshots (STEM_NNNNN.vtu, no folder): a .vtu of
+        the user's that a collection made elsewhere lists stays. Nothing for a file that is not
+        a readable collection."""
+        import re
+        import xml.etree.ElementTree as ET
+
+        ours = re.compile(re.escape(self.stem.name) + r"_\d{5,}\.vtu")
+
+        if not self.pvd.is_file():
+            return
+        try:
+            names = [e.get("file") or "" for e in ET.parse(self.pvd).getroot().iter("DataSet")]
+        except (OSError, ET.ParseError):
+            return
+        for name in names:
+            if ours.fullmatch(name):
+                try:
+                    (self.pvd.parent / name).unlink(missing_ok=True)
+                except OSError as err:
+                    raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: its earlier snapshot "
+                                      f"{name!r} cannot be removed ({_reason(err)})") from None
+        try:
+            self.pvd.unlink()
+        except OSError as err:
+            raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {_reason(err)}") from None
 
     def _write(self, t, positions, velocities, images=None):
         import meshio
@@ -534,7 +567,7 @@ def read_h5md(path: str | os.PathLike) -> dict:
 
 def read_gsd(path: str | os.PathLike) -> dict:
     """Read a GSD trajectory written by :class:`GSDWriter` (see :func:`read_trajectory`)."""
-    gsd_hoomd = _gsd()
+    gsd_hoomd = gsd_hoomd_module()
     try:
         f = gsd_hoomd.open(name=str(path), mode="r")
     except (OSError, RuntimeError, ValueError) as err:

@@ -63,6 +63,83 @@ def test_a_scene_written_from_python_loads_back(tmp_path):
     assert gaz.load_scene(tmp_path / "s.toml") == scene
 
 
+def test_every_exception_of_the_library_is_at_the_top_level(tmp_path):
+    """gaz.StoreError raised AttributeError (only GazError and SceneError were exported), while
+    gaz.open_store and gaz.simulate(db=...) raise it: a notebook could not catch it by the
+    package's name. Now every exception and warning of gaz_cli.errors is there."""
+    import inspect
+
+    import gaz_cli as gaz
+    from gaz_cli import errors
+
+    mine = {name for name, value in vars(errors).items()
+            if inspect.isclass(value) and issubclass(value, BaseException) and value.__module__ == errors.__name__}
+    assert {"GazError", "StoreError", "OutputError", "Interrupted", "GazWarning"} <= mine
+    for name in mine:
+        assert getattr(gaz, name) is getattr(errors, name) and name in gaz.__all__, name
+    with pytest.raises(gaz.StoreError, match="does not exist"):
+        gaz.open_store(tmp_path / "none.db")
+
+
+@pytest.mark.parametrize("key", ["trajectory", "save_state", "write_scene"])
+def test_an_output_path_of_another_type_is_refused_in_one_line(tmp_path, key):
+    """gaz.simulate(scene, save_state=5) (or trajectory=5, write_scene=5) raised TypeError
+    'expected str, bytes or os.PathLike object, not int' from pathlib; a database given the
+    same way was already one line. Now a SceneError naming the option, before anything runs;
+    a pathlib.Path is taken."""
+    import gaz_cli as gaz
+
+    scene = gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-11, seed=1)
+    every = {"every": 5e-12} if key == "trajectory" else {}
+    option = "--" + key.replace("_", "-")
+    with pytest.raises(gaz.SceneError, match=rf"^{option} 5 is not a file path; give a path"):
+        gaz.simulate(scene, db=str(tmp_path / "g.db"), **{key: 5}, **every)
+    assert list(tmp_path.iterdir()) == []
+    name = {"trajectory": "t.h5", "save_state": "s.csv", "write_scene": "s.toml"}[key]
+    gaz.simulate(scene, **{key: tmp_path / name}, **every)
+    assert (tmp_path / name).is_file()
+
+
+def test_a_scene_the_door_refuses_is_not_written(tmp_path):
+    """gaz.write_scene(path, gaz.Scene(..., duration=-1.0)) (a Scene made by hand) wrote a file
+    that gaz.load_scene then refused, 'duration must be a positive number, got -1.0'; its
+    docstring promises a file that reads back. Now the same SceneError, and no file; a valid
+    scene made by hand is written and reads back."""
+    import gaz_cli as gaz
+    from gaz_cli.species import BUILTIN
+
+    bad = gaz.Scene(dim=2, length=1e-7, duration=-1.0, components=((BUILTIN["Ar"], 5),), seed=1)
+    with pytest.raises(gaz.SceneError, match="duration must be a positive number, got -1.0"):
+        gaz.write_scene(tmp_path / "s.toml", bad)
+    with pytest.raises(gaz.SceneError, match="duration must be a positive number, got -1.0"):
+        gaz.scene_text(bad)
+    assert list(tmp_path.iterdir()) == []
+    good = gaz.Scene(dim=2, length=1e-7, duration=1e-11, components=((BUILTIN["Ar"], 5),), seed=1)
+    gaz.write_scene(tmp_path / "s.toml", good)
+    assert gaz.load_scene(tmp_path / "s.toml") == gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7,
+                                                                 duration=1e-11, seed=1)
+
+
+@pytest.mark.parametrize("given", [{"dim": 2}, "scene.toml", None])
+def test_writing_something_else_than_a_scene_says_what_is_expected(tmp_path, given):
+    """gaz.scene_text({'dim': 2}) and gaz.write_scene(path, 'hello') raised AttributeError "'dict'
+    object has no attribute 'dim'" from scenefile.py; the arguments swapped, write_scene(scene,
+    path), a TypeError about os.PathLike. Now a SceneError (a ValueError) naming the Scene
+    expected, nothing written."""
+    import gaz_cli as gaz
+
+    expected = rf"^expected a Scene \(from gaz.make_scene or gaz.load_scene\), got {type(given).__name__} "
+    with pytest.raises(gaz.SceneError, match=expected):
+        gaz.scene_text(given)
+    with pytest.raises(ValueError, match=expected):
+        gaz.write_scene(tmp_path / "s.toml", given)
+    scene = gaz.make_scene(dim=2, species={"Ar": 5}, length=1e-7, duration=1e-12, seed=1)
+    with pytest.raises(gaz.SceneError, match=r"^write_scene\(path, scene\) was given a Scene first and a "
+                                             r"PosixPath second: the path comes first$"):
+        gaz.write_scene(scene, tmp_path / "s.toml")
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("sim", ["1", 1.0, True])
 def test_analyse_refuses_a_sim_that_is_not_an_int(tmp_path, sim):
     """gaz.analyse(db, sim="1") said 'simulation 1 is not in ...; it holds SI_NUM 1'."""

@@ -257,6 +257,32 @@ def test_gaz_scene_of_a_simulation_without_a_scene_row_says_so(tmp_path):
     assert code == 1 and err == f"gaz: error: no simulation 2 in '{db}'; gaz analyse --db {db} lists them\n"
 
 
+def test_a_custom_species_stored_under_a_built_in_name_is_renamed_by_gaz_scene_and_reruns(tmp_path):
+    """A database of a gaz older than the built-in name check may hold a custom species named
+    'Ar' with other values; gaz scene printed its file as stored, which gaz simulate now refuses
+    ("species name 'Ar' is the built-in Ar ..."). Now gaz scene renames it 'Ar-custom' (said in
+    the file and in one warning line): the file runs, to the same REBOND rows."""
+    db, again, scene_file = tmp_path / "old.db", tmp_path / "new.db", tmp_path / "again.toml"
+    code, out, err = invoke(["simulate", "--dim", "2", "--n", "10", "--radius", "2e-10", "--mass", "7e-26",
+                             "--length", "1e-7", "--duration", "1e-9", "--seed", "1", "--db", str(db)])
+    assert code == 0, err
+    with sqlite3.connect(db) as conn:  # what an older gaz stored: the custom species named Ar
+        conn.execute("""UPDATE SCENE SET SC_FILE = replace(SC_FILE, 'name = "custom"', 'name = "Ar"')""")
+        conn.execute("UPDATE PARTICULE SET PA_NOM = 'Ar' WHERE PA_NOM = 'custom'")
+    conn.close()
+    code, out, err = invoke(["scene", "1", "--db", str(db)])
+    assert code == 0 and err.splitlines() == [
+        "gaz: warning: species 'Ar' (mass 7e-26 kg, radius 2e-10 m) renamed 'Ar-custom': a custom species may "
+        "no longer bear a built-in name (the run is the same)"], err
+    assert "renamed 'Ar-custom': stored by an older gaz under a built-in name" in out.splitlines()[1]
+    scene_file.write_text(out)
+    scene, _ = scenefile.load(scene_file)
+    assert scene.species == [Species("Ar-custom", 7e-26, 2e-10)] and scene.seed == 1
+    code, out, err = invoke(["simulate", str(scene_file), "--db", str(again)])
+    assert code == 0, err
+    assert len(_rows(db)) > 10 and _rows(db) == _rows(again)
+
+
 def test_a_preset_with_a_seed_is_placed_with_it_and_reruns_from_the_database(tmp_path):
     """--preset marbles --seed 5: placed with seed 5 (the seed SCENE records); `gaz scene` prints a
     file that runs again to the same REBOND rows, bit for bit."""

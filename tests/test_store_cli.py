@@ -198,6 +198,70 @@ def test_foreign_database_is_refused_untouched(tmp_path):
     assert leftovers(tmp_path, {"theirs.db"}) == []
 
 
+def test_a_refused_placement_creates_no_database(tmp_path):
+    """A placement that gives up (100 disks of radius 0.05 m in a 1.2 m box by rejection, packing
+    0.55) exited 1 with 'random placement stuck...' but left --db new.db behind, an empty gaz
+    database: the store was opened, and created, before placing. Now nothing is created, and an
+    existing database is left byte for byte."""
+    args = ["simulate", "--dim", "2", "--n", "100", "--radius", "0.05", "--mass", "1", "--length", "1.2",
+            "--duration", "1e-3", "--seed", "1", "--method", "rejection"]
+    res = invoke([*args, "--db", str(tmp_path / "new.db")])
+    assert res.exit_code == 1 and res.stdout == "", res.output
+    assert res.stderr.count("\n") == 1 and "random placement stuck" in res.stderr, res.stderr
+    assert leftovers(tmp_path, set()) == []
+    db = tmp_path / "gaz.db"
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    before = db.read_bytes()
+    res = invoke([*args, "--db", str(db)])
+    assert res.exit_code == 1 and "random placement stuck" in res.stderr, res.stderr
+    assert db.read_bytes() == before and leftovers(tmp_path, {"gaz.db"}) == []
+
+
+@pytest.mark.parametrize("key, option", [("save_state", "--save-state"), ("trajectory", "--trajectory")])
+def test_an_output_that_is_a_folder_is_refused_before_the_database(tmp_path, key, option):
+    """A scene file's [output] save_state (or trajectory) naming a folder: the run created its
+    database, ran (save_state: the whole simulation), then failed, 'cannot write --save-state
+    'out.h5': Is a directory', exit 1, with gaz.db left behind; gaz.simulate(..., save_state=)
+    the same. (The command line's flags refuse a folder themselves.) Now one line before the
+    database: nothing created."""
+    import gaz_cli as gaz
+
+    (tmp_path / "out.h5").mkdir()
+    scene = tmp_path / "s.toml"
+    every = "every = 1e-12\n" if key == "trajectory" else ""
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-11\nseed = 1\n[[species]]\nname = "Ar"\n'
+                     f'count = 5\n[output]\ndb = "{tmp_path / "gaz.db"}"\n{key} = "{tmp_path / "out.h5"}"\n{every}')
+    res = invoke(["simulate", str(scene)])
+    assert res.exit_code == 1 and res.stdout == "" and res.stderr.count("\n") == 1, res.output
+    assert f"{option} '{tmp_path / 'out.h5'}' is a folder, not a file; give a file path" in res.stderr, res.stderr
+    assert leftovers(tmp_path, {"out.h5", "s.toml"}) == []
+    extra = {"every": 1e-12} if key == "trajectory" else {}
+    with pytest.raises(gaz.SceneError, match="is a folder, not a file"):
+        gaz.simulate(gaz.load_scene(scene), db=str(tmp_path / "gaz.db"), **{key: str(tmp_path / "out.h5")}, **extra)
+    assert leftovers(tmp_path, {"out.h5", "s.toml"}) == []
+
+
+@pytest.mark.parametrize("db, trajectory", [("run.pvd", "run.vtu"), ("run_00001.vtu", "run.pvd"),
+                                             ("run_00001.vtu", "run.vtu")])
+def test_a_vtk_trajectory_whose_files_would_overwrite_the_database_is_refused(tmp_path, db, trajectory):
+    """--db run.pvd --trajectory run.vtu: the run's collection run.pvd was written over the
+    database, exit 1 ('database disk image is malformed'), the database lost; --db run_00001.vtu
+    was lost to a snapshot the same way. Only the paths themselves were compared. Now one line
+    naming the files a VTK trajectory writes; the database byte for byte."""
+    db = tmp_path / db
+    assert invoke([*QUICK, "--seed", "1", "--db", str(db)]).exit_code == 0
+    before = db.read_bytes()
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(db), "--trajectory", str(tmp_path / trajectory), "--every", "5e-12"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert (f"--trajectory '{tmp_path / trajectory}' is also --db '{db}' (a VTK trajectory writes STEM.pvd and "
+            "STEM_00000.vtu, STEM_00001.vtu... beside it): writing it would destroy the database") in res.stderr
+    assert db.read_bytes() == before and leftovers(tmp_path, {db.name}) == []
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(db), "--trajectory", str(tmp_path / "other.pvd"), "--every", "5e-12"])
+    assert res.exit_code == 0, res.output  # another stem: no clash
+
+
 @pytest.mark.parametrize("url", [False, True])
 def test_another_applications_sqlite_file_is_refused_untouched(tmp_path, url):
     """A SQLite file holding other tables and none of gaz's got gaz's nine tables added beside

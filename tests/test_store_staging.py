@@ -67,3 +67,22 @@ def test_record_none_stages_nothing(tmp_path, monkeypatch):
     with st.Store(str(tmp_path / "g.db")) as store:
         assert len(store.table(st.rebond)) == 0 and len(store.table(st.resultat)) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["g.db"]
+
+
+@pytest.mark.parametrize("name, other", [("run[1].db", "run1.db"), ("a?.db", "ab.db")])
+def test_stale_scratch_files_of_this_database_are_removed_and_no_other(tmp_path, name, other):
+    """remove_stale globbed the database's name as a pattern: beside 'run[1].db' its own scratch
+    file left by a dead process was never removed ('[1]' matched '1'), and 'a?.db' matched the
+    scratch files of 'ab.db'. Now the name is a name: its dead process's file goes, the other
+    database's stays, as does a live process's."""
+    import os
+
+    dead = 2 ** 22 + 12345  # beyond Linux's pid_max of 4194304: no such process
+    mine = tmp_path / f".{name}.{dead}.x{staging.SUFFIX}"
+    theirs = tmp_path / f".{other}.{dead}.x{staging.SUFFIX}"
+    alive = tmp_path / f".{name}.{os.getppid()}.x{staging.SUFFIX}"
+    for path in (mine, theirs, alive):
+        path.write_text("rows")
+    staging.remove_stale(tmp_path / name)
+    assert not mine.exists() and theirs.exists() and alive.exists()
+

@@ -113,7 +113,7 @@ def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
     once, with exactly the rows of the same scene run alone (same seed, same rows)."""
     db = str(tmp_path / "sweep.db")
     points = sweep.plan([("n", [10, 5000, 20])], seeds=2, base_seed=BASE.seed)
-    report = sweep.run(points, scene_of, key_of, db, workers=2, progress=False)
+    report = sweep.run(points, scene_of, key_of, db, workers=min(2, sweep.cores()), progress=False)  # at most the cores
     stored = [r for r in report.rows if r[1] == "stored"]
     failed = [r for r in report.rows if r[1] == "failed"]
     assert len(stored) == 4 and len(failed) == 2
@@ -150,6 +150,15 @@ def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
     report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
                        str(tmp_path / "s.db"), scheduler=cluster, progress=False)
     assert report.count("stored") == 2
+
+
+def test_a_database_given_as_a_pathlib_path_is_used(tmp_path, cluster):
+    """gaz.sweep(..., db=pathlib.Path) raised TypeError "argument of type 'PosixPath' is not
+    iterable" (the disk check's look at the SQLite file); gaz.simulate takes a Path."""
+    db = tmp_path / "s.db"
+    report = sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, db, scheduler=cluster, progress=False)
+    assert [r[1] for r in report.rows] == ["stored"] and report.db == str(db)
+    assert len(_rows(str(db), report.rows[0][2])) > 0
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
@@ -289,6 +298,131 @@ def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cl
     lines = res.stderr.splitlines()
     assert res.exit_code == 1 and len(lines) == 1 and line in lines[0], res.stderr
     assert res.stdout == "" and not db.exists()
+
+
+def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_any_run(tmp_path, monkeypatch,
+                                                                                      tiny_disk):
+    """gaz sweep had no disk check (gaz simulate has one): four runs of 0.2 to 0.4 MB of rows
+    each, 1.3 MB in all, into a new database on a 1 MiB disk started the cluster and ran them
+    until the disk was full. Now one line naming the runs, the growth and the peak (all the
+    runs' rows, and the largest one's WAL copy), in the scene file's words; no database, no
+    cluster. One of the runs alone fits."""
+    from cli_helpers import invoke
+
+    from gaz_cli.scene import check_database_space
+    from gaz_cli.scenefile import load
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "disks.toml"
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    db = tiny_disk / "s.db"
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200,300,400", "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert f"database '{db}' would grow by about 1.3" in lines[0] and "(4 runs, " in lines[0], lines[0]
+    assert "needs about 1.7" in lines[0] and "its disk has 1.0" in lines[0], lines[0]
+    assert "vary fewer values or seeds, shorten duration, use record none" in lines[0], lines[0]
+    assert res.stdout == "" and list(tiny_disk.iterdir()) == []
+    check_database_space([load(scene)[0]], db)  # the file's own run alone (300 K): 2 x 0.38 MB
+
+
+def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_path, monkeypatch):
+    """gaz sweep rods.toml --vary temperature=100,200 --workers 100000 started a LocalCluster of
+    as many worker processes as runs, whatever the cores (100,000 runs: 100,000 processes). Now
+    one line naming the cores; no database, no cluster. The cores themselves are accepted."""
+    from cli_helpers import invoke
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    n = sweep.cores()
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--workers", str(n + 1),
+                  "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1, res.stderr
+    assert f"--workers {n + 1} is more than the {n} cores of this machine" in lines[0], lines[0]
+    assert f"give --workers {n} or fewer" in lines[0], lines[0]
+    assert res.stdout == "" and not db.exists()
+    for wrong in (0, -3, 2.5, True):
+        with pytest.raises(SceneError, match=rf"^--workers {wrong!r} must be a whole number from 1 to the {n} cores"):
+            sweep.check_workers(wrong)
+    sweep.check_workers(n)
+    sweep.check_workers(None)
+
+
+def test_gaz_sweep_takes_one_vary_as_a_string_and_refuses_seeds_of_another_type(tmp_path, monkeypatch):
+    """gaz.sweep(FILE, 'temperature=100,200') iterated the string's characters: "--vary 't': write
+    KEY=V1,V2,..."; seeds='3' raised TypeError "'<' not supported between instances of 'str' and
+    'int'", seeds=2.5 made a range() of a float. Now one string is one vary, and seeds is a
+    whole number or one line; nothing runs."""
+    import gaz_cli as gaz
+
+    planned = []
+
+    def no_run(points, *args, **kw):  # the plan is what is tested: no cluster, no database
+        planned.extend(points)
+        return sweep.Report()
+
+    monkeypatch.setattr(sweep, "run", no_run)
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    gaz.sweep(scene, "temperature=100,200", seeds=2, db=str(tmp_path / "r.db"))
+    assert [p.label for p in planned] == ["temperature=100 seed=5", "temperature=100 seed=6",
+                                          "temperature=200 seed=5", "temperature=200 seed=6"]
+    for seeds in ("3", 2.5, True, 0):
+        with pytest.raises(SceneError, match=rf"^--seeds {seeds!r}: give a whole number, at least 1$"):
+            gaz.sweep(scene, ["temperature=100"], seeds=seeds, db=str(tmp_path / "r.db"))
+    with pytest.raises(SceneError, match=r"^vary 5 is not a list of 'KEY=V1,V2'"):
+        gaz.sweep(scene, 5, db=str(tmp_path / "r.db"))
+    assert not (tmp_path / "r.db").exists()
+
+
+def test_a_scene_files_outputs_other_than_db_are_said_to_be_ignored_by_a_sweep(tmp_path, monkeypatch):
+    """A scene file with [output] trajectory, every and save_state, swept: the runs were stored
+    and no file written, nothing said. Now one warning line naming them (the runs would write
+    over each other's files) and what to do; the sweep goes on into [output] db."""
+    from cli_helpers import invoke
+
+    seen = []
+
+    def no_run(points, scene_of, key, db, **kw):
+        seen.append(db)
+        return sweep.Report(db=db)
+
+    monkeypatch.setattr(sweep, "run", no_run)
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS + f'[output]\ndb = "{tmp_path / "r.db"}"\ntrajectory = "{tmp_path / "t.h5"}"\n'
+                            f'every = 1e-12\nsave_state = "{tmp_path / "s.csv"}"\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--quiet"])
+    assert res.exit_code == 0 and seen == [str(tmp_path / "r.db")], res.output
+    assert res.stderr.splitlines()[0] == (
+        f"gaz: warning: {scene}: [output] trajectory, every, save_state not written by a sweep (its runs would "
+        "write over each other's files); only [output] db is used: run one point with gaz simulate for its files")
+    scene.write_text(RODS + f'[output]\ndb = "{tmp_path / "r.db"}"\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--quiet"])
+    assert res.exit_code == 0 and "warning" not in res.stderr, res.stderr
+
+
+def test_workers_with_a_scheduler_is_refused_in_one_line(tmp_path):
+    """gaz sweep FILE --vary ... --scheduler tcp://host:8786 --workers 1 ran on the scheduler's
+    cluster, all its workers, and ignored --workers without a word. Now one line saying which
+    to drop, before any database or cluster."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--workers", "1", "--scheduler",
+                  "tcp://127.0.0.1:9", "--db", str(db), "--quiet"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert ("--workers 1 sizes the local cluster, and --scheduler 'tcp://127.0.0.1:9' runs the sweep on its own "
+            "cluster's workers: drop --workers") in res.stderr, res.stderr
+    assert not db.exists()
 
 
 @pytest.mark.parametrize("vary, wrong", [("temperature=-5,abc", "'abc'"), ("temperature=abc,300", "'abc'"),

@@ -99,6 +99,37 @@ def test_vtk_round_trip_through_meshio(tmp_path, name):
         np.testing.assert_array_equal(mesh.point_data["radius"], sc.radii())
 
 
+def test_a_pvd_written_over_leaves_none_of_the_earlier_snapshots(tmp_path):
+    """gaz simulate ... --trajectory out.pvd over an earlier run with more snapshots left that
+    run's last .vtu files beside the new ones (a glob of the folder mixed them in). Now the
+    earlier collection's own snapshots go, and nothing else: not a .vtu it does not list, not
+    one it names outside its folder, not one named otherwise than gaz names its snapshots."""
+    sc = small_scene(dim=2)
+    outside = tmp_path / "outside.vtu"
+    outside.write_text("not gaz's")
+    (tmp_path / "sub").mkdir()
+    unrelated = tmp_path / "sub" / "run_00009.vtu"
+    unrelated.write_text("not listed")
+    with open_trajectory(tmp_path / "sub" / "run.pvd", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=5):
+            w.add_snapshot(t, x, v)
+    pvd = tmp_path / "sub" / "run.pvd"
+    mine = tmp_path / "sub" / "mine.vtu"  # a mesh of the user's, which a collection made elsewhere lists
+    mine.write_text("the user's")
+    pvd.write_text(pvd.read_text().replace("</Collection>", '<DataSet timestep="1" file="../outside.vtu"/>'
+                                           '<DataSet timestep="2" file="mine.vtu"/></Collection>'))
+    snaps = snapshots(sc, count=2, seed=1)
+    with open_trajectory(pvd, 0.05, sc) as w:
+        for t, x, v in snaps:
+            w.add_snapshot(t, x, v)
+    assert sorted(p.name for p in (tmp_path / "sub").iterdir()) == \
+        ["mine.vtu", "run.pvd", "run_00000.vtu", "run_00001.vtu", "run_00009.vtu"]
+    assert outside.read_text() == "not gaz's" and unrelated.read_text() == "not listed"
+    assert mine.read_text() == "the user's"
+    data = read_trajectory(pvd)
+    np.testing.assert_array_equal(data["positions"][1], snaps[1][1])
+
+
 def test_writer_errors(tmp_path):
     sc = small_scene()
     with pytest.raises(SceneError, match="extension"):
@@ -321,6 +352,29 @@ def test_missing_gsd_names_the_extra(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_gsd)
     with pytest.raises(OutputError, match=r"pip install 'gaz\[gsd\]'"):
         open_trajectory(tmp_path / "run.gsd", 0.05, small_scene())
+
+
+def test_missing_gsd_is_refused_before_the_database_is_created(tmp_path, monkeypatch):
+    """gaz simulate ... --db new.db --trajectory t.gsd without the gsd package created new.db,
+    placed the particles, then said 'GSD trajectories (.gsd) need the gsd package', exit 1: an
+    empty gaz database left. Now the same line comes from the door (check_outputs), before it."""
+    import builtins
+
+    from cli_helpers import invoke
+
+    real = builtins.__import__
+
+    def no_gsd(name, *args, **kw):
+        if name.startswith("gsd"):
+            raise ImportError(name)
+        return real(name, *args, **kw)
+
+    monkeypatch.setattr(builtins, "__import__", no_gsd)
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--db", str(tmp_path / "new.db"), "--trajectory", str(tmp_path / "t.gsd"), "--every", "1e-12"])
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert "GSD trajectories (.gsd) need the gsd package: pip install 'gaz[gsd]'" in res.stderr, res.stderr
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_more_than_max_snapshots_is_refused_naming_the_fix(tmp_path):
