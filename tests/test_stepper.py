@@ -325,6 +325,52 @@ def test_damped_walls_and_extra_plane():
     assert np.dot(rs.final.positions[0] - 0.5, nrm) >= BALL.radius
 
 
+@pytest.mark.parametrize("wall_e, drag, dt", [
+    (0.0, 0.0, 1e-3), (0.0, 0.0, 3e-3), (0.0, 0.3, 1e-3), (0.5, 0.3, 1e-3), (0.9, 0.0, 1e-3)])
+def test_a_ball_dropped_on_a_damped_floor_comes_to_rest_on_it(wall_e, drag, dt):
+    """A ball dropped on a damped floor ends at rest on it: normal speed 0, height R, for good.
+
+    Before, a resting ball was taken back to a contact at the start of each step, left it at
+    0 and fell for the rest of the step into the floor, put back on it: every step ended
+    with v_y = -g dt (e = 0) or kept hopping (e = 0.5 with drag: two landings in one step,
+    the second one clamped), and its energy went up and down by m g^2 dt^2 / 2.
+    Tolerances, round-off: the closing half kick takes g h (or its friction twin) off what
+    the contact left, g h, so v_y is 0 within a few eps g dt; the height is R + 0.0;
+    the energy m g y + m v^2 / 2 of about 3 J is computed to a few eps of itself.
+    """
+    g, y0, T = 9.81, 0.3, 8.0 if wall_e == 0.9 else 1.0
+    sc = scene_of(2, [(BALL, 1)], duration=T, dt=dt, gravity=g, wall_restitution=wall_e, drag=drag)
+    rec = MemoryRecorder()
+
+    class Both(Frames):
+        def add_bounces(self, *arrays):
+            rec.add_bounces(*arrays)
+
+    frames = Both(every=dt)
+    rs = stepper.run(sc, state_of(sc, [[0.5, y0]], [[0.2, 0.0]]), frames)
+    eps = np.finfo(float).eps
+    y = np.array([p[0, 1] for p in frames.pos])
+    vy = np.array([v[0, 1] for v in frames.vel])
+    vx = np.array([v[0, 0] for v in frames.vel])
+    energy = BALL.mass * (g * y + 0.5 * (vx ** 2 + vy ** 2))
+    assert np.all(np.diff(energy) <= 8 * eps * energy[0])
+    assert np.all(y >= BALL.radius)
+    # at rest on the floor from some step on, to the end
+    resting = (np.abs(vy) <= 8 * eps * g * dt) & (np.abs(y - BALL.radius) <= 4 * eps)
+    assert resting[-1]
+    first = len(resting) - np.argmin(resting[::-1]) if not resting.all() else 0
+    assert frames.times[first] < 0.9 * T  # resting for the last tenth of the run at least
+    assert rs.final.velocities[0, 1] == pytest.approx(0.0, abs=8 * eps * g * dt)
+    assert rs.final.positions[0, 1] == pytest.approx(BALL.radius, abs=4 * eps)
+    # the floor's momentum (1 + e) m |v_perp| over the recorded bounces carries the ball's
+    # weight: from rest at the start to rest at the end, it gave m g T without friction (a
+    # sum of ~T/dt terms, each rounded by a few eps)
+    b = rec.bounces()
+    if drag == 0:
+        momentum = np.sum((1 + wall_e) * BALL.mass * b["vperp"][b["wall"] == -2])
+        assert momentum == pytest.approx(BALL.mass * g * T, rel=1e-9)
+
+
 @pytest.mark.parametrize("point, normal", [
     ((5.0, 5.0), (1.0, 0.0)),        # beyond the box, facing away from it
     ((0.0, 0.0), (-1.0, -1.0)),      # at a corner, facing out

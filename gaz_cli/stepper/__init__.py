@@ -10,7 +10,10 @@ and extra planes ``scene.planes``. The order of operations inside a step is in
 :mod:`gaz_cli.stepper.kernels`.
 
 What reaches the recorder is what the exact engine sends: wall bounces
-(time of contact, RE_DIR, |v| and |v_perp| just before), collisions (time of
+(time of contact, RE_DIR, |v| and |v_perp| just before; on a floor, a
+particle that comes to rest or bounces again within the step records one
+bounce whose (1 + e_w) m |v_perp| is the momentum the floor gave it in the
+step, its weight included: see :func:`kernels._wall_contact`), collisions (time of
 contact, i, j, |J|) when wanted, snapshots at t = 0, every, 2 every, ...
 (linear interpolation between the two step ends around each snapshot time),
 and, every ``scene.print_every`` steps, a diagnostic dict (time, step,

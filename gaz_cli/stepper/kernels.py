@@ -226,19 +226,41 @@ def _drift(pos, vel, dt, age):
 
 # --- walls ---------------------------------------------------------------------
 @njit
-def _wall_contact(d_e, w_h, alpha, h, age, e):
+def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     """Contact of one particle with one wall, along the wall's inward normal.
 
     d_e (m): signed distance of the centre from its contact position at the
     end of the step (< 0: beyond the wall); w_h (m/s): normal drift velocity;
     alpha (m/s^2): normal acceleration of gravity (0 for walls parallel to
-    it); h = dt/2; age (s); e: restitution. Under uniform gravity the path
-    is a parabola whose end point and end velocity w_h + alpha h are exact
-    in kick-drift-kick, so going back along it finds the exact contact.
+    it, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
+    the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
+    with); age (s); e: restitution. Under uniform gravity the path is a
+    parabola whose end point and end velocity w_h + alpha h are exact in
+    kick-drift-kick, so going back along it finds the exact contact.
 
-    Returns (tau, w_c, d_new, w_h_new): the time back to the contact (s;
-    -1: none within the age, an invalid state), the normal velocity just
-    before it (< 0), and the new end distance and normal drift velocity.
+    Resting and hopping: on a floor (alpha < 0) the particle leaves the
+    contact at -e w_c and bounces on, each flight e times the last, all of
+    them within 2 e |w_c| / (|alpha| (1 - e)) s. When that is at most tau
+    (always for e = 0) it rests on the wall at the step's end: d_new = 0,
+    normal velocity 0 after the closing half kick. Otherwise the end state is
+    that of the flight under way at the step's end (:func:`_last_flight`):
+    the particle is never left below the wall with the velocity of a flight
+    that the wall cut short. A floor crossed with no contact on the parabola
+    within the age (round-off at a tangency: a particle resting from the
+    step's start, its end velocity alpha dt) is a contact at the start of
+    the age with w_c = min(its normal velocity then, 0): a resting particle
+    stays at rest instead of bouncing off a made-up speed |alpha| dt.
+
+    Returns (tau, w_c, d_new, w_h_new, v_rec): the time back to the contact
+    (s; -1: none within the age, an invalid state), the normal velocity just
+    before it (<= 0), the new end distance and normal drift velocity, and
+    the normal speed to record: |w_c| for one bounce; when the particle
+    bounced again or came to rest within the step, the momentum per mass the
+    wall gave it from the contact to the step's end (w_end - w_c + |alpha|
+    tau, by momentum balance) over 1 + e, so that the record's (1 + e) m
+    v_rec (Q36, the pressure) counts the later bounces and the weight
+    carried: a particle resting on the floor records one bounce a step, of
+    v_rec = |alpha| dt / (1 + e).
     """
     w_e = w_h + alpha * h
     tau = -1.0
@@ -257,31 +279,75 @@ def _wall_contact(d_e, w_h, alpha, h, age, e):
                 if r >= 0.0 and w_e - alpha * r < 0.0 and (tau < 0.0 or r < tau):
                     tau = r
     if tau < 0.0 or tau > age:
-        return -1.0, w_e, 0.0, w_h
-    w_c = w_e - alpha * tau
+        if alpha >= 0.0 or w_e >= 0.0:
+            return -1.0, w_e, 0.0, w_h, -w_e
+        tau = age  # a floor, still moving out at the end: on it at the start of the age
+        w_c = w_e - alpha * tau
+        if w_c > 0.0:
+            w_c = 0.0
+    else:
+        w_c = w_e - alpha * tau
     w_out = -e * w_c
-    d_new = w_out * tau + 0.5 * alpha * tau * tau
-    return tau, w_c, d_new, w_out + alpha * tau - alpha * h
+    if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
+        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e)
+    s = tau  # time of flight since the last bounce, launched at w_out
+    if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
+        s, w_out = _last_flight(w_out, alpha, e, tau)
+        w_end = w_out + alpha * s
+        return tau, w_c, w_out * s + 0.5 * alpha * s * s, w_end - alpha * h, \
+            (w_end - w_c - alpha * tau) / (1.0 + e)
+    d_new = w_out * s + 0.5 * alpha * s * s
+    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c
 
 
 @njit
-def _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h):
+def _last_flight(u, alpha, e, tau):
+    """(time s since the last bounce, launch speed m/s) at the end of tau s of bouncing on a
+    floor (alpha < 0) from a launch at u m/s, each bounce giving back e times the arrival
+    speed (0 < e <= 1), the series not over within tau: flight k lasts t0 e^k, t0 = 2 u / |alpha|,
+    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1)."""
+    t0 = -2.0 * u / alpha
+    if e >= 1.0:
+        k = int(math.floor(tau / t0))
+    else:
+        k = int(math.floor(math.log1p(-tau * (1.0 - e) / t0) / math.log(e)))
+    if k < 0:
+        k = 0
+    for _ in range(4):  # round-off of the logarithms: S_k <= tau < S_(k+1)
+        if k > 0 and _bounce_sum(t0, e, k) > tau:
+            k -= 1
+        elif _bounce_sum(t0, e, k + 1) <= tau:
+            k += 1
+    return tau - _bounce_sum(t0, e, k), u * e ** k
+
+
+@njit
+def _bounce_sum(t0, e, k):
+    """Duration of the first k flights t0, t0 e, ..., t0 e^(k-1), s."""
+    if e >= 1.0:
+        return t0 * k
+    return t0 * -math.expm1(k * math.log(e)) / (1.0 - e)
+
+
+@njit
+def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
     """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
     an invalid state) the particle is put on the wall, its normal velocity reversed (and
     tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
-    w_c, d_new, w_new)."""
+    w_c, d_new, w_new, v_rec)."""
     if tau < 0.0:
         d_new = 0.0
+        v_rec = -w_c
         if w_c < 0.0:
             tau = 0.0
             w_new = -e * w_c - alpha * h
         else:
             w_new = w_h
-    return tau, w_c, d_new, w_new
+    return tau, w_c, d_new, w_new, v_rec
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, want, bf, bi, nb):
+def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
@@ -297,21 +363,21 @@ def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, wan
     alpha = -g * sign if d == dim - 1 else 0.0
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
-    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], ew)
-    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, ew, alpha, h)
+    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
+    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, ew, alpha, h)
     bounced = 0
     if tau >= 0.0:
         if want:
             if nb >= bf.shape[0]:
                 bf = _grow_f(bf)
                 bi = _grow_i(bi)
-            s2 = w_c * w_c
+            s2 = v_rec * v_rec
             for k in range(dim):
                 if k != d:
                     s2 += vel[i, k] * vel[i, k]
             bf[nb, 0] = t_end - tau
             bf[nb, 1] = math.sqrt(s2)
-            bf[nb, 2] = -w_c
+            bf[nb, 2] = v_rec
             bi[nb, 0] = i
             bi[nb, 1] = (d + 1) if upper else -(d + 1)
             nb += 1
@@ -340,7 +406,7 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
+def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
     Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
@@ -351,8 +417,8 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
     alpha = -g * planes[p, 2 * dim - 1]
-    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], e)
-    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h)
+    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
+    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
         bounced = 1
@@ -368,7 +434,7 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
 
 
 @njit
-def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_i, cand_j, cand_tau):
+def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
     """Write the wall and plane crossings of the active particles from row k; returns the new count.
 
     Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
@@ -390,7 +456,7 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_
             sign = -1.0 if upper else 1.0
             alpha = -g * sign if d == dim - 1 else 0.0
             d_e = (length - r - x) if upper else (x - r)
-            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, age[i], ew)[0]
+            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, age[i], ew)[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * d + (1 if upper else 0))
@@ -401,7 +467,7 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_
             if dist >= r:
                 continue
             alpha = -g * planes[p, 2 * dim - 1]
-            tau = _wall_contact(dist - r, w_h, alpha, h, age[i], planes[p, 2 * dim])[0]
+            tau = _wall_contact(dist - r, w_h, alpha, h, hr, age[i], planes[p, 2 * dim])[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * dim + p)
@@ -424,21 +490,21 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want, bf, bi, nb, counters):
+def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
     """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
         for d in range(dim):
             if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
                 bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, radius, age,
-                                            length, ew, g, h, t_end, want, bf, bi, nb)
+                                            length, ew, g, h, hr, t_end, want, bf, bi, nb)
                 counters[C_BOUNCES] += b
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, radius, age, planes, g, h)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr)
     return bf, bi, nb
 
 
@@ -688,6 +754,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     has_pair = G > 0.0
     has_kick = has_pair or g > 0.0 or gamma > 0.0
     h = 0.5 * dt
+    hr = math.expm1(gamma * h) / gamma if gamma > 0.0 else h  # (see _wall_contact)
     tbuf = np.zeros(2, np.int64)
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
@@ -719,10 +786,10 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0, cand_i, cand_j, cand_tau)
+            k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j, cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0,
+                k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -778,11 +845,11 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         w = -1 - j
                         if w < 2 * dim:
                             bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, radius, age, length,
-                                                        ew, g, h, t_end, want_b, bf, bi, nb)
+                                                        ew, g, h, hr, t_end, want_b, bf, bi, nb)
                             counters[C_BOUNCES] += b
                         else:
                             counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, radius, age,
-                                                               planes, g, h)
+                                                               planes, g, h, hr)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
@@ -811,7 +878,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want_b,
+                bf, bi, nb = _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
                                           bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
