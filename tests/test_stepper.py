@@ -445,6 +445,24 @@ def test_snapshots_at_multiples_of_every_and_diagnostics():
     assert set(phases) == {"push", "collisions", "walls", "output"} and min(phases.values()) >= 0
 
 
+def test_diagnostics_of_more_than_two_attracting_bodies():
+    """Pair gravity with diagnostics and N != 2 bodies runs, and reports the pair potential.
+
+    Before, the warm-up compiled the potential on the first two bodies with the masses of
+    all N: ValueError 'operands could not be broadcast together with shapes (3,) (2,)'.
+    Potential: -G sum_{i<j} m_i m_j / sqrt(r^2 + eps^2), evaluated here in the other order
+    (numpy, relative round-off a few eps)."""
+    sc = scene_of(2, [(BALL, 3)], duration=3e-3, dt=1e-3, pair_gravity=0.01, softening=0.02, print_every=1)
+    pos = np.array([[0.2, 0.3], [0.5, 0.5], [0.7, 0.2]])
+    frames = Frames()
+    stepper.run(sc, state_of(sc, pos, np.zeros((3, 2))), frames)
+    assert [d["step"] for d in frames.diags] == [0, 1, 2, 3]
+    pairs = [(0, 1), (0, 2), (1, 2)]
+    u0 = -sum(0.01 / math.sqrt(np.sum((pos[i] - pos[j]) ** 2) + 0.02 ** 2) for i, j in pairs)
+    assert frames.diags[0]["potential"] == pytest.approx(u0, rel=1e-14)
+    assert frames.diags[0]["kinetic"] == 0.0
+
+
 def test_caller_state_untouched_and_errors():
     sc, st = gas(duration=0.05)
     before = st.positions.copy(), st.velocities.copy()

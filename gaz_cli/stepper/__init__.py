@@ -350,7 +350,7 @@ class _Stepper:
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
                     self.overlap.copy(), _CLOCK, self.nthreads, math.inf)
         if sc.pair_gravity > 0 and sc.print_every:
-            energies(sc, self.pos[:2], self.vel[:2])  # compile the pair potential
+            _k._pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
         self.recorder.progress(0.0, 0)  # compiled: the run starts
         start = time.perf_counter()
         if sc.pair_gravity > 0:
