@@ -15,10 +15,11 @@ block of steps; each step is, in order:
    are sorted by contact time, earliest first, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
-   along the line of centres (any masses, restitution e, TC model), and it is
-   moved forward to the end of the step; a wall contact does the same with
-   the wall (restitution, exact under uniform gravity, see
-   :func:`_wall_contact`). The particles that moved are the next pass's
+   along the line of centres (any masses, restitution e, TC model; the
+   impulse of the velocities at the contact time, see :func:`_collide`), and
+   it is moved forward to the end of the step; a wall contact does the same
+   with the wall (restitution, exact under uniform gravity, the pair
+   attraction taken constant over the step, see :func:`_wall_contact`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
    is hit (then every particle still beyond a wall is put back);
 4. pair accelerations at the new positions (when pair gravity is on);
@@ -231,8 +232,9 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
 
     d_e (m): signed distance of the centre from its contact position at the
     end of the step (< 0: beyond the wall); w_h (m/s): normal drift velocity;
-    alpha (m/s^2): normal acceleration of gravity (0 for walls parallel to
-    it, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
+    alpha (m/s^2): normal acceleration, gravity and the pair attraction at
+    the step's start (:func:`_box_alpha`; 0 for a wall parallel to gravity
+    without pair forces, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
     the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
     with); age (s); e: restitution. Under uniform gravity the path is a
     parabola whose end point and end velocity w_h + alpha h are exact in
@@ -347,7 +349,29 @@ def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
+def _box_alpha(acc, i, d, sign, g):
+    """Acceleration of particle i along the inward normal ``sign`` (+1 or -1) of a box wall of
+    axis d, m/s^2: gravity (last axis) and the pair attraction acc (N, D) at the step's start
+    (zeros without pair forces). Constant over the step, it makes kick-drift-kick's path
+    the parabola :func:`_wall_contact` goes back along: without the attraction, a bounce of
+    attracting bodies was met with the wrong speed, an energy error of order dt a bounce."""
+    a = acc[i, d] - g if d == acc.shape[1] - 1 else acc[i, d]
+    return sign * a
+
+
+@njit
+def _plane_alpha(acc, planes, i, p, g):
+    """As :func:`_box_alpha` for extra plane p (planes (P, 2D+1): point, unit inward normal,
+    restitution)."""
+    dim = acc.shape[1]
+    a = -g * planes[p, 2 * dim - 1]
+    for d in range(dim):
+        a += acc[i, d] * planes[p, dim + d]
+    return a
+
+
+@njit
+def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
@@ -360,7 +384,7 @@ def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, hr, t_end,
     dim = pos.shape[1]
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
-    alpha = -g * sign if d == dim - 1 else 0.0
+    alpha = _box_alpha(acc, i, d, sign, g)
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
     tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
@@ -406,7 +430,7 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr):
+def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
     Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
@@ -416,7 +440,7 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr):
     dist, w_h = _plane_distance(pos, vel, planes, i, p)
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
-    alpha = -g * planes[p, 2 * dim - 1]
+    alpha = _plane_alpha(acc, planes, i, p, g)
     tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
     tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h)
     bounced = 0
@@ -434,7 +458,7 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr):
 
 
 @njit
-def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
+def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
     """Write the wall and plane crossings of the active particles from row k; returns the new count.
 
     Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
@@ -454,7 +478,7 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, k, c
                 continue
             upper = x > length - r
             sign = -1.0 if upper else 1.0
-            alpha = -g * sign if d == dim - 1 else 0.0
+            alpha = _box_alpha(acc, i, d, sign, g)
             d_e = (length - r - x) if upper else (x - r)
             tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, age[i], ew)[0]
             if k < cand_i.shape[0]:
@@ -466,7 +490,7 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, k, c
             dist, w_h = _plane_distance(pos, vel, planes, i, p)
             if dist >= r:
                 continue
-            alpha = -g * planes[p, 2 * dim - 1]
+            alpha = _plane_alpha(acc, planes, i, p, g)
             tau = _wall_contact(dist - r, w_h, alpha, h, hr, age[i], planes[p, 2 * dim])[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
@@ -490,13 +514,13 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
+def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
     """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
         for d in range(dim):
             if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
-                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, radius, age,
+                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
                                             length, ew, g, h, hr, t_end, want, bf, bi, nb)
                 counters[C_BOUNCES] += b
         for p in range(planes.shape[0]):
@@ -504,7 +528,7 @@ def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, hr, t_end, wan
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, radius, age, planes, g, h, hr)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr)
     return bf, bi, nb
 
 
@@ -681,12 +705,24 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
 
 
 @njit
-def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
+def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair, gamma, h):
     """Take pair (i, j) back by tau s, change its velocities along the line of centres, move it forward.
 
     Restitution e, or 1 under the TC model when either partner collided less
     than tc s before. Returns the impulse |J| (kg m/s), 0 if the pair does
     not approach at contact (nothing done).
+
+    The impulse is that of the pair's velocities at the contact, not of the
+    drift velocities (those of the step's middle, tau - h s later or
+    earlier): under a constant acceleration a (acc, the pair attraction at the
+    step's start: uniform gravity drops out of a relative velocity) and
+    friction gamma, v(t_mid + s) = v e^{-gamma s} + a (1 - e^{-gamma s}) /
+    gamma. With the drift velocities the impulse was off by m |a| |tau - h|,
+    an energy error of order dt at each collision of attracting bodies (the
+    step's error first order in dt); with these it is of order dt^2. The
+    velocity change is added to the drift velocities, so that the closing
+    half kick continues from the velocities after the contact (under friction the drift
+    velocity changes by e^{gamma s} times the change at the contact).
     """
     dim = pos.shape[1]
     nrm = np.empty(dim)
@@ -698,11 +734,23 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
         return 0.0
     inv = 1.0 / math.sqrt(dist2)
     vn = 0.0
+    an = 0.0
     for d in range(dim):
         nrm[d] *= inv
         vn += (vel[j, d] - vel[i, d]) * nrm[d]
+        if has_pair:
+            an += (acc[j, d] - acc[i, d]) * nrm[d]
     if vn >= 0.0:
         return 0.0
+    s = h - tau  # contact time - the step's middle, s
+    back = 1.0  # a velocity change at the contact is back times that of the drift velocity
+    if gamma > 0.0:
+        back = math.exp(gamma * s)
+        vn_c = vn / back - an * math.expm1(-gamma * s) / gamma
+    else:
+        vn_c = vn + an * s
+    if vn_c < 0.0:  # else (a graze the attraction turned round): the drift velocities' impulse
+        vn = vn_c
     t_c = t_end - tau
     ee = e
     if tc > 0.0 and (t_c - tlast[i] < tc or t_c - tlast[j] < tc):
@@ -711,8 +759,8 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
     mj = mass[j]
     jn = (1.0 + ee) * mi * mj / (mi + mj) * vn  # < 0
     for d in range(dim):
-        dvi = jn / mi * nrm[d]
-        dvj = -jn / mj * nrm[d]
+        dvi = back * jn / mi * nrm[d]
+        dvj = -back * jn / mj * nrm[d]
         vel[i, d] += dvi
         vel[j, d] += dvj
         pos[i, d] += dvi * tau  # r_c + v' tau = r - v tau + v' tau
@@ -786,10 +834,11 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j, cand_tau)
+            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j,
+                           cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, hr, planes, 0,
+                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -844,17 +893,18 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         w0 = _now(clock_id, tbuf)
                         w = -1 - j
                         if w < 2 * dim:
-                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, radius, age, length,
+                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length,
                                                         ew, g, h, hr, t_end, want_b, bf, bi, nb)
                             counters[C_BOUNCES] += b
                         else:
-                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, radius, age,
+                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
                                                                planes, g, h, hr)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
                         continue
-                    impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc)
+                    impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair,
+                                       gamma, h)
                     if impulse <= 0.0:
                         continue
                     done[i] = 1
@@ -878,7 +928,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
+                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
                                           bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
