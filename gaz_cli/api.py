@@ -82,7 +82,9 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
 
     ``db``: store the run there (a path or SQLAlchemy URL; None: no database). A scene
-    without a seed gets a fresh one, recorded in the summary. ``progress``: a progress bar
+    without a seed gets a fresh one, recorded in the summary. ``diagnostics``: a function
+    called with a dict (time, step, kinetic, potential, energy, max_speed...) every
+    ``print_every`` steps of the step engine (refused with another engine). ``progress``: a progress bar
     on stderr (``gaz simulate`` draws one when stderr is a terminal).
     """
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,

@@ -305,9 +305,9 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
     trajectory = trajectory or outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
     save_state = save_state or outputs.get("save_state")
+    diagnostics = _print_diagnostic if scene.print_every else None  # --print-every: step engine only
     summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
-                           diagnostics=_print_diagnostic, write_scene=write_scene,
-                           progress=progress.wanted(quiet)).summary
+                           diagnostics=diagnostics, write_scene=write_scene, progress=progress.wanted(quiet)).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:

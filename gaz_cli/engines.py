@@ -120,16 +120,27 @@ def step_for(scene) -> tuple[float, str]:
     particle diameter at the mean speed (a longer step lets pairs pass through each other) and
     the run's duration (slow particles would otherwise get a step longer than the run). Under
     gravity the speed is at least sqrt(2 g L), reached falling across the box: marbles at 300 K
-    move by their fall, not by their thermal speed."""
+    move by their fall, not by their thermal speed. Under pair gravity it is at least
+    sqrt(2 G M / d), M the bodies' total mass and d the larger of a diameter and the softening:
+    the speed of a body falling from afar onto all the others gathered at contact, the most
+    the attraction can give it (bodies at 300 K that attract each other move by their pull)."""
     from gaz_cli import theory
 
     masses = scene.masses()
-    speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
-    fall = math.sqrt(2.0 * scene.gravity * scene.length)  # m/s, reached falling across the box
-    falling = fall > speed
-    speed = max(speed, fall)
-    times = {"box crossing": scene.length / speed, "run": float(scene.duration)}
     radius = float(scene.radii().mean())
+    speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
+    pulls = {" at the speed of a fall across the box": math.sqrt(2.0 * scene.gravity * scene.length)}  # m/s
+    try:  # checked later, with the step engine's options (scene._check_engine_options)
+        reach = max(2.0 * radius, float(scene.softening), 0.0)
+    except (TypeError, ValueError):
+        reach = 2.0 * radius
+    if scene.pair_gravity > 0 and reach > 0:
+        pulls[" at the speed of the bodies falling together"] = math.sqrt(
+            2.0 * scene.pair_gravity * float(masses.sum()) / reach)
+    pull = max(pulls, key=pulls.get)
+    speed_said = pull if pulls[pull] > speed else ""
+    speed = max(speed, pulls[pull])
+    times = {"box crossing": scene.length / speed, "run": float(scene.duration)}
     if radius > 0 and scene.n > 1:
         times["diameter crossing"] = 2.0 * radius / speed
         try:
@@ -138,5 +149,6 @@ def step_for(scene) -> tuple[float, str]:
         except SceneError:
             pass
     basis = min(times, key=times.get)
-    speed_said = " at the speed of a fall across the box" if falling and basis != "run" else ""
+    if basis == "run":
+        speed_said = ""
     return times[basis] / STEPS_PER_FLIGHT, f"{STEPS_PER_FLIGHT} steps per {basis}{speed_said}"

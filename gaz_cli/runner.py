@@ -28,7 +28,8 @@ import numpy as np
 from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
-from gaz_cli.scene import Scene, State, check_database_space, check_outputs, fresh_seed, initial_state, validate
+from gaz_cli.scene import (Scene, State, check_database_space, check_diagnostics, check_outputs, fresh_seed,
+                            initial_state, validate)
 
 from gaz_cli.engines import engine_run
 
@@ -231,7 +232,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     database. ``state``: an explicit initial state, else one is drawn from the scene and its
     seed (:func:`gaz_cli.scene.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
-    engine's periodic diagnostics (a dict). ``write_scene``: write the scene file of the run
+    step engine's diagnostics (a dict) every ``scene.print_every`` steps; refused with another
+    engine or without print_every (:func:`gaz_cli.scene.check_diagnostics`). ``write_scene``: write the scene file of the run
     (with its seed) to this path before running. ``progress``: draw a progress bar (and a
     notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
@@ -256,6 +258,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     _check_writable(write_scene, "--write-scene")
     _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
     check_outputs(scene, trajectory, every)
+    check_diagnostics(scene, diagnostics)
     if sqlite_file(db):
         check_database_space([scene], sqlite_file(db))
     if write_scene:

@@ -891,6 +891,27 @@ def default_tc(scene: Scene) -> float:
     return 1e-4 / float(omega)
 
 
+def check_diagnostics(scene: Scene, diagnostics) -> None:
+    """Check the ``diagnostics`` callable given to a run (Python API); raise SceneError naming the fix.
+
+    The step engine alone reports diagnostics (energies, largest speed, counts), every
+    ``print_every`` steps: with another engine, or with ``print_every`` 0, the callable would
+    never be called; the event engine's driver is not asked for them (its state between
+    events is not at one time, and the exact engine conserves energy to round-off).
+    """
+    if diagnostics is None:
+        return
+    if not callable(diagnostics):
+        raise SceneError(f"diagnostics {diagnostics!r} is not callable: give a function taking one dict "
+                         "(time, step, kinetic, potential, energy...), or None")
+    if scene.engine != "step":
+        raise SceneError(f"diagnostics are written by the step engine; this scene runs the {scene.engine} "
+                         "engine: use engine='step' with print_every (steps between reports), or drop diagnostics")
+    if not scene.print_every:
+        raise SceneError("diagnostics given, but print_every is 0: the step engine would report nothing; "
+                         "set print_every (steps between reports), or drop diagnostics")
+
+
 def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
     """Check a run's trajectory request against its scene; raise SceneError naming the fix.
 

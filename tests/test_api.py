@@ -179,3 +179,45 @@ def test_a_database_given_as_a_pathlib_path_is_used_and_another_type_refused(tmp
         assert store.simulation_numbers() == [1]
     with pytest.raises(StoreError, match=r"^--db 5 names no database; give a file path or a URL$"):
         gaz.simulate(scene, db=5)
+
+
+def test_diagnostics_are_given_by_the_step_engine_and_refused_where_nobody_would_call_them():
+    """``diagnostics`` reaches the step engine's reports; where it would never be called (another
+    engine, or print_every 0) or is not a function, the run is refused before it starts, in one
+    line naming the fix. Before, the event engine ignored it silently, and diagnostics=5 was
+    accepted (or failed mid-run with "TypeError: 'int' object is not callable")."""
+    import gaz_cli as gaz
+    from gaz_cli.errors import SceneError
+
+    keys = dict(dim=2, species={"Ar": 10}, length=1e-7, duration=1e-11, seed=1)
+    step = gaz.make_scene(engine="step", dt=1e-12, print_every=5, **keys)
+    got = []
+    run = gaz.simulate(step, diagnostics=got.append)
+    assert [d["step"] for d in got] == [0, 5, 10] and run.summary["engine"] == "step"
+    for scene, diagnostics, says in [
+            (gaz.make_scene(engine="event", **keys), got.append,
+             "diagnostics are written by the step engine; this scene runs the event engine"),
+            (gaz.make_scene(**keys), got.append, "diagnostics are written by the step engine"),
+            (gaz.make_scene(engine="step", dt=1e-12, **keys), got.append, "print_every is 0"),
+            (step, 5, "diagnostics 5 is not callable"),
+            (gaz.make_scene(engine="event", **keys), "energy", "diagnostics 'energy' is not callable")]:
+        with pytest.raises(SceneError, match=re.escape(says)) as err:
+            gaz.simulate(scene, diagnostics=diagnostics)
+        assert "\n" not in str(err.value)
+    assert len(got) == 3  # nothing more was reported
+
+
+def test_the_command_line_prints_diagnostics_of_the_step_engine_only():
+    """--print-every: diagnostics on stderr with the step engine; refused with another engine;
+    a step run without it prints none (the CLI passes its printer only with --print-every)."""
+    from cli_helpers import invoke
+
+    base = ["simulate", "--dim", "2", "--n", "10", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+            "--no-db", "--quiet"]
+    res = invoke(base + ["--engine", "step", "--dt", "1e-12", "--print-every", "5"])
+    assert res.exit_code == 0 and res.stderr.count("energy=") == 3
+    res = invoke(base + ["--engine", "step", "--dt", "1e-12"])
+    assert res.exit_code == 0 and "energy=" not in res.stderr
+    res = invoke(base + ["--engine", "event", "--print-every", "5"])
+    assert res.exit_code != 0 and "--print-every 5 applies to --engine step only" in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1

@@ -91,6 +91,35 @@ def test_auto_steps_falling_bodies_by_their_fall_not_their_thermal_speed():
     assert stats.extras["overlap_steps"] == 0
 
 
+def test_auto_steps_attracting_bodies_by_their_pull_not_their_thermal_speed():
+    """gaz simulate --dim 2 --n 10 --radius 0.01 --mass 1 --length 1 --duration 10
+    --pair-gravity 0.01 took dt = 0.2 s, 1/50 of the run, from the bodies' thermal speed at
+    300 K: pulled together at up to 1 m/s they passed through each other in close passes at
+    dt = 0.2 s and the total energy went from -1.43 J to +234 J, nothing said. The speed a body
+    reaches falling onto all the others, sqrt(2 G M / 2R), sets the step now.
+
+    Tolerance, error model: velocity Verlet at 50 steps per diameter crossing errs by about
+    (1/50)^2 = 4e-4 of the energy at stake in each close pass, of either sign: over the ~300
+    collisions of the run, sqrt(300) x 4e-4 = 0.7 %; 3 % of |E0| leaves room, and the old
+    step's error was 160 |E0|."""
+    from gaz_cli import stepper
+    from gaz_cli.recording import Recorder
+    from gaz_cli.scene import initial_state, validate
+
+    body = Species("body", 1.0, 0.01)
+    scene = validate(Scene(dim=2, length=1.0, duration=5.0, components=((body, 10),), seed=1, engine="auto",
+                           pair_gravity=0.01))
+    pull = (2 * 0.01 * 10 / 0.02) ** 0.5
+    assert scene.dt == pytest.approx(0.02 / pull / engines.STEPS_PER_FLIGHT, rel=1e-12)
+    assert "at the speed of the bodies falling together" in scene.extras["engine_reason"]
+    state = initial_state(scene)
+    stats = stepper.run(scene, state, Recorder())
+    e0 = sum(stepper.energies(scene, state.positions, state.velocities))
+    e1 = sum(stepper.energies(scene, stats.final.positions, stats.final.velocities))
+    assert stats.collisions > 100
+    assert abs(e1 - e0) < 0.03 * abs(e0), (e0, e1)
+
+
 def test_a_tiny_run_loads_no_compiled_engine():
     """Start-up (issue 15): a tiny scene takes the exam's engine, placed without compiled code:
     no event loop is built, no placement kernel compiled, the event engine's driver and loop

@@ -15,10 +15,11 @@ block of steps; each step is, in order:
    are sorted by contact time, earliest first, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
-   along the line of centres (any masses, restitution e, TC model), and it is
-   moved forward to the end of the step; a wall contact does the same with
-   the wall (restitution, exact under uniform gravity, see
-   :func:`_wall_contact`). The particles that moved are the next pass's
+   along the line of centres (any masses, restitution e, TC model; the
+   impulse of the velocities at the contact time, see :func:`_collide`), and
+   it is moved forward to the end of the step; a wall contact does the same
+   with the wall (restitution, exact under uniform gravity, the pair
+   attraction taken constant over the step, see :func:`_wall_contact`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
    is hit (then every particle still beyond a wall is put back);
 4. pair accelerations at the new positions (when pair gravity is on);
@@ -226,19 +227,42 @@ def _drift(pos, vel, dt, age):
 
 # --- walls ---------------------------------------------------------------------
 @njit
-def _wall_contact(d_e, w_h, alpha, h, age, e):
+def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     """Contact of one particle with one wall, along the wall's inward normal.
 
     d_e (m): signed distance of the centre from its contact position at the
     end of the step (< 0: beyond the wall); w_h (m/s): normal drift velocity;
-    alpha (m/s^2): normal acceleration of gravity (0 for walls parallel to
-    it); h = dt/2; age (s); e: restitution. Under uniform gravity the path
-    is a parabola whose end point and end velocity w_h + alpha h are exact
-    in kick-drift-kick, so going back along it finds the exact contact.
+    alpha (m/s^2): normal acceleration, gravity and the pair attraction at
+    the step's start (:func:`_box_alpha`; 0 for a wall parallel to gravity
+    without pair forces, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
+    the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
+    with); age (s); e: restitution. Under uniform gravity the path is a
+    parabola whose end point and end velocity w_h + alpha h are exact in
+    kick-drift-kick, so going back along it finds the exact contact.
 
-    Returns (tau, w_c, d_new, w_h_new): the time back to the contact (s;
-    -1: none within the age, an invalid state), the normal velocity just
-    before it (< 0), and the new end distance and normal drift velocity.
+    Resting and hopping: on a floor (alpha < 0) the particle leaves the
+    contact at -e w_c and bounces on, each flight e times the last, all of
+    them within 2 e |w_c| / (|alpha| (1 - e)) s. When that is at most tau
+    (always for e = 0) it rests on the wall at the step's end: d_new = 0,
+    normal velocity 0 after the closing half kick. Otherwise the end state is
+    that of the flight under way at the step's end (:func:`_last_flight`):
+    the particle is never left below the wall with the velocity of a flight
+    that the wall cut short. A floor crossed with no contact on the parabola
+    within the age (round-off at a tangency: a particle resting from the
+    step's start, its end velocity alpha dt) is a contact at the start of
+    the age with w_c = min(its normal velocity then, 0): a resting particle
+    stays at rest instead of bouncing off a made-up speed |alpha| dt.
+
+    Returns (tau, w_c, d_new, w_h_new, v_rec): the time back to the contact
+    (s; -1: none within the age, an invalid state), the normal velocity just
+    before it (<= 0), the new end distance and normal drift velocity, and
+    the normal speed to record: |w_c| for one bounce; when the particle
+    bounced again or came to rest within the step, the momentum per mass the
+    wall gave it from the contact to the step's end (w_end - w_c + |alpha|
+    tau, by momentum balance) over 1 + e, so that the record's (1 + e) m
+    v_rec (Q36, the pressure) counts the later bounces and the weight
+    carried: a particle resting on the floor records one bounce a step, of
+    v_rec = |alpha| dt / (1 + e).
     """
     w_e = w_h + alpha * h
     tau = -1.0
@@ -257,31 +281,97 @@ def _wall_contact(d_e, w_h, alpha, h, age, e):
                 if r >= 0.0 and w_e - alpha * r < 0.0 and (tau < 0.0 or r < tau):
                     tau = r
     if tau < 0.0 or tau > age:
-        return -1.0, w_e, 0.0, w_h
-    w_c = w_e - alpha * tau
+        if alpha >= 0.0 or w_e >= 0.0:
+            return -1.0, w_e, 0.0, w_h, -w_e
+        tau = age  # a floor, still moving out at the end: on it at the start of the age
+        w_c = w_e - alpha * tau
+        if w_c > 0.0:
+            w_c = 0.0
+    else:
+        w_c = w_e - alpha * tau
     w_out = -e * w_c
-    d_new = w_out * tau + 0.5 * alpha * tau * tau
-    return tau, w_c, d_new, w_out + alpha * tau - alpha * h
+    if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
+        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e)
+    s = tau  # time of flight since the last bounce, launched at w_out
+    if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
+        s, w_out = _last_flight(w_out, alpha, e, tau)
+        w_end = w_out + alpha * s
+        return tau, w_c, w_out * s + 0.5 * alpha * s * s, w_end - alpha * h, \
+            (w_end - w_c - alpha * tau) / (1.0 + e)
+    d_new = w_out * s + 0.5 * alpha * s * s
+    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c
 
 
 @njit
-def _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h):
+def _last_flight(u, alpha, e, tau):
+    """(time s since the last bounce, launch speed m/s) at the end of tau s of bouncing on a
+    floor (alpha < 0) from a launch at u m/s, each bounce giving back e times the arrival
+    speed (0 < e <= 1), the series not over within tau: flight k lasts t0 e^k, t0 = 2 u / |alpha|,
+    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1)."""
+    t0 = -2.0 * u / alpha
+    if e >= 1.0:
+        k = int(math.floor(tau / t0))
+    else:
+        k = int(math.floor(math.log1p(-tau * (1.0 - e) / t0) / math.log(e)))
+    if k < 0:
+        k = 0
+    for _ in range(4):  # round-off of the logarithms: S_k <= tau < S_(k+1)
+        if k > 0 and _bounce_sum(t0, e, k) > tau:
+            k -= 1
+        elif _bounce_sum(t0, e, k + 1) <= tau:
+            k += 1
+    return tau - _bounce_sum(t0, e, k), u * e ** k
+
+
+@njit
+def _bounce_sum(t0, e, k):
+    """Duration of the first k flights t0, t0 e, ..., t0 e^(k-1), s."""
+    if e >= 1.0:
+        return t0 * k
+    return t0 * -math.expm1(k * math.log(e)) / (1.0 - e)
+
+
+@njit
+def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
     """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
     an invalid state) the particle is put on the wall, its normal velocity reversed (and
     tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
-    w_c, d_new, w_new)."""
+    w_c, d_new, w_new, v_rec)."""
     if tau < 0.0:
         d_new = 0.0
+        v_rec = -w_c
         if w_c < 0.0:
             tau = 0.0
             w_new = -e * w_c - alpha * h
         else:
             w_new = w_h
-    return tau, w_c, d_new, w_new
+    return tau, w_c, d_new, w_new, v_rec
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, want, bf, bi, nb):
+def _box_alpha(acc, i, d, sign, g):
+    """Acceleration of particle i along the inward normal ``sign`` (+1 or -1) of a box wall of
+    axis d, m/s^2: gravity (last axis) and the pair attraction acc (N, D) at the step's start
+    (zeros without pair forces). Constant over the step, it makes kick-drift-kick's path
+    the parabola :func:`_wall_contact` goes back along: without the attraction, a bounce of
+    attracting bodies was met with the wrong speed, an energy error of order dt a bounce."""
+    a = acc[i, d] - g if d == acc.shape[1] - 1 else acc[i, d]
+    return sign * a
+
+
+@njit
+def _plane_alpha(acc, planes, i, p, g):
+    """As :func:`_box_alpha` for extra plane p (planes (P, 2D+1): point, unit inward normal,
+    restitution)."""
+    dim = acc.shape[1]
+    a = -g * planes[p, 2 * dim - 1]
+    for d in range(dim):
+        a += acc[i, d] * planes[p, dim + d]
+    return a
+
+
+@njit
+def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
@@ -294,24 +384,24 @@ def _box_bounce(i, d, upper, pos, vel, radius, age, length, ew, g, h, t_end, wan
     dim = pos.shape[1]
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
-    alpha = -g * sign if d == dim - 1 else 0.0
+    alpha = _box_alpha(acc, i, d, sign, g)
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
-    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], ew)
-    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, ew, alpha, h)
+    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
+    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, ew, alpha, h)
     bounced = 0
     if tau >= 0.0:
         if want:
             if nb >= bf.shape[0]:
                 bf = _grow_f(bf)
                 bi = _grow_i(bi)
-            s2 = w_c * w_c
+            s2 = v_rec * v_rec
             for k in range(dim):
                 if k != d:
                     s2 += vel[i, k] * vel[i, k]
             bf[nb, 0] = t_end - tau
             bf[nb, 1] = math.sqrt(s2)
-            bf[nb, 2] = -w_c
+            bf[nb, 2] = v_rec
             bi[nb, 0] = i
             bi[nb, 1] = (d + 1) if upper else -(d + 1)
             nb += 1
@@ -340,7 +430,7 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
+def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
     Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
@@ -350,9 +440,9 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
     dist, w_h = _plane_distance(pos, vel, planes, i, p)
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
-    alpha = -g * planes[p, 2 * dim - 1]
-    tau, w_c, d_new, w_new = _wall_contact(d_e, w_h, alpha, h, age[i], e)
-    tau, w_c, d_new, w_new = _settle(tau, w_c, d_new, w_new, w_h, e, alpha, h)
+    alpha = _plane_alpha(acc, planes, i, p, g)
+    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
+    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
         bounced = 1
@@ -368,7 +458,7 @@ def _plane_bounce(i, p, pos, vel, radius, age, planes, g, h):
 
 
 @njit
-def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_i, cand_j, cand_tau):
+def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
     """Write the wall and plane crossings of the active particles from row k; returns the new count.
 
     Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
@@ -388,9 +478,9 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_
                 continue
             upper = x > length - r
             sign = -1.0 if upper else 1.0
-            alpha = -g * sign if d == dim - 1 else 0.0
+            alpha = _box_alpha(acc, i, d, sign, g)
             d_e = (length - r - x) if upper else (x - r)
-            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, age[i], ew)[0]
+            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, age[i], ew)[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * d + (1 if upper else 0))
@@ -400,8 +490,8 @@ def _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, k, cand_
             dist, w_h = _plane_distance(pos, vel, planes, i, p)
             if dist >= r:
                 continue
-            alpha = -g * planes[p, 2 * dim - 1]
-            tau = _wall_contact(dist - r, w_h, alpha, h, age[i], planes[p, 2 * dim])[0]
+            alpha = _plane_alpha(acc, planes, i, p, g)
+            tau = _wall_contact(dist - r, w_h, alpha, h, hr, age[i], planes[p, 2 * dim])[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * dim + p)
@@ -424,21 +514,21 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want, bf, bi, nb, counters):
+def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
     """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
         for d in range(dim):
             if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
-                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, radius, age,
-                                            length, ew, g, h, t_end, want, bf, bi, nb)
+                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
+                                            length, ew, g, h, hr, t_end, want, bf, bi, nb)
                 counters[C_BOUNCES] += b
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, radius, age, planes, g, h)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr)
     return bf, bi, nb
 
 
@@ -615,12 +705,24 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
 
 
 @njit
-def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
+def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair, gamma, h):
     """Take pair (i, j) back by tau s, change its velocities along the line of centres, move it forward.
 
     Restitution e, or 1 under the TC model when either partner collided less
     than tc s before. Returns the impulse |J| (kg m/s), 0 if the pair does
     not approach at contact (nothing done).
+
+    The impulse is that of the pair's velocities at the contact, not of the
+    drift velocities (those of the step's middle, tau - h s later or
+    earlier): under a constant acceleration a (acc, the pair attraction at the
+    step's start: uniform gravity drops out of a relative velocity) and
+    friction gamma, v(t_mid + s) = v e^{-gamma s} + a (1 - e^{-gamma s}) /
+    gamma. With the drift velocities the impulse was off by m |a| |tau - h|,
+    an energy error of order dt at each collision of attracting bodies (the
+    step's error first order in dt); with these it is of order dt^2. The
+    velocity change is added to the drift velocities, so that the closing
+    half kick continues from the velocities after the contact (under friction the drift
+    velocity changes by e^{gamma s} times the change at the contact).
     """
     dim = pos.shape[1]
     nrm = np.empty(dim)
@@ -632,11 +734,23 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
         return 0.0
     inv = 1.0 / math.sqrt(dist2)
     vn = 0.0
+    an = 0.0
     for d in range(dim):
         nrm[d] *= inv
         vn += (vel[j, d] - vel[i, d]) * nrm[d]
+        if has_pair:
+            an += (acc[j, d] - acc[i, d]) * nrm[d]
     if vn >= 0.0:
         return 0.0
+    s = h - tau  # contact time - the step's middle, s
+    back = 1.0  # a velocity change at the contact is back times that of the drift velocity
+    if gamma > 0.0:
+        back = math.exp(gamma * s)
+        vn_c = vn / back - an * math.expm1(-gamma * s) / gamma
+    else:
+        vn_c = vn + an * s
+    if vn_c < 0.0:  # else (a graze the attraction turned round): the drift velocities' impulse
+        vn = vn_c
     t_c = t_end - tau
     ee = e
     if tc > 0.0 and (t_c - tlast[i] < tc or t_c - tlast[j] < tc):
@@ -645,8 +759,8 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc):
     mj = mass[j]
     jn = (1.0 + ee) * mi * mj / (mi + mj) * vn  # < 0
     for d in range(dim):
-        dvi = jn / mi * nrm[d]
-        dvj = -jn / mj * nrm[d]
+        dvi = back * jn / mi * nrm[d]
+        dvj = -back * jn / mj * nrm[d]
         vel[i, d] += dvi
         vel[j, d] += dvj
         pos[i, d] += dvi * tau  # r_c + v' tau = r - v tau + v' tau
@@ -688,6 +802,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     has_pair = G > 0.0
     has_kick = has_pair or g > 0.0 or gamma > 0.0
     h = 0.5 * dt
+    hr = math.expm1(gamma * h) / gamma if gamma > 0.0 else h  # (see _wall_contact)
     tbuf = np.zeros(2, np.int64)
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
@@ -719,10 +834,11 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0, cand_i, cand_j, cand_tau)
+            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j,
+                           cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, radius, age, active, length, ew, g, h, planes, 0,
+                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -777,17 +893,18 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         w0 = _now(clock_id, tbuf)
                         w = -1 - j
                         if w < 2 * dim:
-                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, radius, age, length,
-                                                        ew, g, h, t_end, want_b, bf, bi, nb)
+                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length,
+                                                        ew, g, h, hr, t_end, want_b, bf, bi, nb)
                             counters[C_BOUNCES] += b
                         else:
-                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, radius, age,
-                                                               planes, g, h)
+                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
+                                                               planes, g, h, hr)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
                         continue
-                    impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc)
+                    impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair,
+                                       gamma, h)
                     if impulse <= 0.0:
                         continue
                     done[i] = 1
@@ -811,7 +928,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, radius, age, planes, length, ew, g, h, t_end, want_b,
+                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
                                           bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
