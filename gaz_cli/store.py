@@ -898,5 +898,10 @@ class _DirectRun(_Run):
         try:
             if self.trans.is_active:
                 self.trans.rollback()
+        except sa_exc.DBAPIError as err:
+            # the connection is gone (the server stopped, the backend terminated): the server
+            # dropped the transaction with it, and the error that ended the run is the one to tell
+            if not err.connection_invalidated:
+                raise
         finally:
             self.conn.close()

@@ -378,3 +378,35 @@ def test_a_failing_query_is_one_line_without_its_sql(tmp_path, argon_scene, rng)
     store.close()
     message = str(info.value)
     assert "\n" not in message and "SELECT" not in message and "no_such_column" in message
+
+
+@pytest.mark.postgres
+def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url, argon_scene, rng):
+    """The server drops a run's connection while its rows stream in (restarted, stopped, an
+    administrator's pg_terminate_backend): the run fails with one StoreError line, not the
+    driver's error from rolling back on a connection that is gone (which the CLI printed as
+    'internal error: OperationalError ... the connection is lost'); the run leaves nothing."""
+    scene = argon_scene(dim=3, n=20)
+    tag = f"gaz_lost_{rng.integers(1 << 30)}"  # this test's connections, and no one else's
+    db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
+    admin = sa.create_engine(postgres_url)
+    store = st.Store(db)
+    try:
+        with pytest.raises(StoreError) as err:
+            with store.simulation(scene) as w:
+                w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                with admin.begin() as conn:
+                    killed = conn.exec_driver_sql(
+                        "SELECT count(pg_terminate_backend(pid)) FROM pg_stat_activity "
+                        f"WHERE application_name = '{tag}'").scalar()
+                assert killed >= 1
+                w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                w.finish(RunStats(200, 200, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+        assert "\n" not in str(err.value)
+    finally:
+        store.close()
+        admin.dispose()
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == []
+        with reader.engine.connect() as conn:  # the run's own REBOND table went with its transaction
+            assert sa.inspect(conn).get_table_names().count("rebond_1") == 0
