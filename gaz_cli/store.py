@@ -224,8 +224,8 @@ def _unwrapped(err: BaseException) -> BaseException:
 
 # --- URLs -----------------------------------------------------------------------
 def url_for(db: str) -> sa.URL:
-    """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://`` uses psycopg 3),
-    anything else is a SQLite file path. Raises StoreError for a malformed URL or a
+    """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://``, and libpq's
+    ``postgres://``, use psycopg 3), anything else is a SQLite file path. Raises StoreError for a malformed URL or a
     backend other than SQLite and PostgreSQL (the two gaz's schema, SQL files and
     writers are made and tested for)."""
     if "://" not in db:
@@ -234,7 +234,7 @@ def url_for(db: str) -> sa.URL:
         url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError) as err:
         raise StoreError(f"--db {shown(db)!r} is not a valid path or SQLAlchemy URL ({err})") from None
-    if url.drivername == "postgresql":
+    if url.drivername in ("postgresql", "postgres"):  # postgres://: libpq's other spelling (SQLAlchemy has none)
         url = url.set(drivername="postgresql+psycopg")
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "

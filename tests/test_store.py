@@ -410,3 +410,16 @@ def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url,
         assert reader.simulation_numbers() == []
         with reader.engine.connect() as conn:  # the run's own REBOND table went with its transaction
             assert sa.inspect(conn).get_table_names().count("rebond_1") == 0
+
+
+@pytest.mark.postgres
+def test_a_postgres_url_is_postgresql(postgres_db, argon_scene, rng):
+    """``postgres://``, libpq's other spelling of ``postgresql://`` (psql, Heroku, many hosts'
+    DATABASE_URL), opens the server (it was refused: 'gaz writes to SQLite files and PostgreSQL
+    servers, not postgres')."""
+    url = sa.make_url(postgres_db).set(drivername="postgres").render_as_string(hide_password=False)
+    assert url.startswith("postgres://")
+    with st.Store(url) as store:
+        si, _ = write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == [si] and len(reader.table(st.rebond, si)) == 100
