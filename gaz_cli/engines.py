@@ -123,13 +123,12 @@ def step_for(scene) -> tuple[float, str]:
     move by their fall, not by their thermal speed."""
     from gaz_cli import theory
 
-    masses = scene.masses()
-    speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
+    speed = float(theory.mean_speed(scene.dim, scene.temperature, scene.mean_mass()))
     fall = math.sqrt(2.0 * scene.gravity * scene.length)  # m/s, reached falling across the box
     falling = fall > speed
     speed = max(speed, fall)
     times = {"box crossing": scene.length / speed, "run": float(scene.duration)}
-    radius = float(scene.radii().mean())
+    radius = scene.mean_radius()
     if radius > 0 and scene.n > 1:
         times["diameter crossing"] = 2.0 * radius / speed
         try:
