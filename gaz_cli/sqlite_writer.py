@@ -171,6 +171,16 @@ def explain(err: BaseException, db: str, shown: str) -> str:
     text = text.replace(db, shown)
     low = text.lower()
     where = f"database {shown!r}"
+    if "://" in db and not db.lower().startswith("sqlite"):  # a server's refusals, not a file's
+        if "permission denied" in low or "must be owner" in low:
+            return (f"{where} refuses this role ({text}); ask the database's owner to grant it "
+                    "the privilege, or choose another --db")
+        if "read-only transaction" in low:
+            return (f"{where} takes no writes ({text}): a standby, or default_transaction_read_only; "
+                    "point --db at a writable database")
+        if ("server closed the connection" in low or "connection is lost" in low
+                or "terminating connection" in low):
+            return f"lost the connection to {where} ({text}); check that the server runs and try again"
     if "locked" in low:
         return (f"{where} is locked by another process (waited {BUSY_TIMEOUT_S:g} s); "
                 "try again when it has finished")

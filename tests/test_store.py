@@ -392,7 +392,7 @@ def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url,
     admin = sa.create_engine(postgres_url)
     store = st.Store(db)
     try:
-        with pytest.raises(StoreError) as err:
+        with pytest.raises(StoreError, match="^lost the connection to database '") as err:
             with store.simulation(scene) as w:
                 w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
                 with admin.begin() as conn:
@@ -423,3 +423,43 @@ def test_a_postgres_url_is_postgresql(postgres_db, argon_scene, rng):
         si, _ = write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
     with st.Store(postgres_db, create=False) as reader:
         assert reader.simulation_numbers() == [si] and len(reader.table(st.rebond, si)) == 100
+
+
+@pytest.mark.postgres
+@pytest.mark.parametrize("how, says", [
+    ("role", r"refuses this role \(permission denied for table \w+\); ask the database's owner"),
+    ("read-only", r"takes no writes \(.*read-only transaction\): a standby, or default_transaction_read_only")],
+    ids=["select-only role", "read-only session"])
+def test_a_server_that_refuses_writes_says_why_in_its_terms(postgres_db, postgres_url, argon_scene, rng,
+                                                            how, says):
+    """A role granted SELECT alone, a read-only session: the refusal names the server's reason
+    and its fix, not a file's (it said 'cannot open database ... (permission denied for table
+    simulation); check that its folder exists and is writable'); nothing is written."""
+    import uuid
+
+    st.Store(postgres_db).close()
+    url = sa.make_url(postgres_db)
+    schema = url.query["options"].split("=", 1)[1]
+    role = f"gaz_reader_{uuid.uuid4().hex[:12]}"
+    admin = sa.create_engine(postgres_url)
+    if how == "role":
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"CREATE ROLE {role} LOGIN NOSUPERUSER")
+            conn.exec_driver_sql(f"GRANT USAGE ON SCHEMA {schema} TO {role}")
+            conn.exec_driver_sql(f"GRANT SELECT ON ALL TABLES IN SCHEMA {schema} TO {role}")
+        url = url.set(username=role, password=None)
+    else:
+        url = url.update_query_dict({"options": f"{url.query['options']} -cdefault_transaction_read_only=on"})
+    try:
+        with pytest.raises(StoreError, match=says) as err:
+            with st.Store(url.render_as_string(hide_password=False)) as store:
+                write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+        assert "folder" not in str(err.value) and "\n" not in str(err.value)
+        with st.Store(postgres_db, create=False) as reader:
+            assert reader.simulation_numbers() == []
+    finally:
+        if how == "role":
+            with admin.begin() as conn:
+                conn.exec_driver_sql(f"DROP OWNED BY {role}")
+                conn.exec_driver_sql(f"DROP ROLE {role}")
+        admin.dispose()
