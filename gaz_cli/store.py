@@ -631,8 +631,10 @@ def _sqlite_connect(dbapi_conn, _record) -> None:
 def _sqlite_begin(conn) -> None:
     # a writer takes the write lock at BEGIN (waiting up to the busy timeout), never in
     # the middle of its transaction, where SQLite cannot wait and fails at once
-    immediate = conn.get_execution_options().get("gaz_write", False)
-    conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
+    if conn.get_execution_options().get("gaz_write", False):
+        sqlite_writer.begin_immediate(conn.connection.dbapi_connection)  # a signal stops its wait
+    else:
+        conn.exec_driver_sql("BEGIN")
 
 
 @contextlib.contextmanager
