@@ -879,10 +879,13 @@ class _DirectRun(_Run):
                 cur.execute("SET LOCAL session_replication_role = origin")
 
     def commit(self) -> None:
+        # what comes before COMMIT is inside the run's transaction: a signal there (a commit
+        # waiting for another session's lock, however long) rolls it all back; the COMMIT
+        # alone is held, so that the run is known stored or not
+        if self._attach:
+            self._attach_rows()
+        self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
         with interrupts.held():
-            if self._attach:
-                self._attach_rows()
-            self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
             self.trans.commit()
             self.si_num = self._si
         self.conn.close()

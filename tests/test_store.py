@@ -463,3 +463,63 @@ def test_a_server_that_refuses_writes_says_why_in_its_terms(postgres_db, postgre
                 conn.exec_driver_sql(f"DROP OWNED BY {role}")
                 conn.exec_driver_sql(f"DROP ROLE {role}")
         admin.dispose()
+
+
+@pytest.mark.postgres
+def test_a_signal_stops_a_commit_waiting_for_a_lock(postgres_db, postgres_url, argon_scene, rng):
+    """Another session holds a lock the run's commit needs (an administrator's LOCK TABLE, a
+    long migration): SIGINT stops the waiting commit at once and stores nothing. (The whole
+    commit was held against signals: the run waited for the lock however long, and was then
+    stored; only the COMMIT itself needs holding, what comes before is inside the run's
+    transaction and rolls back whole.)"""
+    import os
+    import signal
+    import threading
+
+    from gaz_cli import interrupts
+    from gaz_cli.errors import Interrupted
+
+    scene = argon_scene(dim=3, n=20)
+    tag = f"gaz_wait_{rng.integers(1 << 30)}"
+    db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
+    locker = sa.create_engine(postgres_db).connect()
+    admin = sa.create_engine(postgres_url)
+    released, signalled, done = threading.Event(), threading.Event(), threading.Event()
+
+    def interrupt_the_wait():
+        # SIGINT once the writer's session waits for a lock; the lock is given back only
+        # after a bound, which only a commit that ignores the signal reaches
+        with admin.connect() as conn:
+            while not signalled.is_set() and not done.is_set():
+                if conn.exec_driver_sql("SELECT count(*) FROM pg_stat_activity WHERE application_name = "
+                                        f"'{tag}' AND wait_event_type = 'Lock'").scalar():
+                    os.kill(os.getpid(), signal.SIGINT)
+                    signalled.set()
+                conn.rollback()
+        if not done.wait(30):
+            released.set()
+            locker.rollback()
+
+    helper = threading.Thread(target=interrupt_the_wait, daemon=True)
+    store = st.Store(db)
+    try:
+        with interrupts.catching(), pytest.raises(Interrupted):
+            try:
+                with store.simulation(scene) as w:
+                    w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                    w.finish(RunStats(100, 100, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+                    locker.exec_driver_sql("LOCK TABLE simulation IN ACCESS EXCLUSIVE MODE")
+                    helper.start()
+            finally:
+                done.set()
+                helper.join()
+        assert signalled.is_set() and not released.is_set()  # stopped while the lock was held
+    finally:
+        locker.rollback()
+        locker.close()
+        store.close()
+        admin.dispose()
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == []
+        with reader.engine.connect() as conn:
+            assert [t for t in sa.inspect(conn).get_table_names() if t.startswith("rebond_")] == ["rebond_default"]
