@@ -323,3 +323,25 @@ def test_a_varied_count_of_zero_names_the_species_count(tmp_path, cluster):
     rows = {r["count.He"]: r for r in json.loads(res.stdout)["runs"]}
     assert rows[3]["STATUS"] == "stored" and rows[0]["STATUS"] == "failed"
     assert rows[0]["NOTE"] == f"{scene}: the [[species]] count of He must be at least 1, got 0"
+
+
+def test_the_local_clusters_own_errors_stay_off_the_terminal():
+    """The local cluster's logs at ERROR level -- a worker's heartbeat failing as the scheduler
+    closes under it, what an interrupted sweep printed, a traceback of 30 lines before gaz's
+    own line -- do not reach stderr: gaz reports every run's failure itself (the report's
+    NOTE, the interrupted sweep's one line)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import logging
+        from gaz_cli import sweeps
+        with sweeps._client(workers=1, scheduler=None, runs=1) as client:
+            client.run(lambda: logging.getLogger("distributed.worker").error("worker says boom"))
+            logging.getLogger("distributed.scheduler").error("scheduler says boom")
+        print("done")
+    """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and res.stdout == "done\n", res.stderr
+    assert "boom" not in res.stderr, res.stderr
