@@ -58,6 +58,7 @@ import os
 import re
 import sqlite3
 import sys
+import urllib.parse
 from importlib import resources
 from pathlib import Path
 
@@ -245,14 +246,24 @@ def url_for(db: str) -> sa.URL:
     return url
 
 
+_SECRET_PARAMETERS = ("password", "sslpassword")
+"""Query parameters of a URL that libpq (psycopg) takes as passwords: hidden as the URL's own."""
+
+
 def shown(db: str) -> str:
-    """``db`` as it may be printed: a URL's password replaced by ***."""
+    """``db`` as it may be printed: a URL's password, in its place or as a ``?password=``
+    parameter, replaced by ***; its query as written (``host=/tmp``, not ``host=%2Ftmp``)."""
     if "://" not in db:
         return db
     try:
-        return sa.make_url(db).render_as_string(hide_password=True)
+        url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError):
+        db = re.sub(r"([?&](?:ssl)?password=)[^&]*", r"\1***", db, flags=re.IGNORECASE)
         return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", db)
+    hidden = {k: "***" for k in url.query if k.lower() in _SECRET_PARAMETERS}
+    text = url.update_query_dict(hidden).render_as_string(hide_password=True)
+    base, sep, query = text.partition("?")
+    return base + sep + urllib.parse.unquote(query)
 
 
 # --- packaged SQL ---------------------------------------------------------------

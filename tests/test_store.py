@@ -523,3 +523,18 @@ def test_a_signal_stops_a_commit_waiting_for_a_lock(postgres_db, postgres_url, a
         assert reader.simulation_numbers() == []
         with reader.engine.connect() as conn:
             assert [t for t in sa.inspect(conn).get_table_names() if t.startswith("rebond_")] == ["rebond_default"]
+
+
+def test_a_password_given_as_a_url_parameter_is_hidden_too():
+    """libpq takes the password as ``?password=`` too: it was printed whole ('cannot connect to
+    database 'postgresql://gaz@127.0.0.1:1/gaz?password=s3cret': ...'); and the query is shown
+    as written, not percent-encoded (host=%2Ftmp%2Fpg)."""
+    for url in ("postgresql://gaz@127.0.0.1:1/gaz?password=s3cret&connect_timeout=3",
+                "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&PASSWORD=s3cret",
+                "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&sslpassword=s3cret"):
+        with pytest.raises(StoreError) as err:
+            st.Store(url)
+        message = str(err.value)
+        assert "s3cret" not in message and "\n" not in message, message
+        assert "password=***" in message.lower(), message
+    assert "host=/nonexistent/gaz-socket" in message
