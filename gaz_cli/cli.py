@@ -458,7 +458,9 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
             for p, status, si_num, why in report.rows]
     emit_frames({"runs": pd.DataFrame(rows)}, fmt)
     counts = ", ".join(f"{report.count(s)} {s}" for s in ("stored", "skipped", "failed"))
-    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {report.db})", err=True)
+    from gaz_cli.store import shown
+
+    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {shown(report.db)})", err=True)
     if report.failed:
         raise SystemExit(1)
 
