@@ -311,7 +311,9 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
     from gaz_cli import api, options as opts, progress, runner, scenefile
 
     if no_db and db is not None:
-        raise click.UsageError(f"--no-db writes no database; drop --db {db!r}, or drop --no-db")
+        from gaz_cli.store import shown
+
+        raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory or outputs.get("trajectory")
