@@ -393,10 +393,19 @@ class Store(RunStore):
         present = [t for t in EXAM_TABLES if t in names]
         if not present:
             others = sorted(n for n in names if not n.startswith("sqlite_"))
-            if self.is_sqlite and others:  # a PostgreSQL database may hold other schemas' tables
+            if others:  # another application's file, or schema (PostgreSQL: the one gaz would write into)
                 shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
-                raise StoreError(f"{self.shown!r} is not a gaz database: it holds other tables ({shown}) and "
-                                 "none of gaz's; nothing was written; give --db a new file or a gaz database")
+                if self.is_sqlite:
+                    raise StoreError(f"{self.shown!r} is not a gaz database: it holds other tables ({shown}) "
+                                     "and none of gaz's; nothing was written; give --db a new file or a gaz "
+                                     "database")
+                schemas = conn.exec_driver_sql("SELECT current_schemas(false)").scalar()  # the search path's
+                where = (f"its schema {schemas[0]} holds" if len(schemas) == 1 else
+                         f"its schemas {', '.join(schemas)} (the search path) hold")
+                raise StoreError(f"{self.shown!r} is not a gaz database: {where} other tables "
+                                 f"({shown}) and none of gaz's; nothing was written; give gaz a database of its "
+                                 "own (createdb), or a schema of its own (CREATE SCHEMA gaz, then add "
+                                 "?options=-csearch_path%3Dgaz to the URL)")
             return 0
         if len(present) < len(EXAM_TABLES):
             missing = next(t for t in EXAM_TABLES if t not in names)

@@ -538,3 +538,22 @@ def test_a_password_given_as_a_url_parameter_is_hidden_too():
         assert "s3cret" not in message and "\n" not in message, message
         assert "password=***" in message.lower(), message
     assert "host=/nonexistent/gaz-socket" in message
+
+
+@pytest.mark.postgres
+def test_a_postgres_schema_of_another_application_is_refused_and_untouched(postgres_db):
+    """A schema holding another application's tables and none of gaz's is refused, as such a
+    SQLite file is (gaz added its nine tables and their rows beside the others' own); a
+    schema of its own (search_path) is the fix the message gives."""
+    engine = sa.create_engine(postgres_db)
+    with engine.begin() as conn:
+        conn.exec_driver_sql("CREATE TABLE orders (id INTEGER PRIMARY KEY, item TEXT)")
+        conn.exec_driver_sql("INSERT INTO orders VALUES (1, 'theirs')")
+    with pytest.raises(StoreError, match=r"is not a gaz database: its schema gaz_test_\w+ holds other tables "
+                                         r"\(orders\) and none of gaz's; nothing was written") as err:
+        st.Store(postgres_db)
+    assert "search_path" in str(err.value) and "\n" not in str(err.value)
+    assert sa.inspect(engine).get_table_names() == ["orders"]
+    with engine.connect() as conn:
+        assert conn.exec_driver_sql("SELECT item FROM orders").all() == [("theirs",)]
+    engine.dispose()
