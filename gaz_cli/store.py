@@ -806,6 +806,17 @@ def _may_skip_key_triggers(conn) -> bool:
         "SELECT has_parameter_privilege('session_replication_role', 'SET')").scalar())
 
 
+def _keep_open(conn) -> None:
+    """Lift, for this transaction only, the server's limits on how long a transaction may stay
+    open or idle (idle_in_transaction_session_timeout; transaction_timeout, PostgreSQL 17+),
+    which a managed server often sets: a run's transaction is open for the whole run, idle
+    while its engine computes (with --record none, from start to commit), and such a limit
+    ended it, losing the run at its commit. Both are settings any role may change for itself."""
+    conn.exec_driver_sql("SET LOCAL idle_in_transaction_session_timeout = 0")
+    if (conn.dialect.server_version_info or (0,)) >= (17,):
+        conn.exec_driver_sql("SET LOCAL transaction_timeout = 0")
+
+
 def _may_attach(conn) -> bool:
     """Whether REBOND and CHOC are partitioned (PostgreSQL schema 5) and this role may
     attach partitions to them: it owns them, or is a member of the role that does (a
@@ -850,6 +861,8 @@ class _DirectRun(_Run):
         self._targets = {}  # table name -> where its rows go until the commit (attach path)
         try:
             self.trans = self.conn.begin()
+            if self.conn.dialect.name == "postgresql":
+                _keep_open(self.conn)
             self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
             if self._attach:
                 self._si = self._next("simulation", "si_num")
