@@ -263,7 +263,7 @@ def shown(db: str) -> str:
     hidden = {k: "***" for k in url.query if k.lower() in _SECRET_PARAMETERS}
     text = url.update_query_dict(hidden).render_as_string(hide_password=True)
     base, sep, query = text.partition("?")
-    return base + sep + urllib.parse.unquote(query)
+    return base + sep + urllib.parse.unquote_plus(query)  # (SQLAlchemy writes a space as +)
 
 
 # --- packaged SQL ---------------------------------------------------------------

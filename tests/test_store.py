@@ -557,3 +557,13 @@ def test_a_postgres_schema_of_another_application_is_refused_and_untouched(postg
     with engine.connect() as conn:
         assert conn.exec_driver_sql("SELECT item FROM orders").all() == [("theirs",)]
     engine.dispose()
+
+
+def test_a_url_is_shown_as_written():
+    """A URL's query in messages reads as the user wrote it: spaces, '=' and '/' in values
+    (a server's options, a socket folder), not SQLAlchemy's encoding of them ('options=-csearch_path%3Dx+-cy%3D1')."""
+    url = "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&options=-csearch_path%3Dx%20-cstatement_timeout%3D5"
+    with pytest.raises(StoreError) as err:
+        st.Store(url)
+    assert "'postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&options=-csearch_path=x -cstatement_timeout=5'" \
+        in str(err.value), str(err.value)
