@@ -164,8 +164,12 @@ class ForTheStore(Exception):
 def explain(err: BaseException, db: str, shown: str) -> str:
     """One line for a driver or OS error on database ``db`` (printed as ``shown``), naming it
     and the fix (used by :class:`gaz_cli.store.Store` too)."""
+    diag = getattr(err, "diag", None)  # a PostgreSQL server's error (psycopg): its parts apart
     if isinstance(err, OSError) and not isinstance(err, sqlite3.Error):
         text = err.strerror or str(err)
+    elif getattr(diag, "message_primary", None):
+        # the message and its detail, without the lines of SQL the server quotes after them
+        text = " ".join(" ".join(part.split()) for part in (diag.message_primary, diag.message_detail) if part)
     else:
         text = " ".join(str(err).split())
     text = text.replace(db, shown)

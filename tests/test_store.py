@@ -567,3 +567,29 @@ def test_a_url_is_shown_as_written():
         st.Store(url)
     assert "'postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&options=-csearch_path=x -cstatement_timeout=5'" \
         in str(err.value), str(err.value)
+
+
+@pytest.mark.postgres
+def test_a_server_error_is_its_message_without_the_sql_it_quotes(postgres_db, postgres_url):
+    """A role that may not create tables in the schema (PostgreSQL 15's default for the public
+    schema) on a new database: one line with the server's message, without the lines of SQL
+    PostgreSQL quotes after it ('permission denied for schema public LINE 2: CREATE TABLE
+    simulation ( ^')."""
+    import uuid
+
+    schema = sa.make_url(postgres_db).query["options"].split("=", 1)[1]
+    role = f"gaz_guest_{uuid.uuid4().hex[:12]}"
+    admin = sa.create_engine(postgres_url)
+    with admin.begin() as conn:
+        conn.exec_driver_sql(f"CREATE ROLE {role} LOGIN NOSUPERUSER")
+        conn.exec_driver_sql(f"GRANT USAGE ON SCHEMA {schema} TO {role}")
+    guest = sa.make_url(postgres_db).set(username=role, password=None).render_as_string(hide_password=False)
+    try:
+        with pytest.raises(StoreError, match=rf"refuses this role \(permission denied for schema {schema}\); ") as err:
+            st.Store(guest)
+        assert "LINE" not in str(err.value) and "CREATE" not in str(err.value)
+    finally:
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"DROP OWNED BY {role}")
+            conn.exec_driver_sql(f"DROP ROLE {role}")
+        admin.dispose()
