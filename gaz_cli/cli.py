@@ -139,12 +139,24 @@ class _PipeClosed(Exception):
     click, whose own handler of it exits 1 without a word, even outside standalone mode."""
 
 
+class _Stopped(Exception):
+    """A SIGINT or SIGTERM (a KeyboardInterrupt, ``interrupt``) carried past click, which would
+    write an empty line on stderr first (for the terminal's ^C, also after a SIGTERM or into a
+    log file) and turn it into Abort."""
+
+    def __init__(self, interrupt: KeyboardInterrupt):
+        super().__init__()
+        self.interrupt = interrupt
+
+
 class _Group(click.Group):
     def invoke(self, ctx):
         try:
             return super().invoke(ctx)
         except BrokenPipeError:
             raise _PipeClosed() from None
+        except KeyboardInterrupt as exc:
+            raise _Stopped(exc) from None
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -299,7 +311,9 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
     from gaz_cli import api, options as opts, progress, runner, scenefile
 
     if no_db and db is not None:
-        raise click.UsageError(f"--no-db writes no database; drop --db {db!r}, or drop --no-db")
+        from gaz_cli.store import shown
+
+        raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory or outputs.get("trajectory")
@@ -450,7 +464,9 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
             for p, status, si_num, why in report.rows]
     emit_frames({"runs": pd.DataFrame(rows)}, fmt)
     counts = ", ".join(f"{report.count(s)} {s}" for s in ("stored", "skipped", "failed"))
-    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {report.db})", err=True)
+    from gaz_cli.store import shown
+
+    click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {shown(report.db)})", err=True)
     if report.failed:
         raise SystemExit(1)
 
@@ -551,10 +567,14 @@ def main(argv=None) -> None:
             cli.main(args=argv, prog_name=prog, standalone_mode=False)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
-    except (click.Abort, KeyboardInterrupt) as exc:
-        # click turns a KeyboardInterrupt into Abort; the run's Interrupted is its cause
-        cause = exc if isinstance(exc, KeyboardInterrupt) else exc.__cause__
+    except (_Stopped, click.Abort, KeyboardInterrupt) as exc:
+        # the run's Interrupted, carried past click (_Stopped), or turned by it into Abort
+        # (outside a command: its cause), or raised before click ran
+        cause = (exc.interrupt if isinstance(exc, _Stopped) else
+                 exc if isinstance(exc, KeyboardInterrupt) else exc.__cause__)
         signum = getattr(cause, "signum", signal.SIGINT)
+        if signum == signal.SIGINT and sys.stderr.isatty():
+            click.echo(err=True)  # after the ^C the terminal wrote
         left = getattr(cause, "left", "nothing was written for the interrupted run")
         click.echo(f"{prog}: interrupted by {signal.Signals(signum).name}; {left}", err=True)
         sys.exit(128 + signum)

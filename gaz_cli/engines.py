@@ -126,9 +126,9 @@ def step_for(scene) -> tuple[float, str]:
     the attraction can give it (bodies at 300 K that attract each other move by their pull)."""
     from gaz_cli import theory
 
-    masses = scene.masses()
-    radius = float(scene.radii().mean())
-    speed = float(theory.mean_speed(scene.dim, scene.temperature, float(masses.mean())))
+    mass = scene.mean_mass()  # (no (N,) array: a run of 10^9 particles is checked here too)
+    radius = scene.mean_radius()
+    speed = float(theory.mean_speed(scene.dim, scene.temperature, mass))
     pulls = {" at the speed of a fall across the box": math.sqrt(2.0 * scene.gravity * scene.length)}  # m/s
     try:  # checked later, with the step engine's options (scene._check_engine_options)
         reach = max(2.0 * radius, float(scene.softening), 0.0)
@@ -136,7 +136,7 @@ def step_for(scene) -> tuple[float, str]:
         reach = 2.0 * radius
     if scene.pair_gravity > 0 and reach > 0:
         pulls[" at the speed of the bodies falling together"] = math.sqrt(
-            2.0 * scene.pair_gravity * float(masses.sum()) / reach)
+            2.0 * scene.pair_gravity * mass * scene.n / reach)
     pull = max(pulls, key=pulls.get)
     speed_said = pull if pulls[pull] > speed else ""
     speed = max(speed, pulls[pull])

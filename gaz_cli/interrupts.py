@@ -63,6 +63,12 @@ def check() -> None:
         raise Interrupted(_pending[0])
 
 
+def pending() -> int | None:
+    """The signal received and not raised yet (inside a :func:`held` block, where it waits
+    for the block's end), else None: a block that has not started writing may stop at once."""
+    return _pending[0] if _pending else None
+
+
 @contextlib.contextmanager
 def held():
     """Run the block whole: a SIGINT or SIGTERM arriving inside it is raised after it."""

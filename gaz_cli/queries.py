@@ -117,11 +117,11 @@ def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: 
     query = find(name)
     params = parse_parameters(query, pairs)
     with Store(db, create=False) as store:
-        _check_columns(query, store, db)
+        _check_columns(query, store)
         return query, store.read_sql(query.sql, **params)
 
 
-def _check_columns(query: Query, store, db: str) -> None:
+def _check_columns(query: Query, store) -> None:
     """Refuse, in one line, a query that reads a column the database's (older) schema
     version lacks, rather than let the database say "no such column"."""
     from gaz_cli.store import metadata
@@ -134,8 +134,8 @@ def _check_columns(query: Query, store, db: str) -> None:
             if since > version and re.search(rf"\b{column.name.lower()}\b", code):
                 raise QueryError(
                     f"query {query.name} reads {table.name.upper()}.{column.name.upper()}, added in schema "
-                    f"version {since}; {db!r} is at version {version} (an older gaz): it is migrated "
-                    f"forward the next time gaz writes to it (gaz simulate --db {db} ...), and runs "
+                    f"version {since}; {store.shown!r} is at version {version} (an older gaz): it is migrated "
+                    f"forward the next time gaz writes to it (gaz simulate --db {store.shown} ...), and runs "
                     "stored before keep no value there")
 
 

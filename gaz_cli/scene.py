@@ -155,6 +155,15 @@ class Scene:
         """(N,) float64, m."""
         return np.array([s.radius for s in self.species])[self.kinds()]
 
+    def mean_mass(self) -> float:
+        """Mean mass of a particle, kg: from the species and their counts, no (N,) array (the
+        checks at the door of a run of 10^9 particles allocate nothing per particle)."""
+        return sum(s.mass * k for s, k in self.components) / self.n
+
+    def mean_radius(self) -> float:
+        """Mean radius of a particle, m (as :meth:`mean_mass`)."""
+        return sum(s.radius * k for s, k in self.components) / self.n
+
     @property
     def volume(self) -> float:
         """Box volume L^D (length in 1D, area in 2D), m^D."""
@@ -757,8 +766,7 @@ def work_estimate(scene: Scene) -> dict:
     from gaz_cli import theory
 
     n, dim, length = scene.n, scene.dim, scene.length
-    radii, masses = scene.radii(), scene.masses()
-    sigma, mass = 2.0 * float(radii.mean()), float(masses.mean())
+    sigma, mass = 2.0 * scene.mean_radius(), scene.mean_mass()
     density = n / scene.volume
     rate = collision_rate = 0.0
     if n > 1 and sigma > 0:
@@ -882,12 +890,12 @@ def default_tc(scene: Scene) -> float:
     """TC-model contact time: 1e-4 of the mean free time 1/omega (Enskog, closed-form EOS)."""
     from gaz_cli import theory
 
-    sigma = 2.0 * float(scene.radii().mean())
+    sigma = 2.0 * scene.mean_radius()
     if sigma == 0:
         return 0.0
     closed_form = {1: "tonks", 2: "henderson", 3: "carnahan-starling"}[scene.dim]
     omega = theory.enskog_collision_frequency(scene.dim, scene.n / scene.volume, sigma, scene.temperature,
-                                              float(scene.masses().mean()), model=closed_form)
+                                              scene.mean_mass(), model=closed_form)
     return 1e-4 / float(omega)
 
 

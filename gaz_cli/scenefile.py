@@ -379,7 +379,9 @@ def stored(db: str, si_num: int) -> str:
 
     _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])
     if frame.empty:
-        raise StoreError(f"no simulation {si_num} in {db!r}; gaz analyse --db {db} lists them")
+        from gaz_cli.store import shown
+
+        raise StoreError(f"no simulation {si_num} in {shown(db)!r}; gaz analyse --db {shown(db)} lists them")
     text = frame.iloc[0, 1]
     if not isinstance(text, str) or not text:
         raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "

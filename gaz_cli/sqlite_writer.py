@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from gaz_cli import __version__, interrupts, scenefile, staging
-from gaz_cli.errors import StoreError
+from gaz_cli.errors import Interrupted, StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.scene import Scene
 from gaz_cli.species import BUILTIN, Species
@@ -164,13 +164,27 @@ class ForTheStore(Exception):
 def explain(err: BaseException, db: str, shown: str) -> str:
     """One line for a driver or OS error on database ``db`` (printed as ``shown``), naming it
     and the fix (used by :class:`gaz_cli.store.Store` too)."""
+    diag = getattr(err, "diag", None)  # a PostgreSQL server's error (psycopg): its parts apart
     if isinstance(err, OSError) and not isinstance(err, sqlite3.Error):
         text = err.strerror or str(err)
+    elif getattr(diag, "message_primary", None):
+        # the message and its detail, without the lines of SQL the server quotes after them
+        text = " ".join(" ".join(part.split()) for part in (diag.message_primary, diag.message_detail) if part)
     else:
         text = " ".join(str(err).split())
     text = text.replace(db, shown)
     low = text.lower()
     where = f"database {shown!r}"
+    if "://" in db and not db.lower().startswith("sqlite"):  # a server's refusals, not a file's
+        if "permission denied" in low or "must be owner" in low:
+            return (f"{where} refuses this role ({text}); ask the database's owner to grant it "
+                    "the privilege, or choose another --db")
+        if "read-only transaction" in low:
+            return (f"{where} takes no writes ({text}): a standby, or default_transaction_read_only; "
+                    "point --db at a writable database")
+        if ("server closed the connection" in low or "connection is lost" in low
+                or "terminating connection" in low):
+            return f"lost the connection to {where} ({text}); check that the server runs and try again"
     if "locked" in low:
         return (f"{where} is locked by another process (waited {BUSY_TIMEOUT_S:g} s); "
                 "try again when it has finished")
@@ -290,15 +304,46 @@ class SqliteFile(RunStore):
         return StagedRun(self, scene, started)
 
 
+LOCK_POLL_S = 0.1
+"""A writer waits for another one's write lock in slices this long, s (see :func:`begin_immediate`)."""
+
+
+def begin_immediate(conn: sqlite3.Connection) -> None:
+    """BEGIN IMMEDIATE: take the write lock, waiting for another writer up to BUSY_TIMEOUT_S.
+
+    SQLite waits inside its own C call, where Python's signal handlers do not run: a Ctrl-C or
+    SIGTERM to a run waiting for another writer's lock took effect only when the lock came
+    free, up to a minute later. So the wait is made of slices of :data:`LOCK_POLL_S`, between
+    which a signal stops it at once, also inside :func:`gaz_cli.interrupts.held` (a commit
+    that has not got the lock has written nothing)."""
+    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    conn.execute(f"PRAGMA busy_timeout = {int(LOCK_POLL_S * 1000)}")
+    try:
+        while True:
+            try:
+                conn.execute("BEGIN IMMEDIATE")
+                return
+            except sqlite3.OperationalError as err:
+                if "locked" not in str(err).lower() or time.monotonic() >= deadline:
+                    raise
+            signum = interrupts.pending()
+            if signum is not None:
+                raise Interrupted(signum)
+    finally:
+        conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+
+
 @contextlib.contextmanager
 def _transaction(conn: sqlite3.Connection):
     """A write transaction (BEGIN IMMEDIATE: the write lock taken at its start, waiting up to
-    the busy timeout), committed at the end, rolled back on any exception."""
-    conn.execute("BEGIN IMMEDIATE")
+    the busy timeout, :func:`begin_immediate`), committed at the end, rolled back on any
+    exception."""
     try:
+        begin_immediate(conn)
         yield
     except BaseException:
-        conn.execute("ROLLBACK")
+        if conn.in_transaction:  # (a signal may land just after BEGIN)
+            conn.execute("ROLLBACK")
         raise
     conn.execute("COMMIT")
 

@@ -58,6 +58,7 @@ import os
 import re
 import sqlite3
 import sys
+import urllib.parse
 from importlib import resources
 from pathlib import Path
 
@@ -224,8 +225,8 @@ def _unwrapped(err: BaseException) -> BaseException:
 
 # --- URLs -----------------------------------------------------------------------
 def url_for(db: str) -> sa.URL:
-    """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://`` uses psycopg 3),
-    anything else is a SQLite file path. Raises StoreError for a malformed URL or a
+    """A SQLAlchemy URL from ``--db``: a URL is kept (``postgresql://``, and libpq's
+    ``postgres://``, use psycopg 3), anything else is a SQLite file path. Raises StoreError for a malformed URL or a
     backend other than SQLite and PostgreSQL (the two gaz's schema, SQL files and
     writers are made and tested for)."""
     if "://" not in db:
@@ -234,7 +235,7 @@ def url_for(db: str) -> sa.URL:
         url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError) as err:
         raise StoreError(f"--db {shown(db)!r} is not a valid path or SQLAlchemy URL ({err})") from None
-    if url.drivername == "postgresql":
+    if url.drivername in ("postgresql", "postgres"):  # postgres://: libpq's other spelling (SQLAlchemy has none)
         url = url.set(drivername="postgresql+psycopg")
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
@@ -245,14 +246,24 @@ def url_for(db: str) -> sa.URL:
     return url
 
 
+_SECRET_PARAMETERS = ("password", "sslpassword")
+"""Query parameters of a URL that libpq (psycopg) takes as passwords: hidden as the URL's own."""
+
+
 def shown(db: str) -> str:
-    """``db`` as it may be printed: a URL's password replaced by ***."""
+    """``db`` as it may be printed: a URL's password, in its place or as a ``?password=``
+    parameter, replaced by ***; its query as written (``host=/tmp``, not ``host=%2Ftmp``)."""
     if "://" not in db:
         return db
     try:
-        return sa.make_url(db).render_as_string(hide_password=True)
+        url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError):
+        db = re.sub(r"([?&](?:ssl)?password=)[^&]*", r"\1***", db, flags=re.IGNORECASE)
         return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", db)
+    hidden = {k: "***" for k in url.query if k.lower() in _SECRET_PARAMETERS}
+    text = url.update_query_dict(hidden).render_as_string(hide_password=True)
+    base, sep, query = text.partition("?")
+    return base + sep + urllib.parse.unquote_plus(query)  # (SQLAlchemy writes a space as +)
 
 
 # --- packaged SQL ---------------------------------------------------------------
@@ -382,10 +393,19 @@ class Store(RunStore):
         present = [t for t in EXAM_TABLES if t in names]
         if not present:
             others = sorted(n for n in names if not n.startswith("sqlite_"))
-            if self.is_sqlite and others:  # a PostgreSQL database may hold other schemas' tables
+            if others:  # another application's file, or schema (PostgreSQL: the one gaz would write into)
                 shown = ", ".join(others[:3]) + (f" and {len(others) - 3} more" if len(others) > 3 else "")
-                raise StoreError(f"{self.shown!r} is not a gaz database: it holds other tables ({shown}) and "
-                                 "none of gaz's; nothing was written; give --db a new file or a gaz database")
+                if self.is_sqlite:
+                    raise StoreError(f"{self.shown!r} is not a gaz database: it holds other tables ({shown}) "
+                                     "and none of gaz's; nothing was written; give --db a new file or a gaz "
+                                     "database")
+                schemas = conn.exec_driver_sql("SELECT current_schemas(false)").scalar()  # the search path's
+                where = (f"its schema {schemas[0]} holds" if len(schemas) == 1 else
+                         f"its schemas {', '.join(schemas)} (the search path) hold")
+                raise StoreError(f"{self.shown!r} is not a gaz database: {where} other tables "
+                                 f"({shown}) and none of gaz's; nothing was written; give gaz a database of its "
+                                 "own (createdb), or a schema of its own (CREATE SCHEMA gaz, then add "
+                                 "?options=-csearch_path%3Dgaz to the URL)")
             return 0
         if len(present) < len(EXAM_TABLES):
             missing = next(t for t in EXAM_TABLES if t not in names)
@@ -631,8 +651,10 @@ def _sqlite_connect(dbapi_conn, _record) -> None:
 def _sqlite_begin(conn) -> None:
     # a writer takes the write lock at BEGIN (waiting up to the busy timeout), never in
     # the middle of its transaction, where SQLite cannot wait and fails at once
-    immediate = conn.get_execution_options().get("gaz_write", False)
-    conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
+    if conn.get_execution_options().get("gaz_write", False):
+        sqlite_writer.begin_immediate(conn.connection.dbapi_connection)  # a signal stops its wait
+    else:
+        conn.exec_driver_sql("BEGIN")
 
 
 @contextlib.contextmanager
@@ -784,6 +806,17 @@ def _may_skip_key_triggers(conn) -> bool:
         "SELECT has_parameter_privilege('session_replication_role', 'SET')").scalar())
 
 
+def _keep_open(conn) -> None:
+    """Lift, for this transaction only, the server's limits on how long a transaction may stay
+    open or idle (idle_in_transaction_session_timeout; transaction_timeout, PostgreSQL 17+),
+    which a managed server often sets: a run's transaction is open for the whole run, idle
+    while its engine computes (with --record none, from start to commit), and such a limit
+    ended it, losing the run at its commit. Both are settings any role may change for itself."""
+    conn.exec_driver_sql("SET LOCAL idle_in_transaction_session_timeout = 0")
+    if (conn.dialect.server_version_info or (0,)) >= (17,):
+        conn.exec_driver_sql("SET LOCAL transaction_timeout = 0")
+
+
 def _may_attach(conn) -> bool:
     """Whether REBOND and CHOC are partitioned (PostgreSQL schema 5) and this role may
     attach partitions to them: it owns them, or is a member of the role that does (a
@@ -828,6 +861,8 @@ class _DirectRun(_Run):
         self._targets = {}  # table name -> where its rows go until the commit (attach path)
         try:
             self.trans = self.conn.begin()
+            if self.conn.dialect.name == "postgresql":
+                _keep_open(self.conn)
             self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
             if self._attach:
                 self._si = self._next("simulation", "si_num")
@@ -877,10 +912,13 @@ class _DirectRun(_Run):
                 cur.execute("SET LOCAL session_replication_role = origin")
 
     def commit(self) -> None:
+        # what comes before COMMIT is inside the run's transaction: a signal there (a commit
+        # waiting for another session's lock, however long) rolls it all back; the COMMIT
+        # alone is held, so that the run is known stored or not
+        if self._attach:
+            self._attach_rows()
+        self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
         with interrupts.held():
-            if self._attach:
-                self._attach_rows()
-            self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
             self.trans.commit()
             self.si_num = self._si
         self.conn.close()
@@ -898,5 +936,10 @@ class _DirectRun(_Run):
         try:
             if self.trans.is_active:
                 self.trans.rollback()
+        except sa_exc.DBAPIError as err:
+            # the connection is gone (the server stopped, the backend terminated): the server
+            # dropped the transaction with it, and the error that ended the run is the one to tell
+            if not err.connection_invalidated:
+                raise
         finally:
             self.conn.close()

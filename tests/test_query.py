@@ -119,3 +119,32 @@ def test_a_column_newer_than_the_database_is_named(backend):
     assert res.exit_code == 0 and "2,1" in res.stdout  # one simulation in 2D
     with st.Store(backend, create=False) as store:
         assert store.schema_version() == 1  # reading did not migrate
+
+
+@pytest.mark.postgres
+def test_messages_naming_the_database_hide_its_password(postgres_db):
+    """Every message that names --db hides its password, as the store's own do: --no-db with
+    --db, a simulation not in the database (gaz scene), a query that needs a newer schema
+    version (each printed the URL whole: 'no simulation 9 in 'postgresql://gaz:s3cret@...'').
+    (The test server trusts its socket: the password is given, and not checked.)"""
+    import sqlalchemy as sa
+    from test_store import _version_1
+
+    db = sa.make_url(postgres_db).set(password="s3cret").render_as_string(hide_password=False)
+    said = []
+    res = invoke([*QUICK, "--no-db", "--db", db])
+    assert res.exit_code == 2 and "drop --no-db" in res.stderr
+    said.append(res.stderr)
+    assert invoke([*QUICK, "--seed", "1", "--db", db]).exit_code == 0
+    res = invoke(["scene", "9", "--db", db])
+    assert res.exit_code == 1 and "no simulation 9 in" in res.stderr
+    said.append(res.stderr)
+    with st.Store(postgres_db) as store, store.engine.begin() as conn:  # back to schema version 1
+        for table in reversed(st.metadata.sorted_tables):
+            conn.exec_driver_sql(f"DROP TABLE {table.name} CASCADE")
+    _version_1(postgres_db)
+    res = invoke(["scene", "1", "--db", db])
+    assert res.exit_code == 1 and "added in schema version 3" in res.stderr
+    said.append(res.stderr)
+    for err in said:
+        assert "s3cret" not in err and "gaz:***@" in err, err

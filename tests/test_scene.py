@@ -160,6 +160,30 @@ def test_memory_is_refused_before_allocation_with_need_and_have(monkeypatch):
         validate(big)
 
 
+@pytest.mark.parametrize("extra", [{}, {"drag": 0.1}], ids=["event", "step"])  # drag: the step engine, its dt
+def test_a_run_refused_for_memory_allocates_nothing_per_particle(monkeypatch, extra):
+    """The door's checks before the memory check (the engine's choice, the work estimate, the
+    step engine's dt) take means from the species, not from (N,) arrays: gaz simulate --dim 1
+    --n 3000000000 ... (1.4 TB needed) was killed by the kernel's OOM killer building 24 GB
+    arrays of radii and masses, on a 25 GB machine, instead of saying it needs too much."""
+    import tracemalloc
+
+    from gaz_cli import scene as scene_mod
+
+    monkeypatch.setattr(scene_mod, "physical_memory", lambda: 10 ** 9)
+    n = 10 ** 7  # 4.8 GB for the event engine, 3.7 GB for the step engine: refused
+    big = _custom(6.6e-26, length=1e-3)
+    big = big.__class__(**{**big.__dict__, "components": ((big.species[0], n),), **extra})
+    tracemalloc.start()  # numpy reports its buffers to tracemalloc
+    try:
+        with pytest.raises(SceneError, match=r"N = 1e\+07 needs about .* of memory"):
+            validate(big)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < n  # less than a byte a particle (an (N,) float64 array is 8)
+
+
 def test_work_estimate_follows_the_event_engine_and_force_lifts_the_bound(make_scene):
     """The estimate (Enskog collisions + wall hits) against the events the engine counts, 2D walls,
     packing 0.3: within a factor 1.5 (Enskog is good to a few percent here; wall hits are the

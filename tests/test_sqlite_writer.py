@@ -237,3 +237,67 @@ def test_the_switch_to_wal_gives_up_after_the_busy_timeout(tmp_path, monkeypatch
     with pytest.raises(sqlite3.OperationalError, match="locked"):
         sqlite_writer.use_wal(conn)
     assert conn.refusals > 0
+
+
+@pytest.mark.parametrize("phase", ["open", "commit"])
+def test_a_signal_stops_the_wait_for_another_writers_lock(tmp_path, phase):
+    """Another process holds the write lock; a run waits for it, at its opening or at its
+    commit, and gets SIGINT: it stops at once, nothing written, while the lock is still held
+    (SQLite's wait runs in C, where Python's handlers do not: the run went on waiting until
+    the lock came free, up to BUSY_TIMEOUT_S, 60 s, whatever the user pressed)."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from gaz_cli import interrupts
+    from gaz_cli.errors import Interrupted
+
+    db = tmp_path / "gaz.db"
+    scene = runs()[0]
+    sqlite_writer.SqliteFile(str(db)).close()  # a gaz database, at the current schema
+    holder = sqlite3.connect(db, isolation_level=None, check_same_thread=False)
+    main = threading.main_thread().ident
+    released, signalled = threading.Event(), threading.Event()
+
+    def interrupt_the_wait():
+        # once the main thread waits for the lock (its stack shows it), SIGINT; the lock is
+        # given back only after a bound, which only a wait that ignores the signal reaches
+        while not signalled.is_set():
+            frame = sys._current_frames().get(main)
+            while frame is not None:
+                if frame.f_code.co_name in ("begin_immediate", "_transaction"):
+                    os.kill(os.getpid(), signal.SIGINT)
+                    signalled.set()
+                    break
+                frame = frame.f_back
+            time.sleep(0.001)
+        if not done.wait(2 * sqlite_writer.BUSY_TIMEOUT_S / 3):
+            released.set()
+            holder.execute("ROLLBACK")
+
+    done = threading.Event()
+    helper = threading.Thread(target=interrupt_the_wait, daemon=True)
+    with interrupts.catching(), pytest.raises(Interrupted):
+        try:
+            if phase == "open":
+                holder.execute("BEGIN IMMEDIATE")
+                helper.start()
+            file = sqlite_writer.SqliteFile(str(db))
+            with file, file.simulation(scene, STARTED) as w:
+                bounces, _ = random_rows(scene, 100, seed=1)
+                w.add_bounces(*bounces)
+                w.finish(RunStats(100, 100, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+                holder.execute("BEGIN IMMEDIATE")
+                helper.start()
+        finally:
+            done.set()
+            helper.join()
+    assert not released.is_set()  # stopped while the lock was held
+    if holder.in_transaction:
+        holder.execute("ROLLBACK")
+    holder.close()
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT COUNT(*) FROM simulation").fetchone() == (0,)
+    con.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gaz.db"]

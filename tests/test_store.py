@@ -378,3 +378,218 @@ def test_a_failing_query_is_one_line_without_its_sql(tmp_path, argon_scene, rng)
     store.close()
     message = str(info.value)
     assert "\n" not in message and "SELECT" not in message and "no_such_column" in message
+
+
+@pytest.mark.postgres
+def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url, argon_scene, rng):
+    """The server drops a run's connection while its rows stream in (restarted, stopped, an
+    administrator's pg_terminate_backend): the run fails with one StoreError line, not the
+    driver's error from rolling back on a connection that is gone (which the CLI printed as
+    'internal error: OperationalError ... the connection is lost'); the run leaves nothing."""
+    scene = argon_scene(dim=3, n=20)
+    tag = f"gaz_lost_{rng.integers(1 << 30)}"  # this test's connections, and no one else's
+    db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
+    admin = sa.create_engine(postgres_url)
+    store = st.Store(db)
+    try:
+        with pytest.raises(StoreError, match="^lost the connection to database '") as err:
+            with store.simulation(scene) as w:
+                w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                with admin.begin() as conn:
+                    killed = conn.exec_driver_sql(
+                        "SELECT count(pg_terminate_backend(pid)) FROM pg_stat_activity "
+                        f"WHERE application_name = '{tag}'").scalar()
+                assert killed >= 1
+                w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                w.finish(RunStats(200, 200, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+        assert "\n" not in str(err.value)
+    finally:
+        store.close()
+        admin.dispose()
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == []
+        with reader.engine.connect() as conn:  # the run's own REBOND table went with its transaction
+            assert sa.inspect(conn).get_table_names().count("rebond_1") == 0
+
+
+@pytest.mark.postgres
+def test_a_postgres_url_is_postgresql(postgres_db, argon_scene, rng):
+    """``postgres://``, libpq's other spelling of ``postgresql://`` (psql, Heroku, many hosts'
+    DATABASE_URL), opens the server (it was refused: 'gaz writes to SQLite files and PostgreSQL
+    servers, not postgres')."""
+    url = sa.make_url(postgres_db).set(drivername="postgres").render_as_string(hide_password=False)
+    assert url.startswith("postgres://")
+    with st.Store(url) as store:
+        si, _ = write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == [si] and len(reader.table(st.rebond, si)) == 100
+
+
+@pytest.mark.postgres
+@pytest.mark.parametrize("how, says", [
+    ("role", r"refuses this role \(permission denied for table \w+\); ask the database's owner"),
+    ("read-only", r"takes no writes \(.*read-only transaction\): a standby, or default_transaction_read_only")],
+    ids=["select-only role", "read-only session"])
+def test_a_server_that_refuses_writes_says_why_in_its_terms(postgres_db, postgres_url, argon_scene, rng,
+                                                            how, says):
+    """A role granted SELECT alone, a read-only session: the refusal names the server's reason
+    and its fix, not a file's (it said 'cannot open database ... (permission denied for table
+    simulation); check that its folder exists and is writable'); nothing is written."""
+    import uuid
+
+    st.Store(postgres_db).close()
+    url = sa.make_url(postgres_db)
+    schema = url.query["options"].split("=", 1)[1]
+    role = f"gaz_reader_{uuid.uuid4().hex[:12]}"
+    admin = sa.create_engine(postgres_url)
+    if how == "role":
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"CREATE ROLE {role} LOGIN NOSUPERUSER")
+            conn.exec_driver_sql(f"GRANT USAGE ON SCHEMA {schema} TO {role}")
+            conn.exec_driver_sql(f"GRANT SELECT ON ALL TABLES IN SCHEMA {schema} TO {role}")
+        url = url.set(username=role, password=None)
+    else:
+        url = url.update_query_dict({"options": f"{url.query['options']} -cdefault_transaction_read_only=on"})
+    try:
+        with pytest.raises(StoreError, match=says) as err:
+            with st.Store(url.render_as_string(hide_password=False)) as store:
+                write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng, k=100)
+        assert "folder" not in str(err.value) and "\n" not in str(err.value)
+        with st.Store(postgres_db, create=False) as reader:
+            assert reader.simulation_numbers() == []
+    finally:
+        if how == "role":
+            with admin.begin() as conn:
+                conn.exec_driver_sql(f"DROP OWNED BY {role}")
+                conn.exec_driver_sql(f"DROP ROLE {role}")
+        admin.dispose()
+
+
+@pytest.mark.postgres
+def test_a_signal_stops_a_commit_waiting_for_a_lock(postgres_db, postgres_url, argon_scene, rng):
+    """Another session holds a lock the run's commit needs (an administrator's LOCK TABLE, a
+    long migration): SIGINT stops the waiting commit at once and stores nothing. (The whole
+    commit was held against signals: the run waited for the lock however long, and was then
+    stored; only the COMMIT itself needs holding, what comes before is inside the run's
+    transaction and rolls back whole.)"""
+    import os
+    import signal
+    import threading
+
+    from gaz_cli import interrupts
+    from gaz_cli.errors import Interrupted
+
+    scene = argon_scene(dim=3, n=20)
+    tag = f"gaz_wait_{rng.integers(1 << 30)}"
+    db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
+    locker = sa.create_engine(postgres_db).connect()
+    admin = sa.create_engine(postgres_url)
+    released, signalled, done = threading.Event(), threading.Event(), threading.Event()
+
+    def interrupt_the_wait():
+        # SIGINT once the writer's session waits for a lock; the lock is given back only
+        # after a bound, which only a commit that ignores the signal reaches
+        with admin.connect() as conn:
+            while not signalled.is_set() and not done.is_set():
+                if conn.exec_driver_sql("SELECT count(*) FROM pg_stat_activity WHERE application_name = "
+                                        f"'{tag}' AND wait_event_type = 'Lock'").scalar():
+                    os.kill(os.getpid(), signal.SIGINT)
+                    signalled.set()
+                conn.rollback()
+        if not done.wait(30):
+            released.set()
+            locker.rollback()
+
+    helper = threading.Thread(target=interrupt_the_wait, daemon=True)
+    store = st.Store(db)
+    try:
+        with interrupts.catching(), pytest.raises(Interrupted):
+            try:
+                with store.simulation(scene) as w:
+                    w.add_bounces(*fake_bounces(rng, scene.n, scene.dim, 100, scene.duration))
+                    w.finish(RunStats(100, 100, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+                    locker.exec_driver_sql("LOCK TABLE simulation IN ACCESS EXCLUSIVE MODE")
+                    helper.start()
+            finally:
+                done.set()
+                helper.join()
+        assert signalled.is_set() and not released.is_set()  # stopped while the lock was held
+    finally:
+        locker.rollback()
+        locker.close()
+        store.close()
+        admin.dispose()
+    with st.Store(postgres_db, create=False) as reader:
+        assert reader.simulation_numbers() == []
+        with reader.engine.connect() as conn:
+            assert [t for t in sa.inspect(conn).get_table_names() if t.startswith("rebond_")] == ["rebond_default"]
+
+
+def test_a_password_given_as_a_url_parameter_is_hidden_too():
+    """libpq takes the password as ``?password=`` too: it was printed whole ('cannot connect to
+    database 'postgresql://gaz@127.0.0.1:1/gaz?password=s3cret': ...'); and the query is shown
+    as written, not percent-encoded (host=%2Ftmp%2Fpg)."""
+    for url in ("postgresql://gaz@127.0.0.1:1/gaz?password=s3cret&connect_timeout=3",
+                "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&PASSWORD=s3cret",
+                "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&sslpassword=s3cret"):
+        with pytest.raises(StoreError) as err:
+            st.Store(url)
+        message = str(err.value)
+        assert "s3cret" not in message and "\n" not in message, message
+        assert "password=***" in message.lower(), message
+    assert "host=/nonexistent/gaz-socket" in message
+
+
+@pytest.mark.postgres
+def test_a_postgres_schema_of_another_application_is_refused_and_untouched(postgres_db):
+    """A schema holding another application's tables and none of gaz's is refused, as such a
+    SQLite file is (gaz added its nine tables and their rows beside the others' own); a
+    schema of its own (search_path) is the fix the message gives."""
+    engine = sa.create_engine(postgres_db)
+    with engine.begin() as conn:
+        conn.exec_driver_sql("CREATE TABLE orders (id INTEGER PRIMARY KEY, item TEXT)")
+        conn.exec_driver_sql("INSERT INTO orders VALUES (1, 'theirs')")
+    with pytest.raises(StoreError, match=r"is not a gaz database: its schema gaz_test_\w+ holds other tables "
+                                         r"\(orders\) and none of gaz's; nothing was written") as err:
+        st.Store(postgres_db)
+    assert "search_path" in str(err.value) and "\n" not in str(err.value)
+    assert sa.inspect(engine).get_table_names() == ["orders"]
+    with engine.connect() as conn:
+        assert conn.exec_driver_sql("SELECT item FROM orders").all() == [("theirs",)]
+    engine.dispose()
+
+
+def test_a_url_is_shown_as_written():
+    """A URL's query in messages reads as the user wrote it: spaces, '=' and '/' in values
+    (a server's options, a socket folder), not SQLAlchemy's encoding of them ('options=-csearch_path%3Dx+-cy%3D1')."""
+    url = "postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&options=-csearch_path%3Dx%20-cstatement_timeout%3D5"
+    with pytest.raises(StoreError) as err:
+        st.Store(url)
+    assert "'postgresql://gaz@/gaz?host=/nonexistent/gaz-socket&options=-csearch_path=x -cstatement_timeout=5'" \
+        in str(err.value), str(err.value)
+
+
+@pytest.mark.postgres
+def test_a_server_error_is_its_message_without_the_sql_it_quotes(postgres_db, postgres_url):
+    """A role that may not create tables in the schema (PostgreSQL 15's default for the public
+    schema) on a new database: one line with the server's message, without the lines of SQL
+    PostgreSQL quotes after it ('permission denied for schema public LINE 2: CREATE TABLE
+    simulation ( ^')."""
+    import uuid
+
+    schema = sa.make_url(postgres_db).query["options"].split("=", 1)[1]
+    role = f"gaz_guest_{uuid.uuid4().hex[:12]}"
+    admin = sa.create_engine(postgres_url)
+    with admin.begin() as conn:
+        conn.exec_driver_sql(f"CREATE ROLE {role} LOGIN NOSUPERUSER")
+        conn.exec_driver_sql(f"GRANT USAGE ON SCHEMA {schema} TO {role}")
+    guest = sa.make_url(postgres_db).set(username=role, password=None).render_as_string(hide_password=False)
+    try:
+        with pytest.raises(StoreError, match=rf"refuses this role \(permission denied for schema {schema}\); ") as err:
+            st.Store(guest)
+        assert "LINE" not in str(err.value) and "CREATE" not in str(err.value)
+    finally:
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"DROP OWNED BY {role}")
+            conn.exec_driver_sql(f"DROP ROLE {role}")
+        admin.dispose()

@@ -205,3 +205,24 @@ def test_a_role_that_does_not_own_rebond_writes_row_by_row(postgres_db, postgres
             conn.exec_driver_sql(f"DROP OWNED BY {role}")
             conn.exec_driver_sql(f"DROP ROLE {role}")
         admin.dispose()
+
+
+def test_a_server_timeout_on_idle_transactions_does_not_end_a_run(postgres_db, argon_scene):
+    """The run's transaction stays open, idle between chunks, while the engine runs (no chunk
+    at all with --record none): a server that ends transactions idle for longer than
+    idle_in_transaction_session_timeout (a common policy of managed servers) killed the run's
+    session, and the run was lost at its commit ('lost the connection ... (terminating
+    connection due to idle-in-transaction timeout)'). The writer lifts the timeout for its
+    own transaction; the run is stored."""
+    import time
+
+    url = sa.make_url(postgres_db)
+    url = url.update_query_dict({"options": f"{url.query['options']} -cidle_in_transaction_session_timeout=200"})
+    scene = argon_scene(dim=3, n=20)
+    with st.Store(url.render_as_string(hide_password=False)) as store:
+        with store.simulation(scene) as w:
+            time.sleep(1.0)  # an engine between two chunks: 5 times the server's 0.2 s
+            w.add_bounces(np.array([1e-11]), np.array([0]), np.array([1]), np.array([400.0]), np.array([300.0]))
+            time.sleep(1.0)
+            w.finish(RunStats(1, 1, 0, 0.1, initial_state(scene)), 1.0, 1.0)
+        assert store.simulation_numbers() == [w.si_num] and len(store.table(st.rebond, w.si_num)) == 1

@@ -15,6 +15,8 @@ from gaz_cli.scene import Scene
 from gaz_cli.species import BUILTIN
 from gaz_cli.store import Store, rebond
 
+from backends import postgres_db, postgres_url  # noqa: E402,F401 - fixtures
+
 pytest.importorskip("dask.distributed")
 
 
@@ -457,3 +459,49 @@ def test_a_varied_count_of_zero_names_the_species_count(tmp_path, cluster):
     rows = {r["count.He"]: r for r in json.loads(res.stdout)["runs"]}
     assert rows[3]["STATUS"] == "stored" and rows[0]["STATUS"] == "failed"
     assert rows[0]["NOTE"] == f"{scene}: the [[species]] count of He must be at least 1, got 0"
+
+
+def test_the_local_clusters_own_errors_stay_off_the_terminal():
+    """The local cluster's logs at ERROR level -- a worker's heartbeat failing as the scheduler
+    closes under it, what an interrupted sweep printed, a traceback of 30 lines before gaz's
+    own line -- do not reach stderr: gaz reports every run's failure itself (the report's
+    NOTE, the interrupted sweep's one line)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import logging
+        from gaz_cli import sweeps
+        with sweeps._client(workers=1, scheduler=None, runs=1) as client:
+            client.run(lambda: logging.getLogger("distributed.worker").error("worker says boom"))
+            logging.getLogger("distributed.scheduler").error("scheduler says boom")
+        print("done")
+    """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and res.stdout == "done\n", res.stderr
+    assert "boom" not in res.stderr, res.stderr
+
+
+@pytest.mark.postgres
+def test_gaz_sweeps_last_line_hides_the_password(tmp_path, cluster, postgres_db):
+    """The sweep's closing line names --db without its password (it printed the URL as given:
+    'gaz sweep: 2 runs: 2 stored, ... (--db postgresql://gaz:s3cret@...)'). (The test server
+    trusts its socket: the password is given, and not checked.)"""
+    from click.testing import CliRunner
+
+    from gaz_cli.cli import cli
+
+    scene = tmp_path / "rods.toml"
+    scene.write_text(RODS)
+    db = sa_url_with_password(postgres_db, "s3cret")
+    res = CliRunner().invoke(cli, ["sweep", str(scene), "--vary", "packing=0.2,0.4", "--scheduler", cluster,
+                                   "--db", db, "--quiet"])
+    assert res.exit_code == 0, res.output
+    assert "2 stored" in res.stderr and "s3cret" not in res.stderr + res.stdout, res.stderr
+
+
+def sa_url_with_password(url: str, password: str) -> str:
+    import sqlalchemy as sa
+
+    return sa.make_url(url).set(password=password).render_as_string(hide_password=False)
