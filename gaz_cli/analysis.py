@@ -1387,11 +1387,14 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
 
 def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
     """:func:`report` on an open store."""
+    from gaz_cli.store import shown
+
     numbers = store.simulation_numbers()
+    name = shown(str(db))  # (a URL's password hidden)
     if not numbers:
-        raise StoreError(f"{db!r} holds no simulation yet; run 'gaz simulate --db {db}' first")
+        raise StoreError(f"'{name}' holds no simulation yet; run 'gaz simulate --db {name}' first")
     if sim is not None and sim not in numbers:
-        raise StoreError(f"simulation {sim} is not in {db!r}; it holds SI_NUM {_ranges(numbers)}")
+        raise StoreError(f"simulation {sim} is not in '{name}'; it holds SI_NUM {_ranges(numbers)}")
     if plot_dir is not None:
         from gaz_cli import plots
 

@@ -125,7 +125,8 @@ def test_a_column_newer_than_the_database_is_named(backend):
 def test_messages_naming_the_database_hide_its_password(postgres_db):
     """Every message that names --db hides its password, as the store's own do: --no-db with
     --db, a simulation not in the database (gaz scene), a query that needs a newer schema
-    version (each printed the URL whole: 'no simulation 9 in 'postgresql://gaz:s3cret@...'').
+    version, gaz analyse of a simulation not in it (each printed the URL whole: 'no simulation
+    9 in 'postgresql://gaz:s3cret@...'').
     (The test server trusts its socket: the password is given, and not checked.)"""
     import sqlalchemy as sa
     from test_store import _version_1
@@ -138,6 +139,9 @@ def test_messages_naming_the_database_hide_its_password(postgres_db):
     assert invoke([*QUICK, "--seed", "1", "--db", db]).exit_code == 0
     res = invoke(["scene", "9", "--db", db])
     assert res.exit_code == 1 and "no simulation 9 in" in res.stderr
+    said.append(res.stderr)
+    res = invoke(["analyse", "--sim", "9", "--db", db])
+    assert res.exit_code == 1 and "simulation 9 is not in" in res.stderr
     said.append(res.stderr)
     with st.Store(postgres_db) as store, store.engine.begin() as conn:  # back to schema version 1
         for table in reversed(st.metadata.sorted_tables):
