@@ -210,13 +210,15 @@ def refuse_a_folder(path: Path | None, shown: str) -> None:
 
 
 def database_name(db) -> str:
-    """``--db`` as a string: a path given as a ``pathlib.Path`` (any os.PathLike) becomes its text;
-    anything but text raises StoreError."""
+    """``--db`` as a string: a path given as a ``pathlib.Path`` (any os.PathLike) becomes its text,
+    a URL's scheme lower case (schemes are case-insensitive, RFC 3986: ``SQLITE:///x.db`` is
+    ``sqlite:///x.db``); anything but text raises StoreError."""
     if isinstance(db, os.PathLike):
         db = os.fspath(db)
     if not isinstance(db, str) or not db.strip():
         raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
-    return db
+    scheme, sep, rest = db.partition("://")
+    return scheme.lower() + sep + rest if sep else db
 
 
 def is_file_path(db: str) -> bool:

@@ -389,6 +389,24 @@ def test_round_trip_on_postgres_same_rows_as_sqlite(tmp_path, postgres_db):
     assert os.environ.get("GAZ_TEST_POSTGRES_URL")
 
 
+def test_a_url_scheme_in_capitals_is_the_same_url(tmp_path):
+    """URL schemes are case-insensitive (RFC 3986): --db SQLITE:///x.db was refused, "gaz writes
+    to SQLite files and PostgreSQL servers, not SQLITE"; it writes x.db as sqlite:/// does."""
+    db = tmp_path / "x.db"
+    res = invoke([*QUICK, "--seed", "1", "--db", f"SQLite:///{db}"])
+    assert res.exit_code == 0, res.stderr
+    assert check_consistent(db) == [1]
+
+
+@pytest.mark.postgres
+def test_a_postgresql_scheme_in_capitals_is_the_same_url(postgres_db):
+    """POSTGRESQL:// is postgresql:// (the URL the test server gives, scheme in capitals)."""
+    scheme, rest = postgres_db.split("://", 1)
+    res = invoke([*QUICK, "--seed", "1", "--db", "POSTGRESQL+PSYCOPG://" + rest, "--json"])
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["si_num"] == 1
+
+
 @pytest.fixture
 def read_only_folder(tmp_path):
     """A small tmpfs under tmp_path, remounted read-only once ``fill(folder)`` has written it
