@@ -295,7 +295,10 @@ def table(rows) -> str:
              "refused at the door, and with `--force` ENOSPC gives exit 1, was SIGSEGV, exit 139) and "
              "`tests/test_stepper.py::test_ctrl_c_stops_the_step_engine` (exit 130). Two need a file of their "
              "own: rows beyond the free space of the database's disk "
-             "(`test_rows_beyond_the_free_space_of_the_database_disk_are_refused`, a 1 MiB tmpfs) and a SQLite "
+             "(`test_rows_beyond_the_free_space_of_the_database_disk_are_refused`, a 1 MiB tmpfs; the peak "
+             "while committing, the rows twice through the WAL file and once more in a scratch file for a long "
+             "run: `test_the_wal_copy_of_the_rows_counts_in_the_free_space_asked` and "
+             "`test_a_run_staged_in_a_scratch_file_counts_it_in_the_free_space_asked`, a 6 MiB tmpfs) and a SQLite "
              "file of another application (`tests/test_store_cli.py::"
              "test_another_applications_sqlite_file_is_refused_untouched`): one line each, the file untouched.",
              "",
