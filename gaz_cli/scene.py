@@ -1032,6 +1032,30 @@ def check_database_space(scenes: list[Scene], path, fix: str = "shorten `duratio
                       "use `record` none, or give --db a file on another disk (or add `force`)")
 
 
+INT4_MAX = 2 ** 31 - 1
+"""The largest number PostgreSQL's ``integer`` holds: a run's REBOND and CHOC rows are numbered
+in such columns there (RE_NUM, CH_NUM; SQLite's integers are 64-bit)."""
+
+
+def check_row_numbers(scenes: list[Scene], fix: str = "shorten `duration`") -> None:
+    """Refuse, before any run, the runs of ``scenes`` into PostgreSQL whose rows of one kind would
+    number past INT4_MAX (:func:`database_peak`'s estimate; runs not estimated, ``force``
+    among them, are left out): such a run failed at that row, after all its computation."""
+    for scene in scenes:
+        if database_peak(scene) is None:
+            continue
+        est = work_estimate(scene)
+        kinds = {"REBOND": ("wall bounces", est["bounces"])}
+        if scene.record == "all":
+            kinds["CHOC"] = ("collisions", est["collisions"])
+        for table, (what, rows) in kinds.items():
+            if rows > INT4_MAX:
+                raise field_error(f"a run into PostgreSQL numbers its {table} rows with a 32-bit integer "
+                                  f"(at most {INT4_MAX:,} a run); this one would record about {rows:.3g} "
+                                  f"{what}; {fix}, use `record` none, or give --db a SQLite file "
+                                  "(64-bit numbers) (or add `force`)")
+
+
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:
     """The door of ``gaz place``: count, radius and box in range, memory, before any allocation."""
     if dim not in (1, 2, 3):

@@ -306,7 +306,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     was stored.
     """
     from gaz_cli.runner import prepare, sqlite_file
-    from gaz_cli.scene import check_database_space
+    from gaz_cli.scene import check_database_space, check_row_numbers
     from gaz_cli.store import Store
 
     from gaz_cli.sqlite_writer import database_name
@@ -336,12 +336,14 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             todo.append((point, scene))
     if not todo:
         return report
-    if path is not None:  # the runs to do, one after the other, on the database's disk
-        try:
+    try:
+        if path is not None:  # the runs to do, one after the other, on the database's disk
             check_database_space([scene for _, scene in todo], path,
                                  fix="vary fewer values or seeds, shorten `duration`")
-        except SceneError as err:
-            raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+        elif db.startswith("postgres"):
+            check_row_numbers([scene for _, scene in todo])
+    except SceneError as err:
+        raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
     with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
             _Bar(len(todo), progress) as bar:
         before = len(report.rows)

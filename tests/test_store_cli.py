@@ -407,6 +407,22 @@ def test_a_postgresql_scheme_in_capitals_is_the_same_url(postgres_db):
     assert json.loads(res.stdout)["si_num"] == 1
 
 
+def test_a_run_past_postgresqls_row_numbers_is_refused_before_connecting():
+    """A run into PostgreSQL numbers its REBOND rows in a 32-bit integer: the README example run
+    for 2e-4 s, about 3.6e9 wall bounces, ran to the end and failed at row 2^31 (schema 5);
+    it is refused at the door, before any connection (the socket named here does not exist),
+    the fixes named; with --record none the same run goes on to connect."""
+    run = ["simulate", "--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "2e-4",
+           "--seed", "1", "--db", "postgresql://gaz@/gaz?host=/nonexistent"]
+    res = invoke(run)
+    assert res.exit_code == 1 and len(res.stderr.strip().splitlines()) == 1, res.stderr
+    for words in ("numbers its REBOND rows with a 32-bit integer", "2,147,483,647", "3.56e+09 wall bounces",
+                  "--record none", "SQLite file"):
+        assert words in res.stderr, res.stderr
+    res = invoke([*run, "--record", "none"])
+    assert res.exit_code == 1 and "cannot connect" in res.stderr, res.stderr
+
+
 @pytest.fixture
 def read_only_folder(tmp_path):
     """A small tmpfs under tmp_path, remounted read-only once ``fill(folder)`` has written it
