@@ -845,12 +845,7 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
         elif exp.known and run.temperature_source == "energy":
             exp.note += (f"; T = {temperature:.5g} K from the conserved energy of the initial state, "
                          "kinetic plus potential")
-        if run.never_settles:
-            exp.applies, exp.note = False, run.never_settles
-        elif not run.settled:
-            exp.applies = False
-            exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
-                        "fall and thermalisation; run longer")
+        _set_aside_unsettled(exp, run)
         out.append(exp)
         return out
     if d == 1:
@@ -1016,6 +1011,21 @@ def pressure_frame(run: Run, temperature: float, summary: dict) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _set_aside_unsettled(exp: Expectation, run: Run) -> bool:
+    """Under gravity: ``exp`` set aside, with the reason, when the run never settles (1D rods of
+    one mass) or did not settle (its fall and thermalisation fill more than the bins it may
+    drop); returns whether it was."""
+    if run.never_settles:
+        exp.applies, exp.note = False, run.never_settles
+    elif not run.settled:
+        exp.applies = False
+        exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
+                    "fall and thermalisation; run longer")
+    else:
+        return False
+    return True
+
+
 def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     """Collisions per particle per second against Enskog (or the exact 1D result)."""
     if run.collisions is None:
@@ -1048,13 +1058,7 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
                                                               run.gravity),
                    "local density of the hydrostatic profile (the gas is denser low down: more partners); "
                    "walls: expect O(2R/L) off")
-        if run.never_settles:
-            exp.applies, exp.note = False, run.never_settles
-        elif not run.settled:
-            exp.applies = False
-            exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
-                        "fall and thermalisation; run longer")
-        elif run.collision_bins is None:
+        if not _set_aside_unsettled(exp, run) and run.collision_bins is None:
             exp.applies = False
             exp.note = ("under gravity the settled part's rate needs the collisions' times (the count over "
                         "the run includes the fall): --record all")

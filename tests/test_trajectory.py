@@ -339,37 +339,32 @@ def test_gsd_opens_in_the_gsd_package(tmp_path):
         np.testing.assert_allclose(frame.log["gaz/time_ps"], [0.05e12])
 
 
-def test_missing_gsd_names_the_extra(tmp_path, monkeypatch):
+@pytest.fixture
+def no_gsd(monkeypatch):
+    """The gsd package made unimportable (as where it is not installed)."""
     import builtins
 
     real = builtins.__import__
 
-    def no_gsd(name, *args, **kw):
+    def importing(name, *args, **kw):
         if name.startswith("gsd"):
             raise ImportError(name)
         return real(name, *args, **kw)
 
-    monkeypatch.setattr(builtins, "__import__", no_gsd)
+    monkeypatch.setattr(builtins, "__import__", importing)
+
+
+def test_missing_gsd_names_the_extra(tmp_path, no_gsd):
     with pytest.raises(OutputError, match=r"pip install 'gaz\[gsd\]'"):
         open_trajectory(tmp_path / "run.gsd", 0.05, small_scene())
 
 
-def test_missing_gsd_is_refused_before_the_database_is_created(tmp_path, monkeypatch):
+def test_missing_gsd_is_refused_before_the_database_is_created(tmp_path, no_gsd):
     """gaz simulate ... --db new.db --trajectory t.gsd without the gsd package created new.db,
     placed the particles, then said 'GSD trajectories (.gsd) need the gsd package', exit 1: an
     empty gaz database left. Now the same line comes from the door (check_outputs), before it."""
-    import builtins
-
     from cli_helpers import invoke
 
-    real = builtins.__import__
-
-    def no_gsd(name, *args, **kw):
-        if name.startswith("gsd"):
-            raise ImportError(name)
-        return real(name, *args, **kw)
-
-    monkeypatch.setattr(builtins, "__import__", no_gsd)
     res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
                   "--db", str(tmp_path / "new.db"), "--trajectory", str(tmp_path / "t.gsd"), "--every", "1e-12"])
     assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
