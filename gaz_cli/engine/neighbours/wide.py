@@ -37,7 +37,7 @@ blocks (the driver: ``Rows._grow_cells``), slots and units kept.
 horizon is its next crossing of a face of the box, where it wraps (:func:`_face_time`, the
 time :func:`.boundaries._crossing` gives that crossing), and the loop scans in full at a wrap,
 as at a bounce; between two wraps its line stays in one image of the box. A cell across a
-face of the box is scanned through its image (:func:`_image`): the particle is moved by
+face of the box is scanned through its image (:func:`.cells._beside`): the particle is moved by
 minus the image's shift (L per axis) for the float32 pass (in box edges, from float64: its
 coordinate then within 3/2 of the centre, its rounding u 3/4 instead of u/4, inside the
 slack of the pass's bound 8 + 2 REBASE V) and for the exact root. With 3 cells an axis or
@@ -63,7 +63,7 @@ from gaz_cli.engine.interactions import _pair_time
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
                                    PT, PV, SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
-from gaz_cli.engine.neighbours.cells import _stamp
+from gaz_cli.engine.neighbours.cells import _beside, _stamp
 from gaz_cli.engine.neighbours.dilute import (CENTRE, FAR, IL, IT, KEEP, REBASE, T0, XS_ROWS,
                                               _bounds, _choose_units, _mirror_to,
                                               _reject_pass)
@@ -144,19 +144,6 @@ def _face_time(P, p, L, D):
 
 
 @_inline
-def _image(c, o, nc, PER):
-    """The cell coordinate c + o along an axis, wrapped around a periodic box (PER), and the
-    image it is scanned through, in box edges (-1, 0 or 1); -1 for a cell outside a box with
-    walls."""
-    m = c + o
-    if m < 0:
-        return (m + nc, -1) if PER else (-1, 0)
-    if m >= nc:
-        return (m - nc, 1) if PER else (-1, 0)
-    return m, 0
-
-
-@_inline
 def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, hi0, lo1,
                   hi1, lo2, hi2, PP, D, PER):
     """Particle p's two earliest collisions (its row at t) before its horizon, in the cells
@@ -165,7 +152,7 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
     them), written to its predictions. The horizon is its next wall bounce, or in a periodic
     box (PER, at least 3 cells an axis) its next crossing of the box's faces, where it
     wraps (the loop scans in full there); a cell across a periodic face is scanned through
-    its image, each of the 3^D cells once. Returns (pair times computed exactly, slots the
+    its image (:func:`.cells._beside`), each of the 3^D cells once. Returns (pair times computed exactly, slots the
     pass went through)."""
     if PER:
         tw = _face_time(P, p, L, D)
@@ -212,17 +199,20 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
     cx1 = (x1 - XC[CENTRE]) * XC[IL]
     cx2 = (x2 - XC[CENTRE]) * XC[IL]
     for o0 in range(lo0, hi0 + 1):
-        n0, s0 = _image(c0, o0, nc, PER)
-        if n0 < 0:
+        n0, w, inside = _beside(c0 + o0, nc, PER)
+        if not inside:
             continue
+        s0 = w - 1  # the image's shift, in box edges
         for o1 in range(lo1, hi1 + 1):
-            n1, s1 = _image(c1, o1, nc, PER)
-            if n1 < 0:
+            n1, w, inside = _beside(c1 + o1, nc, PER)
+            if not inside:
                 continue
+            s1 = w - 1
             for o2 in range(lo2, hi2 + 1):
-                n2, s2 = _image(c2, o2, nc, PER)
-                if n2 < 0:
+                n2, w, inside = _beside(c2 + o2, nc, PER)
+                if not inside:
                     continue
+                s2 = w - 1
                 cell = (n0 * nc + n1) * nc + n2 if D > 2 else n0 * nc + n1
                 cnt = cells[cell, 0]
                 if cnt == 0:
