@@ -975,6 +975,17 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
                          "free; raise `every` or free some space (or add `force`)")
 
 
+def recorded_rows(scene: Scene) -> dict[str, float] | None:
+    """The rows a run records, by kind ({"bounces": ..., "collisions": ...}, the latter 0 unless
+    ``record`` all), from :func:`work_estimate`; None when not estimated: ``record`` none,
+    ``force``, the step engine (its bounces against damped walls and planes), a preset's state
+    (its speeds are not ``temperature``'s)."""
+    if scene.record == "none" or scene.force or scene.engine == "step" or scene.initial is not None:
+        return None
+    est = work_estimate(scene)
+    return {"bounces": est["bounces"], "collisions": est["collisions"] if scene.record == "all" else 0.0}
+
+
 def database_peak(scene: Scene) -> tuple[float, float, float] | None:
     """(rows, growth, staged) of a run into a SQLite file: the rows it records
     (:func:`work_estimate`'s wall bounces, and collisions with ``record`` all), the file's
@@ -987,12 +998,11 @@ def database_peak(scene: Scene) -> tuple[float, float, float] | None:
     file, and (a checkpoint at the commit) the same rows copied into the database: the peak is
     2 growth + staged (measured, 256,694 bounces: 11.7 MB of growth, a peak of 41.7 MB staged,
     23.5 MB in memory)."""
-    if scene.record == "none" or scene.force or scene.engine == "step" or scene.initial is not None:
+    counts = recorded_rows(scene)
+    if counts is None:
         return None
     from gaz_cli.staging import MEMORY_ROWS
 
-    est = work_estimate(scene)
-    counts = {"bounces": est["bounces"], "collisions": est["collisions"] if scene.record == "all" else 0.0}
     rows = sum(counts.values())
     growth = sum(k * BYTES_PER_ROW[kind] for kind, k in counts.items())
     staged = sum(k * STAGED_BYTES_PER_ROW[kind] for kind, k in counts.items()) if rows > MEMORY_ROWS else 0.0
@@ -1039,15 +1049,13 @@ in such columns there (RE_NUM, CH_NUM; SQLite's integers are 64-bit)."""
 
 def check_row_numbers(scenes: list[Scene], fix: str = "shorten `duration`") -> None:
     """Refuse, before any run, the runs of ``scenes`` into PostgreSQL whose rows of one kind would
-    number past INT4_MAX (:func:`database_peak`'s estimate; runs not estimated, ``force``
-    among them, are left out): such a run failed at that row, after all its computation."""
+    number past INT4_MAX (:func:`recorded_rows`; runs not estimated, ``force`` among them, are
+    left out): such a run failed at that row, after all its computation."""
     for scene in scenes:
-        if database_peak(scene) is None:
+        counts = recorded_rows(scene)
+        if counts is None:
             continue
-        est = work_estimate(scene)
-        kinds = {"REBOND": ("wall bounces", est["bounces"])}
-        if scene.record == "all":
-            kinds["CHOC"] = ("collisions", est["collisions"])
+        kinds = {"REBOND": ("wall bounces", counts["bounces"]), "CHOC": ("collisions", counts["collisions"])}
         for table, (what, rows) in kinds.items():
             if rows > INT4_MAX:
                 raise field_error(f"a run into PostgreSQL numbers its {table} rows with a 32-bit integer "
