@@ -132,6 +132,17 @@ def _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, rm, PP, D):
 
 
 @_inline
+def _earliest_two(tp, m, src, best, bj, src1, best2, bj2, src2):
+    """The two earliest predictions of a scan after (tp, m, src) -- a pair time, its partner
+    and where the partner was found -- given that tp is earlier than the second one: it
+    takes the second place, or the first and moves the first down. Returns best, bj, src1,
+    best2, bj2, src2; every neighbour scan keeps its two earliest partners through here."""
+    if tp < best:
+        return tp, m, src, best, bj, src1
+    return best, bj, src1, tp, m, src
+
+
+@_inline
 def _pair_time_within(dx0, dx1, dx2, dv0, dv1, dv2, rk, rm, PP, D, horizon):
     """:func:`_pair_time`, or inf without the root when the pair cannot meet within
     ``horizon`` (inf: no bound).

@@ -33,7 +33,7 @@ import numpy as np
 
 from gaz_cli.engine.intrinsics import _helper, _inline, _prefetch
 from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
+from gaz_cli.engine.interactions import _earliest_two, _pair_time
 from gaz_cli.engine.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
                                    KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PV, SLOT, SURE,
                                    TCOL, TCOL2)
@@ -175,17 +175,7 @@ def _scan_gathered(P, GB, GS, base, ng, k, t, L, g, best, bj, best2, bj2, PP, D,
                 dx2 -= L * np.rint(dx2 * iL)
         tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
         if tp < best2 and m != k:
-            if tp < best:
-                best2 = best
-                bj2 = bj
-                src2 = src1
-                best = tp
-                bj = m
-                src1 = NEW
-            else:
-                best2 = tp
-                bj2 = m
-                src2 = NEW
+            best, bj, src1, best2, bj2, src2 = _earliest_two(tp, m, NEW, best, bj, src1, best2, bj2, src2)
     return best, bj, src1, best2, bj2, src2
 
 

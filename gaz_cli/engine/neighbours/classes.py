@@ -149,7 +149,7 @@ def fill(rows, P, I) -> None:
     from gaz_cli.engine import sizing
 
     mx = rows.mix
-    D, n, nc = rows.D, rows.n, mx.nc
+    D, nc = rows.D, mx.nc
     small = P[:, PR] <= mx.rcut
     c = rows._cell_coords(P[:, :D])
     key = c[:, 0]

@@ -99,7 +99,7 @@ import math
 import numpy as np
 
 from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
+from gaz_cli.engine.interactions import _earliest_two, _pair_time
 from gaz_cli.engine.intrinsics import _fma, _inline
 from gaz_cli.engine.layout import CNT, INF, PART, PART2, PCNT, PCNT2, PR, PT, PV, SURE, TCOL, TCOL2, TX
 
@@ -333,14 +333,7 @@ def _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV):
                                                         g, D, GRAV)
             tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
             if tp < best2 and tp <= tx:
-                if tp < best:
-                    best2 = best
-                    bj2 = bj
-                    best = tp
-                    bj = m
-                else:
-                    best2 = tp
-                    bj2 = m
+                best, bj, _, best2, bj2, _ = _earliest_two(tp, m, 0, best, bj, 0, best2, bj2, 0)
         m += 1
     EV[p, TCOL] = best
     I[p, PART] = bj

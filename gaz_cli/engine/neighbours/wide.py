@@ -59,7 +59,7 @@ import numpy as np
 
 from gaz_cli.engine.boundaries import _crossing
 from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
+from gaz_cli.engine.interactions import _earliest_two, _pair_time
 from gaz_cli.engine.intrinsics import _inline
 from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
                                    PT, PV, SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
@@ -248,17 +248,8 @@ def _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L, g, full, lo0, 
                                                                 g, D, False)
                     tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rad, P[m, PR], PP, D)
                     if tp < best2 and tp <= tcut:
-                        if tp < best:
-                            best2 = best
-                            bj2 = bj
-                            src2 = src1
-                            best = tp
-                            bj = m
-                            src1 = NEW
-                        else:
-                            best2 = tp
-                            bj2 = m
-                            src2 = NEW
+                        best, bj, src1, best2, bj2, src2 = _earliest_two(tp, m, NEW, best, bj, src1, best2,
+                                                                         bj2, src2)
     XB[own_cell, 0, own_slot] = own
     EV[p, TCOL] = best
     I[p, PART] = bj
