@@ -502,12 +502,24 @@ def read_trajectory(path: str | os.PathLike) -> dict:
     (T, N, D) m/s or None, species (N,) int or None, radius (N,) m, box (D,) m,
     species_names (list of str), dim. Raises SceneError for a file it cannot read.
     """
-    suffix = Path(path).suffix.lower()
-    if suffix == ".gsd":
+    fmt = FORMATS.get(Path(path).suffix.lower())
+    if fmt == "gsd":
         return read_gsd(path)
-    if suffix in (".pvd", ".vtu"):
+    if fmt == "vtk":
         return read_vtk(path)
+    if fmt is None and not _is_hdf5(path):  # (an H5MD file may have any name)
+        raise SceneError(f"cannot read trajectory {str(path)!r}: not a file gaz simulate --trajectory "
+                         "writes (.h5 or .hdf5: H5MD, .gsd: GSD, .pvd or .vtu: VTK)")
     return read_h5md(path)
+
+
+def _is_hdf5(path) -> bool:
+    """Whether ``path`` starts with the HDF5 signature (False if it cannot be read)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(8) == b"\x89HDF\r\n\x1a\n"
+    except OSError:
+        return False
 
 
 def read_h5md(path: str | os.PathLike) -> dict:

@@ -584,3 +584,23 @@ def test_free_particles_mean_squared_displacement_grows_as_v_t_squared(tmp_path,
     msd = np.mean(np.sum(displacement ** 2, axis=2), axis=1)
     speed2 = np.mean(np.sum(v[0] ** 2, axis=1))
     np.testing.assert_allclose(msd, speed2 * t ** 2, rtol=1e-12)
+
+
+def test_animate_names_the_formats_for_a_file_that_is_no_trajectory(tmp_path):
+    """`gaz animate state.csv` (a --save-state file) answered with HDF5's "file signature not
+    found": every name it did not know went to the H5MD reader. Now one line naming the
+    formats; an H5MD file under another name (run.h5md) is still read, by its signature."""
+    from cli_helpers import invoke
+
+    csv = tmp_path / "state.csv"
+    csv.write_text("x,y\n0.5,0.5\n")
+    code, out, err = invoke(["animate", str(csv), "-o", str(tmp_path / "x.gif")])
+    assert (code, out, len(err.splitlines())) == (1, "", 1), (code, out, err)
+    assert "not a file gaz simulate --trajectory writes" in err and ".gsd" in err and ".pvd" in err
+    assert not (tmp_path / "x.gif").exists()
+    sc = small_scene(dim=2)
+    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+        for t, x, v in snapshots(sc, count=2):
+            w.add_snapshot(t, x, v)
+    (tmp_path / "run.h5").rename(tmp_path / "run.h5md")
+    assert read_trajectory(tmp_path / "run.h5md")["positions"].shape == (2, sc.n, 2)
