@@ -33,6 +33,7 @@ back exactly (floats are written with ``repr``, which round-trips).
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import numbers
@@ -102,7 +103,10 @@ def _shown(value, width: int = 60) -> str:
 def _check_keys(table: dict, allowed: dict, where: str) -> None:
     for key, value in table.items():
         if key not in allowed:
-            raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); allowed: {', '.join(allowed)}")
+            close = difflib.get_close_matches(str(key), list(allowed), n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); {hint}"
+                             f"allowed: {', '.join(allowed)}")
         kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
         if not _type_ok(kind, value):
             raise SceneError(f"{where}{key} = {_shown(value)} must be {kind}")

@@ -140,6 +140,7 @@ def assert_refused_in_one_line(path, text, words):
 
 @pytest.mark.parametrize("line, words", [
     ("colour = 3", ["unknown key 'colour'", "= 3", "allowed: dim"]),
+    ("lenght = 1e-8", ["unknown key 'lenght'", "did you mean 'length'?", "allowed: dim"]),  # a typo
     ('dim = "two"', ["dim = 'two'", "whole number"]),
     ("length = -1.0", ["length must be a positive number, got -1.0"]),
     ("temperature = 1e300", ["temperature 1e+300 K is above the range"]),
