@@ -228,6 +228,9 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--dim", type=int, default=None, help="Dimension of space: 1, 2 or 3.")
 @click.option("--n", "n", type=int, default=None, help="Number of particles (or give counts in --species).")
 @click.option("--length", type=float, default=None, help="Box side L, m.")
+@click.option("--packing", type=float, default=None, callback=positive("--packing"),
+              help="Packing fraction (the particles' share of the box) instead of --length: the box "
+                   "side follows from it, as a scene file's packing key.")
 @click.option("--duration", type=float, default=None, help="Simulated time T, s (not the run time).")
 @click.option("--species", default=None, metavar="NAME|NAME:COUNT,...",
               help="Built-in gas (He Ne Ar Kr Xe H2 N2 O2 CO2 CH4; default Ar) or a mixture Ar:500,He:500.")

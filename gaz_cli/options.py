@@ -19,7 +19,7 @@ from gaz_cli.scene import Scene, render
 from gaz_cli.species import DEFAULT_SPECIES, parse_mixture
 
 FLAGS = {
-    "dim": "--dim", "n": "--n", "length": "--length", "duration": "--duration",
+    "dim": "--dim", "n": "--n", "length": "--length", "packing": "--packing", "duration": "--duration",
     "temperature": "--temperature", "seed": "--seed", "boundary": "--boundary", "gravity": "--gravity",
     "restitution": "--restitution", "tc": "--tc", "engine": "--engine", "placement": "--method",
     "record": "--record", "dt": "--dt", "drag": "--drag", "pair_gravity": "--pair-gravity",
@@ -29,12 +29,12 @@ FLAGS = {
 }
 """Scene field -> ``gaz simulate`` flag (the one place the CLI names fields its own way)."""
 
-SCALAR_FLAGS = ("dim", "length", "duration", "temperature", "seed", "boundary", "gravity", "restitution",
+SCALAR_FLAGS = ("dim", "length", "packing", "duration", "temperature", "seed", "boundary", "gravity", "restitution",
                 "tc", "engine", "placement", "record", "dt", "drag", "pair_gravity", "softening",
                 "wall_restitution", "print_every")
 """Flags that set the scene key of the same name."""
 
-FIXED_BY_INITIAL = ("dim", "length", "species", "radius", "mass", "temperature", "placement")
+FIXED_BY_INITIAL = ("dim", "length", "packing", "species", "radius", "mass", "temperature", "placement")
 """What a scene with an explicit or preset initial state fixes: its state depends on them, or
 ignores them (temperature, placement: the state's velocities and positions come from it)."""
 
@@ -135,14 +135,18 @@ def document(*, scene_file=None, preset=None, n=None, species=None, radius=None,
     for key, value in flags.items():
         if value is not None:
             doc[key] = value
+    if flags.get("length") is not None and flags.get("packing") is not None:
+        raise SceneError("give --length or --packing, not both")
     if flags.get("length") is not None:
         doc.pop("packing", None)
+    if flags.get("packing") is not None:
+        doc.pop("length", None)
     if base and not base.get("species") and n is None and species is None and radius is None:
         raise SceneError(f"{where}no [[species]]: give at least one (name and count), or --n / --species")
     doc["species"] = _species_entries(list(base.get("species", [])), n, species, radius, mass)
     if "dim" not in doc or "duration" not in doc or ("length" not in doc and "packing" not in doc):
-        missing = [FLAGS[k] for k in ("dim", "length", "duration") if k not in doc and
-                   not (k == "length" and "packing" in doc)]
+        missing = [FLAGS[k] + (" (or --packing)" if k == "length" else "") for k in ("dim", "length", "duration")
+                   if k not in doc and not (k == "length" and "packing" in doc)]
         raise SceneError(f"missing {', '.join(missing)}; e.g. gaz simulate --dim 3 --n 1000 "
                          "--length 1e-7 --duration 1e-9")
     if planes:

@@ -44,7 +44,7 @@ from pathlib import Path
 
 from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
-from gaz_cli.geometry import packing_fraction
+from gaz_cli.geometry import DENSEST, DENSEST_NAME, packing_fraction
 from gaz_cli.scene import SEARCH, Scene, default_tc, field_error, render, validate
 from gaz_cli.species import BUILTIN, Species, lookup
 
@@ -202,7 +202,11 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
             raise SceneError(f"{where}give length or packing, not both")
         eta = doc["packing"]
         if not (math.isfinite(eta) and eta > 0) or doc["dim"] not in (1, 2, 3):
-            raise SceneError(f"{where}packing = {eta!r} must be a positive number (and dim 1, 2 or 3)")
+            raise in_file_terms(field_error(f"`packing` = {eta!r} must be a positive number (and `dim` 1, 2 "
+                                            "or 3)"), where)
+        if eta >= DENSEST[doc["dim"]]:  # (scene.validate would ask for a lower n or a larger box)
+            raise in_file_terms(field_error(f"`packing` {eta:.3g} is at or above {DENSEST[doc['dim']]:.4g}, "
+                                            f"{DENSEST_NAME[doc['dim']]}; lower `packing`"), where)
         covered = packing_fraction(doc["dim"], [sp.radius for sp, _ in components], 1.0,
                                    [k for _, k in components])  # in a box of side 1 m: the volume, m^D
         values["length"] = (covered / eta) ** (1.0 / doc["dim"])

@@ -500,3 +500,25 @@ def test_every_example_is_tested_and_the_presets_are_the_examples():
     assert {p.stem for p in EXAMPLES.glob("*.toml")} == set(EXAMPLE_RUNS)
     for name in scenefile.presets():
         assert scenefile.load(EXAMPLES / f"{name}.toml")[0] == scenefile.build(scenefile.preset_doc(name))[0]
+
+
+def test_packing_is_a_flag_as_it_is_a_key():
+    """`packing` was a scene file's key but no flag (`gaz simulate --packing 0.3` said: No such
+    option). The flag sets the box side from the packing fraction as the key does: the same
+    packing to the round-off of a cube root (a few ulps), the same box as the key's; one line
+    for both --length and --packing, and a packing past the densest one names --packing."""
+    code, out, err = invoke(["simulate", "--dim", "3", "--n", "200", "--packing", "0.2", "--duration", "1e-13",
+                             "--no-db", "--json", "--seed", "3"])
+    assert code == 0, err
+    flagged = json.loads(out)
+    assert flagged["packing_fraction"] == pytest.approx(0.2, rel=1e-14)
+    doc = {"dim": 3, "packing": 0.2, "duration": 1e-13, "seed": 3, "species": [{"name": "Ar", "count": 200}]}
+    scene, _ = scenefile.build(doc)
+    assert scene.length == flagged["length"]
+    for args, words in [(["--length", "1e-8"], ["give --length or --packing, not both"]),
+                        (["--packing", "0.8"], ["--packing 0.8 is at or above 0.7405", "lower --packing"])]:
+        base = ["simulate", "--dim", "3", "--n", "200", "--duration", "1e-13", "--no-db"]
+        code, out, err = invoke(base + (["--packing", "0.2"] if "--length" in args else []) + args)
+        assert (code, out, len(err.splitlines())) == (1, "", 1), (code, out, err)
+        for w in words:
+            assert w in err, err
