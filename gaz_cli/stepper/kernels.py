@@ -69,7 +69,14 @@ C_BOUNCES, C_COLLISIONS, C_PASSES, C_PASS_LIMIT, C_PLANE, C_MAX_PASSES, C_PAIR_E
 C_OVERLAP_STEPS, C_OVERLAP_PAIRS, C_OVERLAP_MAX = range(8, 11)
 """Steps that ended with overlapping pairs, such pairs summed over the steps, the most at one
 step end."""
-N_COUNTERS = 11
+C_FOLDED = 11
+"""Bounces of long series of hops on a floor that got no row of their own (see MAX_HOP_ROWS)."""
+N_COUNTERS = 12
+MAX_HOP_ROWS = 1000
+"""Rows a series of hops on a floor after one contact gets within a step, each bounce its own
+row; a longer series (hops shorter than dt / 1000: a ball barely off an elastic floor, whose
+hops round-off can make arbitrarily short) puts the bounces beyond in its last row, their
+momentum summed (counted in C_FOLDED)."""
 G_CLOSEST, G_FIRST_TIME = range(2)
 """The float overlap record (2,): smallest |dr| / sigma at a step end, time of the first step
 end with an overlapping pair (s; initialise with 1.0 and nan)."""
@@ -253,16 +260,21 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     the age with w_c = min(its normal velocity then, 0): a resting particle
     stays at rest instead of bouncing off a made-up speed |alpha| dt.
 
-    Returns (tau, w_c, d_new, w_h_new, v_rec): the time back to the contact
-    (s; -1: none within the age, an invalid state), the normal velocity just
-    before it (<= 0), the new end distance and normal drift velocity, and
-    the normal speed to record: |w_c| for one bounce; when the particle
-    bounced again or came to rest within the step, the momentum per mass the
-    wall gave it from the contact to the step's end (w_end - w_c + |alpha|
-    tau, by momentum balance) over 1 + e, so that the record's (1 + e) m
-    v_rec (Q36, the pressure) counts the later bounces and the weight
-    carried: a particle resting on the floor records one bounce a step, of
-    v_rec = |alpha| dt / (1 + e).
+    Returns (tau, w_c, d_new, w_h_new, v_rec, hops): the time back to the
+    contact (s; -1: none within the age, an invalid state), the normal
+    velocity just before it (<= 0), the new end distance and normal drift
+    velocity, the normal speed to record for the contact and the number of
+    bounces that followed it within the step, each its own bounce (hopping:
+    bounce k, k = 1..hops, comes :func:`_bounce_sum` (t0, e, k) s after the
+    contact at the speed e^(k-1) u, u = e |w_c|, t0 = 2 u / |alpha|; see
+    :func:`_hop_rows`). v_rec is |w_c|, except when the particle came to
+    rest within the step (infinitely many bounces for e > 0, or a resting
+    contact): then it is the momentum per mass the wall gave it from the
+    contact to the step's end (w_end - w_c + |alpha| tau, by momentum
+    balance) over 1 + e, so that the record's (1 + e) m v_rec (Q36, the
+    pressure) counts the bounces of the series and the weight carried: a
+    particle resting on the floor records one bounce a step, of v_rec =
+    |alpha| dt / (1 + e).
     """
     w_e = w_h + alpha * h
     tau = -1.0
@@ -282,7 +294,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
                     tau = r
     if tau < 0.0 or tau > age:
         if alpha >= 0.0 or w_e >= 0.0:
-            return -1.0, w_e, 0.0, w_h, -w_e
+            return -1.0, w_e, 0.0, w_h, -w_e, 0
         tau = age  # a floor, still moving out at the end: on it at the start of the age
         w_c = w_e - alpha * tau
         if w_c > 0.0:
@@ -291,23 +303,22 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
         w_c = w_e - alpha * tau
     w_out = -e * w_c
     if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
-        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e)
+        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e), 0
     s = tau  # time of flight since the last bounce, launched at w_out
+    hops = 0
     if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
-        s, w_out = _last_flight(w_out, alpha, e, tau)
-        w_end = w_out + alpha * s
-        return tau, w_c, w_out * s + 0.5 * alpha * s * s, w_end - alpha * h, \
-            (w_end - w_c - alpha * tau) / (1.0 + e)
+        s, w_out, hops = _last_flight(w_out, alpha, e, tau)
     d_new = w_out * s + 0.5 * alpha * s * s
-    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c
+    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c, hops
 
 
 @njit
 def _last_flight(u, alpha, e, tau):
-    """(time s since the last bounce, launch speed m/s) at the end of tau s of bouncing on a
+    """(time s since the last bounce, launch speed m/s, bounces k) at the end of tau s of bouncing on a
     floor (alpha < 0) from a launch at u m/s, each bounce giving back e times the arrival
     speed (0 < e <= 1), the series not over within tau: flight k lasts t0 e^k, t0 = 2 u / |alpha|,
-    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1)."""
+    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1); k bounces ended
+    the flights 0..k-1."""
     t0 = -2.0 * u / alpha
     if e >= 1.0:
         k = int(math.floor(tau / t0))
@@ -320,7 +331,7 @@ def _last_flight(u, alpha, e, tau):
             k -= 1
         elif _bounce_sum(t0, e, k + 1) <= tau:
             k += 1
-    return tau - _bounce_sum(t0, e, k), u * e ** k
+    return tau - _bounce_sum(t0, e, k), u * e ** k, k
 
 
 @njit
@@ -332,11 +343,11 @@ def _bounce_sum(t0, e, k):
 
 
 @njit
-def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
+def _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h):
     """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
     an invalid state) the particle is put on the wall, its normal velocity reversed (and
     tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
-    w_c, d_new, w_new, v_rec)."""
+    w_c, d_new, w_new, v_rec, hops)."""
     if tau < 0.0:
         d_new = 0.0
         v_rec = -w_c
@@ -345,7 +356,7 @@ def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
             w_new = -e * w_c - alpha * h
         else:
             w_new = w_h
-    return tau, w_c, d_new, w_new, v_rec
+    return tau, w_c, d_new, w_new, v_rec, hops
 
 
 @njit
@@ -379,7 +390,9 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t
     invalid state (no contact within its age) is put on the wall, its
     velocity reversed if still moving out. The bounce is recorded in bf (t,
     |v|, |v_perp| at contact) and bi (particle, RE_DIR) at row nb when
-    ``want``. Returns (bf, bi, nb, bounces: 0 or 1).
+    ``want``, and so is each later bounce of a series of hops on a floor within the step
+    (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
+    row of a series longer than MAX_HOP_ROWS).
     """
     dim = pos.shape[1]
     r = radius[i]
@@ -387,32 +400,65 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t
     alpha = _box_alpha(acc, i, d, sign, g)
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
-    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
-    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, ew, alpha, h)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
+    tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, ew, alpha, h)
     bounced = 0
+    folded = 0
     if tau >= 0.0:
+        rows = hops if hops <= MAX_HOP_ROWS else MAX_HOP_ROWS
         if want:
-            if nb >= bf.shape[0]:
-                bf = _grow_f(bf)
-                bi = _grow_i(bi)
-            s2 = v_rec * v_rec
+            t2 = 0.0  # the tangential speed squared
             for k in range(dim):
                 if k != d:
-                    s2 += vel[i, k] * vel[i, k]
-            bf[nb, 0] = t_end - tau
-            bf[nb, 1] = math.sqrt(s2)
-            bf[nb, 2] = v_rec
-            bi[nb, 0] = i
-            bi[nb, 1] = (d + 1) if upper else -(d + 1)
-            nb += 1
-        bounced = 1
+                    t2 += vel[i, k] * vel[i, k]
+            code = (d + 1) if upper else -(d + 1)
+            bf, bi, nb = _add_bounce_row(bf, bi, nb, t_end - tau, v_rec, t2, i, code)
+            if hops > 0:
+                bf, bi, nb = _hop_rows(bf, bi, nb, t_end - tau, -ew * w_c, alpha, ew, hops, rows, t2, i, code)
+        bounced = 1 + rows
+        folded = hops - rows
         if tau < age[i]:
             age[i] = tau
     if d_new < 0.0:
         d_new = 0.0
     pos[i, d] = (length - r - d_new) if upper else (r + d_new)
     vel[i, d] = sign * w_new
-    return bf, bi, nb, bounced
+    return bf, bi, nb, bounced, folded
+
+
+@njit
+def _add_bounce_row(bf, bi, nb, t, vperp, t2, i, code):
+    """Write one bounce (time s, |v| from |v_perp| and the tangential speed squared t2, |v_perp|
+    m/s; particle, RE_DIR) at row nb, growing the buffers as needed; returns (bf, bi, nb)."""
+    if nb >= bf.shape[0]:
+        bf = _grow_f(bf)
+        bi = _grow_i(bi)
+    bf[nb, 0] = t
+    bf[nb, 1] = math.sqrt(vperp * vperp + t2)
+    bf[nb, 2] = vperp
+    bi[nb, 0] = i
+    bi[nb, 1] = code
+    return bf, bi, nb + 1
+
+
+@njit
+def _hop_rows(bf, bi, nb, t_c, u, alpha, e, hops, rows, t2, i, code):
+    """The bounces of a series of hops on a floor that follow a contact at t_c s within its step.
+
+    Launched at u m/s from t_c, flight k lasts t0 e^k (t0 = 2 u / |alpha|); bounce k
+    (k = 1..hops) comes at t_c + :func:`_bounce_sum` (t0, e, k) with |v_perp| = u e^(k-1), the
+    speed it left at. ``rows`` (<= hops) rows are written: when hops > rows, the last one
+    carries the |v_perp| of bounces rows..hops summed, so that sum (1 + e) m |v_perp| stays
+    the momentum the wall gave. Returns (bf, bi, nb)."""
+    t0 = -2.0 * u / alpha
+    w = u
+    for k in range(1, rows + 1):
+        vp = w
+        if k == rows and hops > rows:
+            vp = w * _bounce_sum(1.0, e, hops - rows + 1)
+        bf, bi, nb = _add_bounce_row(bf, bi, nb, t_c + _bounce_sum(t0, e, k), vp, t2, i, code)
+        w *= e
+    return bf, bi, nb
 
 
 @njit
@@ -433,19 +479,20 @@ def _plane_distance(pos, vel, planes, i, p):
 def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
-    Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
-    it bounced, 0 if it was only put back on the plane (invalid state).
+    Same contact rule as the box walls (:func:`_wall_contact`); returns the bounces (1 and
+    the hops that followed within the step), 0 if it was only put back on the plane (invalid
+    state).
     """
     dim = pos.shape[1]
     dist, w_h = _plane_distance(pos, vel, planes, i, p)
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
     alpha = _plane_alpha(acc, planes, i, p, g)
-    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
-    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
+    tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
-        bounced = 1
+        bounced = 1 + hops
         if tau < age[i]:
             age[i] = tau
     if d_new < 0.0:
@@ -520,9 +567,10 @@ def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end
     for i in range(n):
         for d in range(dim):
             if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
-                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
-                                            length, ew, g, h, hr, t_end, want, bf, bi, nb)
+                bf, bi, nb, b, f = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
+                                               length, ew, g, h, hr, t_end, want, bf, bi, nb)
                 counters[C_BOUNCES] += b
+                counters[C_FOLDED] += f
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
@@ -893,9 +941,10 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         w0 = _now(clock_id, tbuf)
                         w = -1 - j
                         if w < 2 * dim:
-                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length,
-                                                        ew, g, h, hr, t_end, want_b, bf, bi, nb)
+                            bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age,
+                                                           length, ew, g, h, hr, t_end, want_b, bf, bi, nb)
                             counters[C_BOUNCES] += b
+                            counters[C_FOLDED] += f
                         else:
                             counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
                                                                planes, g, h, hr)

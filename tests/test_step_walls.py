@@ -1,0 +1,111 @@
+"""The time-stepped engine's walls: every bounce its own row, whatever dt."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from gaz_cli import stepper
+from gaz_cli.recording import MemoryRecorder
+from gaz_cli.scene import Scene, State
+from gaz_cli.species import Species
+from gaz_cli.stepper import kernels
+
+BALL = Species("ball", 1.0, 0.01)
+G = 9.81
+
+ROUND_OFF = 1e-9
+"""Bounce times and speeds below come from closed forms evaluated in another order than the
+kernel's (sums of a geometric series, square roots): agreement to round-off, a few eps times
+the number of terms; 1e-9 relative leaves room and refuses any bounce off by a flight."""
+
+
+def dropped_ball(e, dt, duration, height=0.2, plane=False):
+    """A ball dropped from ``height`` m above the floor (the box's, or an extra plane 0.1 m up
+    with ``plane``), floor restitution e, gravity G."""
+    r = BALL.radius
+    floor = 0.1 if plane else 0.0
+    kw = {"planes": (((0.5, floor), (0.0, 1.0), e),)} if plane else {"wall_restitution": e}
+    sc = Scene(dim=2, length=1.0, duration=duration, components=((BALL, 1),), seed=1, engine="step",
+               dt=dt, gravity=G, **kw)
+    st = State(np.array([[0.5, floor + r + height]]), np.array([[0.0, 0.0]]), sc.kinds())
+    return sc, st
+
+
+def exact_bounces(e, duration, height=0.2):
+    """(times s, |v_perp| m/s) of the floor bounces of the dropped ball up to ``duration``:
+    the first at t1 = sqrt(2 h / g) at g t1, then bounce k at t1 + t0 (1 - e^k) / (1 - e)
+    (t1 + k t0 for e = 1), t0 = 2 e g t1 / g, at e^k g t1."""
+    t1 = math.sqrt(2 * height / G)
+    u = e * G * t1
+    t0 = 2 * u / G
+    times, speeds = [t1], [G * t1]
+    k = 1
+    while True:
+        t = t1 + (t0 * k if e == 1 else t0 * (1 - e ** k) / (1 - e))
+        if t > duration:
+            return np.array(times), np.array(speeds)
+        times.append(t)
+        speeds.append(u * e ** (k - 1))
+        k += 1
+
+
+@pytest.mark.parametrize("e", [1.0, 0.8])
+@pytest.mark.parametrize("dt", [1e-3, 0.25])
+def test_every_bounce_of_a_ball_hopping_on_the_floor_has_its_own_row(e, dt):
+    """A ball dropped on the floor: one row per bounce at its exact time and speed, whatever dt.
+
+    Before, the bounces after the first within one step were folded into the first's row (its
+    |v_perp| their sum): at dt = 0.25 s, e = 0.8, 5 rows for the 8 bounces of 1.5 s (the
+    momentum right, the count low). Exact expectation: the closed form of exact_bounces (the
+    step engine meets a floor on the exact parabola, so no dt error enters)."""
+    duration = 1.5  # e = 0.8: the hops shorten to 0.05 s, several within a step of 0.25 s
+    sc, st = dropped_ball(e, dt, duration)
+    rec = MemoryRecorder()
+    rs = stepper.run(sc, st, rec)
+    b = rec.bounces()
+    times, speeds = exact_bounces(e, duration)
+    assert rs.wall_bounces == b["t"].size == times.size == (4 if e == 1 else 8)
+    assert np.all(b["wall"] == -2) and rs.extras["folded_bounces"] == 0
+    np.testing.assert_allclose(b["t"], times, rtol=ROUND_OFF)
+    np.testing.assert_allclose(b["vperp"], speeds, rtol=ROUND_OFF)
+    np.testing.assert_allclose(b["speed"], speeds, rtol=ROUND_OFF)
+
+
+def test_hops_on_an_extra_plane_are_counted_one_by_one():
+    """The same drop on an extra plane (no rows: planes have no RE_DIR): plane_bounces counts
+    each bounce (it counted one per step)."""
+    sc, st = dropped_ball(0.8, 0.25, 1.5, plane=True)
+    rs = stepper.run(sc, st, MemoryRecorder())
+    assert rs.extras["plane_bounces"] == exact_bounces(0.8, 1.5)[0].size == 8
+    assert rs.wall_bounces == 0
+
+
+def test_a_series_of_hops_longer_than_the_row_limit_folds_the_rest_into_its_last_row():
+    """A ball leaving an elastic floor at 1 micrometre per second hops every t0 = 2e-6 / g s,
+    about 5000 times in a step of 1 ms: the first MAX_HOP_ROWS bounces after the contact get a
+    row each, the last row carries the rest (folded_bounces), and the rows' momentum
+    2 m sum |v_perp| is the floor's, m g T (from and back to the same launch speed, the ball
+    ends where it started its flight or within one hop of it).
+
+    Tolerance: the contact is found back on the step's parabola from the end position y ~ R,
+    rounded to eps R; a hop of u reaches u^2 / 2g, so the launch speed found carries a relative
+    error about g eps R / u^2 (2e-5 here; 1.8e-7 measured), and so do t0 and the momentum."""
+    u, dt = 1e-6, 1e-3
+    t0 = 2 * u / G
+    hop_round_off = 10 * G * np.finfo(float).eps * BALL.radius / u ** 2
+    sc = Scene(dim=2, length=1.0, duration=dt, components=((BALL, 1),), seed=1, engine="step", dt=dt,
+               gravity=G)
+    st = State(np.array([[0.5, BALL.radius]]), np.array([[0.0, u]]), sc.kinds())
+    rec = MemoryRecorder()
+    rs = stepper.run(sc, st, rec)
+    b = rec.bounces()
+    bounces = math.floor(dt / t0)
+    assert b["t"].size == rs.wall_bounces == kernels.MAX_HOP_ROWS + 1
+    assert rs.extras["folded_bounces"] == bounces - b["t"].size
+    np.testing.assert_allclose(b["t"], t0 * np.arange(1, b["t"].size + 1), rtol=hop_round_off)
+    vy = rs.final.velocities[0, 1]
+    np.testing.assert_allclose(2 * BALL.mass * np.sum(b["vperp"]), BALL.mass * (G * dt + vy - u),
+                               rtol=hop_round_off)
