@@ -30,7 +30,11 @@ first), pair forces (velocity Verlet, O(dt^2); a contact inside a step is met
 with the velocities at its time and, on a wall, along the parabola of the
 step's constant acceleration, so contacts of attracting bodies keep the
 energy error O(dt^2): tests/test_stepper.py measures the ratio 4 between dt
-and dt/2) and friction mixed with walls.
+and dt/2) and friction mixed with walls (a bounce under friction and a
+constant acceleration changes the velocity with an O(dt^2) error; the hops of
+a series within one step fly without friction). A bounce's row holds the
+velocity at its contact time (kernels._velocity_at), as a collision's impulse
+does, not the drift velocity of the step's middle, which is off by O(dt).
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces

@@ -234,7 +234,7 @@ def _drift(pos, vel, dt, age):
 
 # --- walls ---------------------------------------------------------------------
 @njit
-def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
+def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     """Contact of one particle with one wall, along the wall's inward normal.
 
     d_e (m): signed distance of the centre from its contact position at the
@@ -243,7 +243,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     the step's start (:func:`_box_alpha`; 0 for a wall parallel to gravity
     without pair forces, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
     the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
-    with); age (s); e: restitution. Under uniform gravity the path is a
+    with); gamma (1/s): friction; age (s); e: restitution. Under uniform gravity the path is a
     parabola whose end point and end velocity w_h + alpha h are exact in
     kick-drift-kick, so going back along it finds the exact contact.
 
@@ -267,7 +267,9 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     bounces that followed it within the step, each its own bounce (hopping:
     bounce k, k = 1..hops, comes :func:`_bounce_sum` (t0, e, k) s after the
     contact at the speed e^(k-1) u, u = e |w_c|, t0 = 2 u / |alpha|; see
-    :func:`_hop_rows`). v_rec is |w_c|, except when the particle came to
+    :func:`_hop_rows`). v_rec is the normal speed at the contact (|w_c|,
+    friction aside: :func:`_velocity_at`; the end speed for an invalid
+    state), except when the particle came to
     rest within the step (infinitely many bounces for e > 0, or a resting
     contact): then it is the momentum per mass the wall gave it from the
     contact to the step's end (w_end - w_c + |alpha| tau, by momentum
@@ -294,7 +296,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
                     tau = r
     if tau < 0.0 or tau > age:
         if alpha >= 0.0 or w_e >= 0.0:
-            return -1.0, w_e, 0.0, w_h, -w_e, 0
+            return -1.0, w_e, 0.0, w_h, -_velocity_at(w_h, alpha, h, gamma), 0
         tau = age  # a floor, still moving out at the end: on it at the start of the age
         w_c = w_e - alpha * tau
         if w_c > 0.0:
@@ -309,7 +311,19 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
         s, w_out, hops = _last_flight(w_out, alpha, e, tau)
     d_new = w_out * s + 0.5 * alpha * s * s
-    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c, hops
+    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -_velocity_at(w_h, alpha, h - tau, gamma), hops
+
+
+@njit
+def _velocity_at(v_h, a, s, gamma):
+    """Velocity (m/s, one component) s seconds after the step's middle, whose drift velocity is
+    v_h m/s, under the constant acceleration a m/s^2 and linear friction gamma 1/s:
+    v_h e^{-gamma s} + a (1 - e^{-gamma s}) / gamma (v_h + a s without friction), the motion the
+    kicks integrate exactly. A contact's recorded speed and a collision's impulse use it, not
+    the drift velocity: that one is off by about (gamma |v| + |a|) |s|, first order in dt."""
+    if gamma > 0.0:
+        return v_h * math.exp(-gamma * s) - a * math.expm1(-gamma * s) / gamma
+    return v_h + a * s
 
 
 @njit
@@ -350,7 +364,6 @@ def _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h):
     w_c, d_new, w_new, v_rec, hops)."""
     if tau < 0.0:
         d_new = 0.0
-        v_rec = -w_c
         if w_c < 0.0:
             tau = 0.0
             w_new = -e * w_c - alpha * h
@@ -382,14 +395,14 @@ def _plane_alpha(acc, planes, i, p, g):
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
+def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
     reversed and scaled by ``ew``, moved forward to the end of the step. An
     invalid state (no contact within its age) is put on the wall, its
     velocity reversed if still moving out. The bounce is recorded in bf (t,
-    |v|, |v_perp| at contact) and bi (particle, RE_DIR) at row nb when
+    |v|, |v_perp| at contact, :func:`_velocity_at`) and bi (particle, RE_DIR) at row nb when
     ``want``, and so is each later bounce of a series of hops on a floor within the step
     (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
     row of a series longer than MAX_HOP_ROWS).
@@ -400,21 +413,19 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t
     alpha = _box_alpha(acc, i, d, sign, g)
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
-    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], ew)
     tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, ew, alpha, h)
     bounced = 0
     folded = 0
     if tau >= 0.0:
         rows = hops if hops <= MAX_HOP_ROWS else MAX_HOP_ROWS
         if want:
-            t2 = 0.0  # the tangential speed squared
-            for k in range(dim):
-                if k != d:
-                    t2 += vel[i, k] * vel[i, k]
             code = (d + 1) if upper else -(d + 1)
+            t2 = _tangential2(vel, acc, i, d, g, h - tau, gamma)
             bf, bi, nb = _add_bounce_row(bf, bi, nb, t_end - tau, v_rec, t2, i, code)
             if hops > 0:
-                bf, bi, nb = _hop_rows(bf, bi, nb, t_end - tau, -ew * w_c, alpha, ew, hops, rows, t2, i, code)
+                bf, bi, nb = _hop_rows(bf, bi, nb, t_end - tau, h - tau, -ew * w_c, alpha, ew, hops, rows,
+                                       vel, acc, g, gamma, i, d, code)
         bounced = 1 + rows
         folded = hops - rows
         if tau < age[i]:
@@ -442,10 +453,24 @@ def _add_bounce_row(bf, bi, nb, t, vperp, t2, i, code):
 
 
 @njit
-def _hop_rows(bf, bi, nb, t_c, u, alpha, e, hops, rows, t2, i, code):
+def _tangential2(vel, acc, i, d, g, s, gamma):
+    """Squared speed of particle i along the axes other than d, s seconds after the step's middle
+    (:func:`_velocity_at`; acc (N, D) the pair attraction, gravity g along the last axis)."""
+    dim = vel.shape[1]
+    t2 = 0.0
+    for k in range(dim):
+        if k != d:
+            a = acc[i, k] - g if k == dim - 1 else acc[i, k]
+            v = _velocity_at(vel[i, k], a, s, gamma)
+            t2 += v * v
+    return t2
+
+
+@njit
+def _hop_rows(bf, bi, nb, t_c, s_c, u, alpha, e, hops, rows, vel, acc, g, gamma, i, d, code):
     """The bounces of a series of hops on a floor that follow a contact at t_c s within its step.
 
-    Launched at u m/s from t_c, flight k lasts t0 e^k (t0 = 2 u / |alpha|); bounce k
+    Launched at u m/s from t_c (s_c s after the step's middle), flight k lasts t0 e^k (t0 = 2 u / |alpha|); bounce k
     (k = 1..hops) comes at t_c + :func:`_bounce_sum` (t0, e, k) with |v_perp| = u e^(k-1), the
     speed it left at. ``rows`` (<= hops) rows are written: when hops > rows, the last one
     carries the |v_perp| of bounces rows..hops summed, so that sum (1 + e) m |v_perp| stays
@@ -456,7 +481,9 @@ def _hop_rows(bf, bi, nb, t_c, u, alpha, e, hops, rows, t2, i, code):
         vp = w
         if k == rows and hops > rows:
             vp = w * _bounce_sum(1.0, e, hops - rows + 1)
-        bf, bi, nb = _add_bounce_row(bf, bi, nb, t_c + _bounce_sum(t0, e, k), vp, t2, i, code)
+        after = _bounce_sum(t0, e, k)
+        bf, bi, nb = _add_bounce_row(bf, bi, nb, t_c + after, vp, _tangential2(vel, acc, i, d, g, s_c + after, gamma),
+                                     i, code)
         w *= e
     return bf, bi, nb
 
@@ -476,7 +503,7 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
+def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
     Same contact rule as the box walls (:func:`_wall_contact`); returns the bounces (1 and
@@ -488,7 +515,7 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
     alpha = _plane_alpha(acc, planes, i, p, g)
-    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], e)
     tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
@@ -505,7 +532,8 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
 
 
 @njit
-def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
+def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
+               cand_tau):
     """Write the wall and plane crossings of the active particles from row k; returns the new count.
 
     Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
@@ -527,7 +555,7 @@ def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes,
             sign = -1.0 if upper else 1.0
             alpha = _box_alpha(acc, i, d, sign, g)
             d_e = (length - r - x) if upper else (x - r)
-            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, age[i], ew)[0]
+            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * d + (1 if upper else 0))
@@ -538,7 +566,7 @@ def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes,
             if dist >= r:
                 continue
             alpha = _plane_alpha(acc, planes, i, p, g)
-            tau = _wall_contact(dist - r, w_h, alpha, h, hr, age[i], planes[p, 2 * dim])[0]
+            tau = _wall_contact(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])[0]
             if k < cand_i.shape[0]:
                 cand_i[k] = i
                 cand_j[k] = -1 - (2 * dim + p)
@@ -561,14 +589,15 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
+def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
+                 counters):
     """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
         for d in range(dim):
             if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
                 bf, bi, nb, b, f = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
-                                               length, ew, g, h, hr, t_end, want, bf, bi, nb)
+                                               length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb)
                 counters[C_BOUNCES] += b
                 counters[C_FOLDED] += f
         for p in range(planes.shape[0]):
@@ -576,7 +605,7 @@ def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
     return bf, bi, nb
 
 
@@ -794,9 +823,7 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     back = 1.0  # a velocity change at the contact is back times that of the drift velocity
     if gamma > 0.0:
         back = math.exp(gamma * s)
-        vn_c = vn / back - an * math.expm1(-gamma * s) / gamma
-    else:
-        vn_c = vn + an * s
+    vn_c = _velocity_at(vn, an, s, gamma)
     if vn_c < 0.0:  # else (a graze the attraction turned round): the drift velocities' impulse
         vn = vn_c
     t_c = t_end - tau
@@ -882,11 +909,11 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j,
+            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, 0, cand_i, cand_j,
                            cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0,
+                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -942,12 +969,12 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         w = -1 - j
                         if w < 2 * dim:
                             bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age,
-                                                           length, ew, g, h, hr, t_end, want_b, bf, bi, nb)
+                                                           length, ew, g, h, hr, gamma, t_end, want_b, bf, bi, nb)
                             counters[C_BOUNCES] += b
                             counters[C_FOLDED] += f
                         else:
                             counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
-                                                               planes, g, h, hr)
+                                                               planes, g, h, hr, gamma)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
@@ -977,7 +1004,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
+                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want_b,
                                           bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
