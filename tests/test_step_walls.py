@@ -156,3 +156,41 @@ def test_a_bounce_under_friction_records_the_speed_at_the_contact_to_second_orde
         bound = gamma * v0 * (gamma * gamma * t_c / 24 + gamma / 8) * dt * dt
         assert abs(b["vperp"][0] - v_c) <= bound, (dt, b["vperp"][0] - v_c, bound)
         assert abs(b["speed"][0] - v_c) <= bound
+
+
+def unfolded(x0, v, t, r=BALL.radius, length=1.0):
+    """Position (m) and velocity (m/s) along one axis at t of a free particle between the walls
+    at r and length - r: x0 + v t folded into the span."""
+    span = length - 2 * r
+    u = (x0 - r + v * t) % (2 * span)
+    return (r + u, v) if u <= span else (r + 2 * span - u, -v)
+
+
+def test_a_particle_crossing_the_box_a_thousand_times_in_a_step_stays_in_it_and_bounces_every_time():
+    """--dt 1 s with a particle at (1000, 730) m/s in a 1 m box: about 1000 and 750 crossings in
+    the step, more than the contact passes (MAX_PASSES = 100) can take one by one.
+
+    Before, the safety net after the pass limit bounced it once more and left it where it was:
+    at dt = 1 s, 1D, 1000 m/s from x = 0.5, it ended at x = -900.52 m, outside the box, with
+    101 bounces for 1020. Now the safety net bounces it, earliest contact first, until it is
+    inside: every bounce, and the end state of the exact unfolded motion. Round-off: each
+    bounce rounds a coordinate of size |v| dt, so k bounces are off by about k eps |v| dt in
+    position (2e-10 m here) and that over |v| in time."""
+    v, x0, dt = np.array([1000.0, 730.0]), np.array([0.5, 0.3]), 1.0
+    sc = Scene(dim=2, length=1.0, duration=dt, components=((BALL, 1),), seed=1, engine="step", dt=dt)
+    rec = MemoryRecorder()
+    rs = stepper.run(sc, State(x0[None, :], v[None, :], sc.kinds()), rec)
+    b = rec.bounces()
+    span = 1.0 - 2 * BALL.radius
+    tol = 1e4 * np.finfo(float).eps * v.max() * dt
+    assert rs.extras["pass_limit_hits"] == 1
+    for d in range(2):
+        first = (1.0 - BALL.radius - x0[d]) / v[d]
+        times = first + span / v[d] * np.arange(int((dt - first) // (span / v[d])) + 1)
+        mine = np.abs(b["wall"]) == d + 1
+        assert mine.sum() == times.size
+        np.testing.assert_allclose(b["t"][mine], times, rtol=0, atol=tol / v[d])
+        x, vd = unfolded(x0[d], v[d], dt)
+        assert rs.final.positions[0, d] == pytest.approx(x, abs=tol)
+        assert rs.final.velocities[0, d] == vd
+    assert rs.wall_bounces == b["t"].size == 1020 + 745

@@ -89,6 +89,9 @@ found are resolved to round-off, but the overlap rule misses grazing ones that e
 the contact distance within one step, whatever dt: with a relative displacement l = |dv| dt per
 step they end at most l^2 / (8 sigma) deep (a chord of length l), so a 1% overlap means the
 particles move about 0.3 sigma relative to each other in a step: dt is too long."""
+SWEEP_BOUNCES = 1 << 20
+"""Box-wall bounces of one particle in the safety net after the pass limit (:func:`_walls_sweep`):
+a particle crossing the box that many times in one step is put back on the wall."""
 # phase clocks (float64 array, seconds)
 T_PUSH, T_COLLISIONS, T_WALLS = range(3)
 N_TIMERS = 3
@@ -532,47 +535,83 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
 
 
 @njit
-def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
-               cand_tau):
-    """Write the wall and plane crossings of the active particles from row k; returns the new count.
-
-    Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
-    tau = time back to the contact, 0 for an invalid state (handled last).
-    Rows beyond the arrays' size are counted, not written: the caller grows
-    the arrays and scans again.
-    """
-    n, dim = pos.shape
-    nplanes = planes.shape[0]
-    for i in range(n):
-        if not active[i]:
+def _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, with_planes):
+    """(w, tau): the box wall (w = 2 d + upper) or, ``with_planes``, extra plane (w = 2 D + p)
+    particle i is beyond whose contact came first, and the time back to it (s; 0 for an
+    invalid state); (-1, -1.0) when it is beyond none. Ties go to the lowest w."""
+    dim = pos.shape[1]
+    best = -1
+    best_tau = -1.0
+    r = radius[i]
+    for d in range(dim):
+        x = pos[i, d]
+        if r <= x <= length - r:
             continue
-        r = radius[i]
-        for d in range(dim):
-            x = pos[i, d]
-            if r <= x <= length - r:
-                continue
-            upper = x > length - r
-            sign = -1.0 if upper else 1.0
-            alpha = _box_alpha(acc, i, d, sign, g)
-            d_e = (length - r - x) if upper else (x - r)
-            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
-            if k < cand_i.shape[0]:
-                cand_i[k] = i
-                cand_j[k] = -1 - (2 * d + (1 if upper else 0))
-                cand_tau[k] = tau if tau > 0.0 else 0.0
-            k += 1
-        for p in range(nplanes):
+        upper = x > length - r
+        sign = -1.0 if upper else 1.0
+        alpha = _box_alpha(acc, i, d, sign, g)
+        d_e = (length - r - x) if upper else (x - r)
+        tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
+        if tau < 0.0:
+            tau = 0.0
+        if tau > best_tau:
+            best = 2 * d + (1 if upper else 0)
+            best_tau = tau
+    if with_planes:
+        for p in range(planes.shape[0]):
             dist, w_h = _plane_distance(pos, vel, planes, i, p)
             if dist >= r:
                 continue
             alpha = _plane_alpha(acc, planes, i, p, g)
             tau = _wall_contact(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])[0]
-            if k < cand_i.shape[0]:
-                cand_i[k] = i
-                cand_j[k] = -1 - (2 * dim + p)
-                cand_tau[k] = tau if tau > 0.0 else 0.0
-            k += 1
+            if tau < 0.0:
+                tau = 0.0
+            if tau > best_tau:
+                best = 2 * dim + p
+                best_tau = tau
+    return best, best_tau
+
+
+@njit
+def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
+               cand_tau):
+    """Write the first wall or plane crossing of each active particle from row k; returns the new count.
+
+    Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p
+    (:func:`_earliest_wall`; a pass applies at most one contact a particle, its earliest).
+    tau = time back to the contact, 0 for an invalid state (handled last).
+    Rows beyond the arrays' size are counted, not written: the caller grows
+    the arrays and scans again.
+    """
+    n = pos.shape[0]
+    for i in range(n):
+        if not active[i]:
+            continue
+        w, tau = _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, True)
+        if w < 0:
+            continue
+        if k < cand_i.shape[0]:
+            cand_i[k] = i
+            cand_j[k] = -1 - w
+            cand_tau[k] = tau
+        k += 1
     return k
+
+
+@njit
+def _apply_wall(i, w, pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
+                counters):
+    """Bounce particle i off wall w (box walls w = 2 d + upper, planes 2 D + p), counted in
+    counters; returns (bf, bi, nb)."""
+    dim = pos.shape[1]
+    if w < 2 * dim:
+        bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length, ew, g, h, hr,
+                                       gamma, t_end, want, bf, bi, nb)
+        counters[C_BOUNCES] += b
+        counters[C_FOLDED] += f
+    else:
+        counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+    return bf, bi, nb
 
 
 @njit
@@ -591,21 +630,31 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 @njit
 def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
                  counters):
-    """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
+    """Safety net after the pass limit: every particle beyond a box wall bounces, earliest contact
+    first, until it is inside the box (a particle crossing the box many times in one step gets
+    every bounce); then once off each plane it is behind; then any centre still outside
+    [R, L - R] (after SWEEP_BOUNCES bounces, or pushed out by a plane) is put on the wall.
+    Returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
-        for d in range(dim):
-            if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
-                bf, bi, nb, b, f = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
-                                               length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb)
-                counters[C_BOUNCES] += b
-                counters[C_FOLDED] += f
+        for _ in range(SWEEP_BOUNCES):
+            w, tau = _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, False)
+            if w < 0:
+                break
+            bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end,
+                                     want, bf, bi, nb, counters)
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
                 counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+        r = radius[i]
+        for d in range(dim):
+            if pos[i, d] < r:
+                pos[i, d] = r
+            elif pos[i, d] > length - r:
+                pos[i, d] = length - r
     return bf, bi, nb
 
 
@@ -966,15 +1015,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                     tau = cand_tau[idx[m]]
                     if j < 0:
                         w0 = _now(clock_id, tbuf)
-                        w = -1 - j
-                        if w < 2 * dim:
-                            bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age,
-                                                           length, ew, g, h, hr, gamma, t_end, want_b, bf, bi, nb)
-                            counters[C_BOUNCES] += b
-                            counters[C_FOLDED] += f
-                        else:
-                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
-                                                               planes, g, h, hr, gamma)
+                        bf, bi, nb = _apply_wall(i, -1 - j, pos, vel, acc, radius, age, planes, length, ew, g, h, hr,
+                                                 gamma, t_end, want_b, bf, bi, nb, counters)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
