@@ -535,34 +535,65 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
 
 
 @njit
-def _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, with_planes):
+def _excursion_tau(d_e, w_h, alpha, h, hr, gamma, age, e):
+    """Time back (s) to the contact with a wall that a particle in front of it at the step's
+    end (d_e >= 0, m) crossed and came back from within its age, or -1 for none (arguments as
+    :func:`_wall_contact`). Only a path bending away from the wall (alpha > 0: a ceiling under
+    gravity, a wall the attraction pulls away from) can: a parabola whose lowest point, tau* =
+    w_e / alpha back, lies beyond it (d_e < w_e^2 / (2 alpha)); the contact is its earlier
+    crossing. A ball thrown at a ceiling that it reaches within a step used to pass through it
+    and fall back."""
+    if alpha <= 0.0:
+        return -1.0
+    w_e = w_h + alpha * h
+    if w_e <= 0.0 or w_e * w_e <= 2.0 * alpha * d_e:
+        return -1.0
+    return _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e)[0]
+
+
+@njit
+def _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, with_planes):
     """(w, tau): the box wall (w = 2 d + upper) or, ``with_planes``, extra plane (w = 2 D + p)
-    particle i is beyond whose contact came first, and the time back to it (s; 0 for an
-    invalid state); (-1, -1.0) when it is beyond none. Ties go to the lowest w."""
+    particle i met first, and the time back to it (s; 0 for an invalid state); (-1, -1.0) for
+    none. A wall counts when the particle is beyond it, or in front of it after an excursion
+    beyond (:func:`_excursion_tau`), except the wall ``last`` (N,) says its path bent at last
+    (it moves away from it since). Ties go to the lowest w."""
     dim = pos.shape[1]
     best = -1
     best_tau = -1.0
     r = radius[i]
     for d in range(dim):
         x = pos[i, d]
-        if r <= x <= length - r:
-            continue
-        upper = x > length - r
-        sign = -1.0 if upper else 1.0
-        alpha = _box_alpha(acc, i, d, sign, g)
-        d_e = (length - r - x) if upper else (x - r)
-        tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
-        if tau < 0.0:
-            tau = 0.0
-        if tau > best_tau:
-            best = 2 * d + (1 if upper else 0)
-            best_tau = tau
+        for up in range(2):
+            w = 2 * d + up
+            sign = -1.0 if up == 1 else 1.0
+            alpha = _box_alpha(acc, i, d, sign, g)
+            d_e = (length - r - x) if up == 1 else (x - r)
+            if d_e >= 0.0:  # in front of it: an excursion beyond?
+                if alpha <= 0.0 or last[i] == w:
+                    continue
+                tau = _excursion_tau(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)
+                if tau < 0.0:
+                    continue
+            else:
+                tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
+                if tau < 0.0:
+                    tau = 0.0
+            if tau > best_tau:
+                best = w
+                best_tau = tau
     if with_planes:
         for p in range(planes.shape[0]):
             dist, w_h = _plane_distance(pos, vel, planes, i, p)
-            if dist >= r:
-                continue
             alpha = _plane_alpha(acc, planes, i, p, g)
+            if dist >= r:
+                if last[i] == 2 * dim + p:
+                    continue
+                tau = _excursion_tau(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])
+                if tau >= 0.0 and tau > best_tau:
+                    best = 2 * dim + p
+                    best_tau = tau
+                continue
             tau = _wall_contact(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])[0]
             if tau < 0.0:
                 tau = 0.0
@@ -573,7 +604,7 @@ def _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, p
 
 
 @njit
-def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
+def _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
                cand_tau):
     """Write the first wall or plane crossing of each active particle from row k; returns the new count.
 
@@ -587,7 +618,7 @@ def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, 
     for i in range(n):
         if not active[i]:
             continue
-        w, tau = _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, True)
+        w, tau = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, True)
         if w < 0:
             continue
         if k < cand_i.shape[0]:
@@ -599,11 +630,12 @@ def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, 
 
 
 @njit
-def _apply_wall(i, w, pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
-                counters):
+def _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi,
+                nb, counters):
     """Bounce particle i off wall w (box walls w = 2 d + upper, planes 2 D + p), counted in
-    counters; returns (bf, bi, nb)."""
+    counters, noted in last (N,); returns (bf, bi, nb)."""
     dim = pos.shape[1]
+    last[i] = w
     if w < 2 * dim:
         bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length, ew, g, h, hr,
                                        gamma, t_end, want, bf, bi, nb)
@@ -628,7 +660,7 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
+def _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
                  counters):
     """Safety net after the pass limit: every particle beyond a box wall bounces, earliest contact
     first, until it is inside the box (a particle crossing the box many times in one step gets
@@ -638,17 +670,18 @@ def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma
     n, dim = pos.shape
     for i in range(n):
         for _ in range(SWEEP_BOUNCES):
-            w, tau = _earliest_wall(i, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, planes, False)
+            w, tau = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, False)
             if w < 0:
                 break
-            bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end,
-                                     want, bf, bi, nb, counters)
+            bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma,
+                                     t_end, want, bf, bi, nb, counters)
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
                 counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+                last[i] = 2 * dim + p
         r = radius[i]
         for d in range(dim):
             if pos[i, d] < r:
@@ -930,6 +963,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     tbuf = np.zeros(2, np.int64)
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
+    last = np.full(n, -1, np.int64)  # the wall each particle's path last bent at in this step (-1: none)
     done = np.zeros(n, np.uint8)
     speed = np.zeros(n)
     cand_i = np.empty(64, np.int64)
@@ -953,16 +987,18 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         # --- contact passes: walls, planes and pairs, earliest first
         for i in range(n):
             active[i] = 1
+            last[i] = -1
         passes = 0
         wall_time = 0.0
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, 0, cand_i, cand_j,
+            k = _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, 0, cand_i,
+                           cand_j,
                            cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, gamma, planes, 0,
+                k = _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -1015,8 +1051,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                     tau = cand_tau[idx[m]]
                     if j < 0:
                         w0 = _now(clock_id, tbuf)
-                        bf, bi, nb = _apply_wall(i, -1 - j, pos, vel, acc, radius, age, planes, length, ew, g, h, hr,
-                                                 gamma, t_end, want_b, bf, bi, nb, counters)
+                        bf, bi, nb = _apply_wall(i, -1 - j, pos, vel, acc, radius, age, last, planes, length, ew, g, h,
+                                                 hr, gamma, t_end, want_b, bf, bi, nb, counters)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
@@ -1027,6 +1063,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         continue
                     done[i] = 1
                     done[j] = 1
+                    last[i] = -1
+                    last[j] = -1
                     applied += 1
                     counters[C_COLLISIONS] += 1
                     virial[0] += impulse * (radius[i] + radius[j])
@@ -1046,8 +1084,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, gamma, t_end, want_b,
-                                          bf, bi, nb, counters)
+                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end,
+                                          want_b, bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
         counters[C_PASSES] += passes
