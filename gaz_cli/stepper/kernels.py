@@ -10,8 +10,10 @@ block of steps; each step is, in order:
    without friction; skipped entirely when the scene has no force;
 2. drift ``x += v dt`` (straight lines, so going back along them is exact);
 3. contact passes. Each pass lists the contacts of the *active* particles
-   (all of them in the first pass): crossings of a box wall or an extra
-   plane, and pairs in contact found with a cell list (never O(N^2)). They
+   (all of them in the first pass): the first crossing of a box wall or an
+   extra plane (one it ends beyond, or one a path bending away from it went
+   beyond and came back from: :func:`_earliest_wall`), and pairs in contact
+   found with a cell list (never O(N^2)). They
    are sorted by contact time, earliest first, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
@@ -21,7 +23,8 @@ block of steps; each step is, in order:
    with the wall (restitution, exact under uniform gravity, the pair
    attraction taken constant over the step, see :func:`_wall_contact`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
-   is hit (then every particle still beyond a wall is put back);
+   is hit (then every particle still beyond a box wall bounces until it is
+   inside, and off the planes once: :func:`_walls_sweep`);
 4. pair accelerations at the new positions (when pair gravity is on);
 5. half kick.
 
