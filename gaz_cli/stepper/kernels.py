@@ -413,7 +413,6 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, g
     (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
     row of a series longer than MAX_HOP_ROWS).
     """
-    dim = pos.shape[1]
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
     alpha = _box_alpha(acc, i, d, sign, g)
@@ -673,7 +672,7 @@ def _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr,
     n, dim = pos.shape
     for i in range(n):
         for _ in range(SWEEP_BOUNCES):
-            w, tau = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, False)
+            w = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, False)[0]
             if w < 0:
                 break
             bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma,
