@@ -10,10 +10,11 @@ and extra planes ``scene.planes``. The order of operations inside a step is in
 :mod:`gaz_cli.stepper.kernels`.
 
 What reaches the recorder is what the exact engine sends: wall bounces
-(time of contact, RE_DIR, |v| and |v_perp| just before; on a floor, a
-particle that comes to rest or bounces again within the step records one
-bounce whose (1 + e_w) m |v_perp| is the momentum the floor gave it in the
-step, its weight included: see :func:`kernels._wall_contact`), collisions (time of
+(time of contact, RE_DIR, |v| and |v_perp| just before; a particle hopping
+on a floor within a step records each bounce of the series, up to
+kernels.MAX_HOP_ROWS a contact; one that comes to rest within the step
+records one bounce whose (1 + e_w) m |v_perp| is the momentum the floor gave
+it in the step, its weight included: see :func:`kernels._wall_contact`), collisions (time of
 contact, i, j, |J|) when wanted, snapshots at t = 0, every, 2 every, ...
 (linear interpolation between the two step ends around each snapshot time),
 and, every ``scene.print_every`` steps, a diagnostic dict (time, step,
@@ -29,7 +30,11 @@ first), pair forces (velocity Verlet, O(dt^2); a contact inside a step is met
 with the velocities at its time and, on a wall, along the parabola of the
 step's constant acceleration, so contacts of attracting bodies keep the
 energy error O(dt^2): tests/test_stepper.py measures the ratio 4 between dt
-and dt/2) and friction mixed with walls.
+and dt/2) and friction mixed with walls (a bounce under friction and a
+constant acceleration changes the velocity with an O(dt^2) error; the hops of
+a series within one step fly without friction). A bounce's row holds the
+velocity at its contact time (kernels._velocity_at), as a collision's impulse
+does, not the drift velocity of the step's middle, which is off by O(dt).
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces
@@ -147,6 +152,8 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step.
     The caller's arrays are not modified. RunStats.extras holds 'steps',
     'passes', 'max_passes_per_step', 'pass_limit_hits', 'plane_bounces',
+    'folded_bounces' (bounces of hop series longer than kernels.MAX_HOP_ROWS
+    that share their series' last row),
     'pair_force_evaluations', 'phase_times' (s: push, collisions, walls,
     output), 'forces', 'detection', 'dt', and the overlaps the steps left:
     'overlap_steps' (steps that ended with a pair closer than (1 -
@@ -402,6 +409,7 @@ class _Stepper:
             "max_passes_per_step": int(c[_k.C_MAX_PASSES]),
             "pass_limit_hits": int(c[_k.C_PASS_LIMIT]),
             "plane_bounces": int(c[_k.C_PLANE]),
+            "folded_bounces": int(c[_k.C_FOLDED]),
             "pair_force_evaluations": int(c[_k.C_PAIR_EVALS]),
             "overlap_steps": int(c[_k.C_OVERLAP_STEPS]),
             "overlapping_pairs_max": int(c[_k.C_OVERLAP_MAX]),

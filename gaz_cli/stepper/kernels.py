@@ -10,8 +10,10 @@ block of steps; each step is, in order:
    without friction; skipped entirely when the scene has no force;
 2. drift ``x += v dt`` (straight lines, so going back along them is exact);
 3. contact passes. Each pass lists the contacts of the *active* particles
-   (all of them in the first pass): crossings of a box wall or an extra
-   plane, and pairs in contact found with a cell list (never O(N^2)). They
+   (all of them in the first pass): the first crossing of a box wall or an
+   extra plane (one it ends beyond, or one a path bending away from it went
+   beyond and came back from: :func:`_earliest_wall`), and pairs in contact
+   found with a cell list (never O(N^2)). They
    are sorted by contact time, earliest first, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
@@ -21,7 +23,8 @@ block of steps; each step is, in order:
    with the wall (restitution, exact under uniform gravity, the pair
    attraction taken constant over the step, see :func:`_wall_contact`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
-   is hit (then every particle still beyond a wall is put back);
+   is hit (then every particle still beyond a box wall bounces until it is
+   inside, and off the planes once: :func:`_walls_sweep`);
 4. pair accelerations at the new positions (when pair gravity is on);
 5. half kick.
 
@@ -69,7 +72,14 @@ C_BOUNCES, C_COLLISIONS, C_PASSES, C_PASS_LIMIT, C_PLANE, C_MAX_PASSES, C_PAIR_E
 C_OVERLAP_STEPS, C_OVERLAP_PAIRS, C_OVERLAP_MAX = range(8, 11)
 """Steps that ended with overlapping pairs, such pairs summed over the steps, the most at one
 step end."""
-N_COUNTERS = 11
+C_FOLDED = 11
+"""Bounces of long series of hops on a floor that got no row of their own (see MAX_HOP_ROWS)."""
+N_COUNTERS = 12
+MAX_HOP_ROWS = 1000
+"""Rows a series of hops on a floor after one contact gets within a step, each bounce its own
+row; a longer series (hops shorter than dt / 1000: a ball barely off an elastic floor, whose
+hops round-off can make arbitrarily short) puts the bounces beyond in its last row, their
+momentum summed (counted in C_FOLDED)."""
 G_CLOSEST, G_FIRST_TIME = range(2)
 """The float overlap record (2,): smallest |dr| / sigma at a step end, time of the first step
 end with an overlapping pair (s; initialise with 1.0 and nan)."""
@@ -82,6 +92,9 @@ found are resolved to round-off, but the overlap rule misses grazing ones that e
 the contact distance within one step, whatever dt: with a relative displacement l = |dv| dt per
 step they end at most l^2 / (8 sigma) deep (a chord of length l), so a 1% overlap means the
 particles move about 0.3 sigma relative to each other in a step: dt is too long."""
+SWEEP_BOUNCES = 1 << 20
+"""Box-wall bounces of one particle in the safety net after the pass limit (:func:`_walls_sweep`):
+a particle crossing the box that many times in one step is put back on the wall."""
 # phase clocks (float64 array, seconds)
 T_PUSH, T_COLLISIONS, T_WALLS = range(3)
 N_TIMERS = 3
@@ -227,7 +240,7 @@ def _drift(pos, vel, dt, age):
 
 # --- walls ---------------------------------------------------------------------
 @njit
-def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
+def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     """Contact of one particle with one wall, along the wall's inward normal.
 
     d_e (m): signed distance of the centre from its contact position at the
@@ -236,7 +249,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     the step's start (:func:`_box_alpha`; 0 for a wall parallel to gravity
     without pair forces, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
     the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
-    with); age (s); e: restitution. Under uniform gravity the path is a
+    with); gamma (1/s): friction; age (s); e: restitution. Under uniform gravity the path is a
     parabola whose end point and end velocity w_h + alpha h are exact in
     kick-drift-kick, so going back along it finds the exact contact.
 
@@ -253,16 +266,23 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
     the age with w_c = min(its normal velocity then, 0): a resting particle
     stays at rest instead of bouncing off a made-up speed |alpha| dt.
 
-    Returns (tau, w_c, d_new, w_h_new, v_rec): the time back to the contact
-    (s; -1: none within the age, an invalid state), the normal velocity just
-    before it (<= 0), the new end distance and normal drift velocity, and
-    the normal speed to record: |w_c| for one bounce; when the particle
-    bounced again or came to rest within the step, the momentum per mass the
-    wall gave it from the contact to the step's end (w_end - w_c + |alpha|
-    tau, by momentum balance) over 1 + e, so that the record's (1 + e) m
-    v_rec (Q36, the pressure) counts the later bounces and the weight
-    carried: a particle resting on the floor records one bounce a step, of
-    v_rec = |alpha| dt / (1 + e).
+    Returns (tau, w_c, d_new, w_h_new, v_rec, hops): the time back to the
+    contact (s; -1: none within the age, an invalid state), the normal
+    velocity just before it (<= 0), the new end distance and normal drift
+    velocity, the normal speed to record for the contact and the number of
+    bounces that followed it within the step, each its own bounce (hopping:
+    bounce k, k = 1..hops, comes :func:`_bounce_sum` (t0, e, k) s after the
+    contact at the speed e^(k-1) u, u = e |w_c|, t0 = 2 u / |alpha|; see
+    :func:`_hop_rows`). v_rec is the normal speed at the contact (|w_c|,
+    friction aside: :func:`_velocity_at`; the end speed for an invalid
+    state), except when the particle came to
+    rest within the step (infinitely many bounces for e > 0, or a resting
+    contact): then it is the momentum per mass the wall gave it from the
+    contact to the step's end (w_end - w_c + |alpha| tau, by momentum
+    balance) over 1 + e, so that the record's (1 + e) m v_rec (Q36, the
+    pressure) counts the bounces of the series and the weight carried: a
+    particle resting on the floor records one bounce a step, of v_rec =
+    |alpha| dt / (1 + e).
     """
     w_e = w_h + alpha * h
     tau = -1.0
@@ -282,7 +302,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
                     tau = r
     if tau < 0.0 or tau > age:
         if alpha >= 0.0 or w_e >= 0.0:
-            return -1.0, w_e, 0.0, w_h, -w_e
+            return -1.0, w_e, 0.0, w_h, -_velocity_at(w_h, alpha, h, gamma), 0
         tau = age  # a floor, still moving out at the end: on it at the start of the age
         w_c = w_e - alpha * tau
         if w_c > 0.0:
@@ -291,23 +311,34 @@ def _wall_contact(d_e, w_h, alpha, h, hr, age, e):
         w_c = w_e - alpha * tau
     w_out = -e * w_c
     if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
-        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e)
+        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e), 0
     s = tau  # time of flight since the last bounce, launched at w_out
+    hops = 0
     if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
-        s, w_out = _last_flight(w_out, alpha, e, tau)
-        w_end = w_out + alpha * s
-        return tau, w_c, w_out * s + 0.5 * alpha * s * s, w_end - alpha * h, \
-            (w_end - w_c - alpha * tau) / (1.0 + e)
+        s, w_out, hops = _last_flight(w_out, alpha, e, tau)
     d_new = w_out * s + 0.5 * alpha * s * s
-    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -w_c
+    return tau, w_c, d_new, w_out + alpha * s - alpha * h, -_velocity_at(w_h, alpha, h - tau, gamma), hops
+
+
+@njit
+def _velocity_at(v_h, a, s, gamma):
+    """Velocity (m/s, one component) s seconds after the step's middle, whose drift velocity is
+    v_h m/s, under the constant acceleration a m/s^2 and linear friction gamma 1/s:
+    v_h e^{-gamma s} + a (1 - e^{-gamma s}) / gamma (v_h + a s without friction), the motion the
+    kicks integrate exactly. A contact's recorded speed and a collision's impulse use it, not
+    the drift velocity: that one is off by about (gamma |v| + |a|) |s|, first order in dt."""
+    if gamma > 0.0:
+        return v_h * math.exp(-gamma * s) - a * math.expm1(-gamma * s) / gamma
+    return v_h + a * s
 
 
 @njit
 def _last_flight(u, alpha, e, tau):
-    """(time s since the last bounce, launch speed m/s) at the end of tau s of bouncing on a
+    """(time s since the last bounce, launch speed m/s, bounces k) at the end of tau s of bouncing on a
     floor (alpha < 0) from a launch at u m/s, each bounce giving back e times the arrival
     speed (0 < e <= 1), the series not over within tau: flight k lasts t0 e^k, t0 = 2 u / |alpha|,
-    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1)."""
+    and ends at S_(k+1) = t0 (1 - e^(k+1)) / (1 - e) (t0 (k + 1) for e = 1); k bounces ended
+    the flights 0..k-1."""
     t0 = -2.0 * u / alpha
     if e >= 1.0:
         k = int(math.floor(tau / t0))
@@ -320,7 +351,7 @@ def _last_flight(u, alpha, e, tau):
             k -= 1
         elif _bounce_sum(t0, e, k + 1) <= tau:
             k += 1
-    return tau - _bounce_sum(t0, e, k), u * e ** k
+    return tau - _bounce_sum(t0, e, k), u * e ** k, k
 
 
 @njit
@@ -332,20 +363,19 @@ def _bounce_sum(t0, e, k):
 
 
 @njit
-def _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h):
+def _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h):
     """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
     an invalid state) the particle is put on the wall, its normal velocity reversed (and
     tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
-    w_c, d_new, w_new, v_rec)."""
+    w_c, d_new, w_new, v_rec, hops)."""
     if tau < 0.0:
         d_new = 0.0
-        v_rec = -w_c
         if w_c < 0.0:
             tau = 0.0
             w_new = -e * w_c - alpha * h
         else:
             w_new = w_h
-    return tau, w_c, d_new, w_new, v_rec
+    return tau, w_c, d_new, w_new, v_rec, hops
 
 
 @njit
@@ -371,48 +401,96 @@ def _plane_alpha(acc, planes, i, p, g):
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, t_end, want, bf, bi, nb):
+def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
     reversed and scaled by ``ew``, moved forward to the end of the step. An
     invalid state (no contact within its age) is put on the wall, its
     velocity reversed if still moving out. The bounce is recorded in bf (t,
-    |v|, |v_perp| at contact) and bi (particle, RE_DIR) at row nb when
-    ``want``. Returns (bf, bi, nb, bounces: 0 or 1).
+    |v|, |v_perp| at contact, :func:`_velocity_at`) and bi (particle, RE_DIR) at row nb when
+    ``want``, and so is each later bounce of a series of hops on a floor within the step
+    (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
+    row of a series longer than MAX_HOP_ROWS).
     """
-    dim = pos.shape[1]
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
     alpha = _box_alpha(acc, i, d, sign, g)
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
-    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], ew)
-    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, ew, alpha, h)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], ew)
+    tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, ew, alpha, h)
     bounced = 0
+    folded = 0
     if tau >= 0.0:
+        rows = hops if hops <= MAX_HOP_ROWS else MAX_HOP_ROWS
         if want:
-            if nb >= bf.shape[0]:
-                bf = _grow_f(bf)
-                bi = _grow_i(bi)
-            s2 = v_rec * v_rec
-            for k in range(dim):
-                if k != d:
-                    s2 += vel[i, k] * vel[i, k]
-            bf[nb, 0] = t_end - tau
-            bf[nb, 1] = math.sqrt(s2)
-            bf[nb, 2] = v_rec
-            bi[nb, 0] = i
-            bi[nb, 1] = (d + 1) if upper else -(d + 1)
-            nb += 1
-        bounced = 1
+            code = (d + 1) if upper else -(d + 1)
+            t2 = _tangential2(vel, acc, i, d, g, h - tau, gamma)
+            bf, bi, nb = _add_bounce_row(bf, bi, nb, t_end - tau, v_rec, t2, i, code)
+            if hops > 0:
+                bf, bi, nb = _hop_rows(bf, bi, nb, t_end - tau, h - tau, -ew * w_c, alpha, ew, hops, rows,
+                                       vel, acc, g, gamma, i, d, code)
+        bounced = 1 + rows
+        folded = hops - rows
         if tau < age[i]:
             age[i] = tau
     if d_new < 0.0:
         d_new = 0.0
     pos[i, d] = (length - r - d_new) if upper else (r + d_new)
     vel[i, d] = sign * w_new
-    return bf, bi, nb, bounced
+    return bf, bi, nb, bounced, folded
+
+
+@njit
+def _add_bounce_row(bf, bi, nb, t, vperp, t2, i, code):
+    """Write one bounce (time s, |v| from |v_perp| and the tangential speed squared t2, |v_perp|
+    m/s; particle, RE_DIR) at row nb, growing the buffers as needed; returns (bf, bi, nb)."""
+    if nb >= bf.shape[0]:
+        bf = _grow_f(bf)
+        bi = _grow_i(bi)
+    bf[nb, 0] = t
+    bf[nb, 1] = math.sqrt(vperp * vperp + t2)
+    bf[nb, 2] = vperp
+    bi[nb, 0] = i
+    bi[nb, 1] = code
+    return bf, bi, nb + 1
+
+
+@njit
+def _tangential2(vel, acc, i, d, g, s, gamma):
+    """Squared speed of particle i along the axes other than d, s seconds after the step's middle
+    (:func:`_velocity_at`; acc (N, D) the pair attraction, gravity g along the last axis)."""
+    dim = vel.shape[1]
+    t2 = 0.0
+    for k in range(dim):
+        if k != d:
+            a = acc[i, k] - g if k == dim - 1 else acc[i, k]
+            v = _velocity_at(vel[i, k], a, s, gamma)
+            t2 += v * v
+    return t2
+
+
+@njit
+def _hop_rows(bf, bi, nb, t_c, s_c, u, alpha, e, hops, rows, vel, acc, g, gamma, i, d, code):
+    """The bounces of a series of hops on a floor that follow a contact at t_c s within its step.
+
+    Launched at u m/s from t_c (s_c s after the step's middle), flight k lasts t0 e^k (t0 = 2 u / |alpha|); bounce k
+    (k = 1..hops) comes at t_c + :func:`_bounce_sum` (t0, e, k) with |v_perp| = u e^(k-1), the
+    speed it left at. ``rows`` (<= hops) rows are written: when hops > rows, the last one
+    carries the |v_perp| of bounces rows..hops summed, so that sum (1 + e) m |v_perp| stays
+    the momentum the wall gave. Returns (bf, bi, nb)."""
+    t0 = -2.0 * u / alpha
+    w = u
+    for k in range(1, rows + 1):
+        vp = w
+        if k == rows and hops > rows:
+            vp = w * _bounce_sum(1.0, e, hops - rows + 1)
+        after = _bounce_sum(t0, e, k)
+        bf, bi, nb = _add_bounce_row(bf, bi, nb, t_c + after, vp, _tangential2(vel, acc, i, d, g, s_c + after, gamma),
+                                     i, code)
+        w *= e
+    return bf, bi, nb
 
 
 @njit
@@ -430,22 +508,23 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
+def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
-    Same contact rule as the box walls (:func:`_wall_contact`); returns 1 if
-    it bounced, 0 if it was only put back on the plane (invalid state).
+    Same contact rule as the box walls (:func:`_wall_contact`); returns the bounces (1 and
+    the hops that followed within the step), 0 if it was only put back on the plane (invalid
+    state).
     """
     dim = pos.shape[1]
     dist, w_h = _plane_distance(pos, vel, planes, i, p)
     d_e = dist - radius[i]
     e = planes[p, 2 * dim]
     alpha = _plane_alpha(acc, planes, i, p, g)
-    tau, w_c, d_new, w_new, v_rec = _wall_contact(d_e, w_h, alpha, h, hr, age[i], e)
-    tau, w_c, d_new, w_new, v_rec = _settle(tau, w_c, d_new, w_new, v_rec, w_h, e, alpha, h)
+    tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], e)
+    tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
-        bounced = 1
+        bounced = 1 + hops
         if tau < age[i]:
             age[i] = tau
     if d_new < 0.0:
@@ -458,46 +537,115 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr):
 
 
 @njit
-def _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, k, cand_i, cand_j, cand_tau):
-    """Write the wall and plane crossings of the active particles from row k; returns the new count.
+def _excursion_tau(d_e, w_h, alpha, h, hr, gamma, age, e):
+    """Time back (s) to the contact with a wall that a particle in front of it at the step's
+    end (d_e >= 0, m) crossed and came back from within its age, or -1 for none (arguments as
+    :func:`_wall_contact`). Only a path bending away from the wall (alpha > 0: a ceiling under
+    gravity, a wall the attraction pulls away from) can: a parabola whose lowest point, tau* =
+    w_e / alpha back, lies beyond it (d_e < w_e^2 / (2 alpha)); the contact is its earlier
+    crossing. A ball thrown at a ceiling that it reaches within a step used to pass through it
+    and fall back."""
+    if alpha <= 0.0:
+        return -1.0
+    w_e = w_h + alpha * h
+    if w_e <= 0.0 or w_e * w_e <= 2.0 * alpha * d_e:
+        return -1.0
+    return _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e)[0]
 
-    Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p.
+
+@njit
+def _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, with_planes):
+    """(w, tau): the box wall (w = 2 d + upper) or, ``with_planes``, extra plane (w = 2 D + p)
+    particle i met first, and the time back to it (s; 0 for an invalid state); (-1, -1.0) for
+    none. A wall counts when the particle is beyond it, or in front of it after an excursion
+    beyond (:func:`_excursion_tau`), except the wall ``last`` (N,) says its path bent at last
+    (it moves away from it since). Ties go to the lowest w."""
+    dim = pos.shape[1]
+    best = -1
+    best_tau = -1.0
+    r = radius[i]
+    for d in range(dim):
+        x = pos[i, d]
+        for up in range(2):
+            w = 2 * d + up
+            sign = -1.0 if up == 1 else 1.0
+            alpha = _box_alpha(acc, i, d, sign, g)
+            d_e = (length - r - x) if up == 1 else (x - r)
+            if d_e >= 0.0:  # in front of it: an excursion beyond?
+                if alpha <= 0.0 or last[i] == w:
+                    continue
+                tau = _excursion_tau(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)
+                if tau < 0.0:
+                    continue
+            else:
+                tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, gamma, age[i], ew)[0]
+                if tau < 0.0:
+                    tau = 0.0
+            if tau > best_tau:
+                best = w
+                best_tau = tau
+    if with_planes:
+        for p in range(planes.shape[0]):
+            dist, w_h = _plane_distance(pos, vel, planes, i, p)
+            alpha = _plane_alpha(acc, planes, i, p, g)
+            if dist >= r:
+                if last[i] == 2 * dim + p:
+                    continue
+                tau = _excursion_tau(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])
+                if tau >= 0.0 and tau > best_tau:
+                    best = 2 * dim + p
+                    best_tau = tau
+                continue
+            tau = _wall_contact(dist - r, w_h, alpha, h, hr, gamma, age[i], planes[p, 2 * dim])[0]
+            if tau < 0.0:
+                tau = 0.0
+            if tau > best_tau:
+                best = 2 * dim + p
+                best_tau = tau
+    return best, best_tau
+
+
+@njit
+def _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, k, cand_i, cand_j,
+               cand_tau):
+    """Write the first wall or plane crossing of each active particle from row k; returns the new count.
+
+    Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p
+    (:func:`_earliest_wall`; a pass applies at most one contact a particle, its earliest).
     tau = time back to the contact, 0 for an invalid state (handled last).
     Rows beyond the arrays' size are counted, not written: the caller grows
     the arrays and scans again.
     """
-    n, dim = pos.shape
-    nplanes = planes.shape[0]
+    n = pos.shape[0]
     for i in range(n):
         if not active[i]:
             continue
-        r = radius[i]
-        for d in range(dim):
-            x = pos[i, d]
-            if r <= x <= length - r:
-                continue
-            upper = x > length - r
-            sign = -1.0 if upper else 1.0
-            alpha = _box_alpha(acc, i, d, sign, g)
-            d_e = (length - r - x) if upper else (x - r)
-            tau = _wall_contact(d_e, sign * vel[i, d], alpha, h, hr, age[i], ew)[0]
-            if k < cand_i.shape[0]:
-                cand_i[k] = i
-                cand_j[k] = -1 - (2 * d + (1 if upper else 0))
-                cand_tau[k] = tau if tau > 0.0 else 0.0
-            k += 1
-        for p in range(nplanes):
-            dist, w_h = _plane_distance(pos, vel, planes, i, p)
-            if dist >= r:
-                continue
-            alpha = _plane_alpha(acc, planes, i, p, g)
-            tau = _wall_contact(dist - r, w_h, alpha, h, hr, age[i], planes[p, 2 * dim])[0]
-            if k < cand_i.shape[0]:
-                cand_i[k] = i
-                cand_j[k] = -1 - (2 * dim + p)
-                cand_tau[k] = tau if tau > 0.0 else 0.0
-            k += 1
+        w, tau = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, True)
+        if w < 0:
+            continue
+        if k < cand_i.shape[0]:
+            cand_i[k] = i
+            cand_j[k] = -1 - w
+            cand_tau[k] = tau
+        k += 1
     return k
+
+
+@njit
+def _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi,
+                nb, counters):
+    """Bounce particle i off wall w (box walls w = 2 d + upper, planes 2 D + p), counted in
+    counters, noted in last (N,); returns (bf, bi, nb)."""
+    dim = pos.shape[1]
+    last[i] = w
+    if w < 2 * dim:
+        bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length, ew, g, h, hr,
+                                       gamma, t_end, want, bf, bi, nb)
+        counters[C_BOUNCES] += b
+        counters[C_FOLDED] += f
+    else:
+        counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+    return bf, bi, nb
 
 
 @njit
@@ -514,21 +662,34 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 
 @njit
-def _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want, bf, bi, nb, counters):
-    """Every particle beyond a wall or plane bounces (safety net after the pass limit); returns (bf, bi, nb)."""
+def _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
+                 counters):
+    """Safety net after the pass limit: every particle beyond a box wall bounces, earliest contact
+    first, until it is inside the box (a particle crossing the box many times in one step gets
+    every bounce); then once off each plane it is behind; then any centre still outside
+    [R, L - R] (after SWEEP_BOUNCES bounces, or pushed out by a plane) is put on the wall.
+    Returns (bf, bi, nb)."""
     n, dim = pos.shape
     for i in range(n):
-        for d in range(dim):
-            if pos[i, d] < radius[i] or pos[i, d] > length - radius[i]:
-                bf, bi, nb, b = _box_bounce(i, d, pos[i, d] > length - radius[i], pos, vel, acc, radius, age,
-                                            length, ew, g, h, hr, t_end, want, bf, bi, nb)
-                counters[C_BOUNCES] += b
+        for _ in range(SWEEP_BOUNCES):
+            w = _earliest_wall(i, pos, vel, acc, radius, age, last, length, ew, g, h, hr, gamma, planes, False)[0]
+            if w < 0:
+                break
+            bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma,
+                                     t_end, want, bf, bi, nb, counters)
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+                last[i] = 2 * dim + p
+        r = radius[i]
+        for d in range(dim):
+            if pos[i, d] < r:
+                pos[i, d] = r
+            elif pos[i, d] > length - r:
+                pos[i, d] = length - r
     return bf, bi, nb
 
 
@@ -746,9 +907,7 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     back = 1.0  # a velocity change at the contact is back times that of the drift velocity
     if gamma > 0.0:
         back = math.exp(gamma * s)
-        vn_c = vn / back - an * math.expm1(-gamma * s) / gamma
-    else:
-        vn_c = vn + an * s
+    vn_c = _velocity_at(vn, an, s, gamma)
     if vn_c < 0.0:  # else (a graze the attraction turned round): the drift velocities' impulse
         vn = vn_c
     t_c = t_end - tau
@@ -806,6 +965,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     tbuf = np.zeros(2, np.int64)
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
+    last = np.full(n, -1, np.int64)  # the wall each particle's path last bent at in this step (-1: none)
     done = np.zeros(n, np.uint8)
     speed = np.zeros(n)
     cand_i = np.empty(64, np.int64)
@@ -829,16 +989,18 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         # --- contact passes: walls, planes and pairs, earliest first
         for i in range(n):
             active[i] = 1
+            last[i] = -1
         passes = 0
         wall_time = 0.0
         while True:
             passes += 1
             w0 = _now(clock_id, tbuf)
-            k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0, cand_i, cand_j,
+            k = _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, 0, cand_i,
+                           cand_j,
                            cand_tau)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, 0, k)
-                k = _wall_scan(pos, vel, acc, radius, age, active, length, ew, g, h, hr, planes, 0,
+                k = _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, gamma, planes, 0,
                                cand_i, cand_j, cand_tau)
             wall_time += _now(clock_id, tbuf) - w0
             vmax = 0.0
@@ -891,14 +1053,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                     tau = cand_tau[idx[m]]
                     if j < 0:
                         w0 = _now(clock_id, tbuf)
-                        w = -1 - j
-                        if w < 2 * dim:
-                            bf, bi, nb, b = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length,
-                                                        ew, g, h, hr, t_end, want_b, bf, bi, nb)
-                            counters[C_BOUNCES] += b
-                        else:
-                            counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age,
-                                                               planes, g, h, hr)
+                        bf, bi, nb = _apply_wall(i, -1 - j, pos, vel, acc, radius, age, last, planes, length, ew, g, h,
+                                                 hr, gamma, t_end, want_b, bf, bi, nb, counters)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
@@ -909,6 +1065,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         continue
                     done[i] = 1
                     done[j] = 1
+                    last[i] = -1
+                    last[j] = -1
                     applied += 1
                     counters[C_COLLISIONS] += 1
                     virial[0] += impulse * (radius[i] + radius[j])
@@ -928,8 +1086,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             if passes >= max_passes:
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
-                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, planes, length, ew, g, h, hr, t_end, want_b,
-                                          bf, bi, nb, counters)
+                bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end,
+                                          want_b, bf, bi, nb, counters)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
         counters[C_PASSES] += passes
