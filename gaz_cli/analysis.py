@@ -30,6 +30,7 @@ not apply.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import warnings
@@ -39,9 +40,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from gaz_cli import errorbars, theory
+from gaz_cli import errorbars, interrupts, theory
 from gaz_cli.constants import K_B
-from gaz_cli.errors import GazError, GazWarning, SceneError, StoreError
+from gaz_cli.errors import GazError, GazWarning, Interrupted, SceneError, StoreError
 
 NA = math.nan
 """What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
@@ -1385,8 +1386,20 @@ def report(db: str, sim: int | None = None, plot_dir: str | None = None) -> dict
 
     if sim is not None and (isinstance(sim, bool) or not isinstance(sim, (int, np.integer))):
         raise StoreError(f"sim {sim!r} is not an int; give SIMULATION.SI_NUM as an int, e.g. sim=1")
-    with st.Store(db, create=False) as store:  # closed: SQLite then removes its -wal and -shm files
+    with interruptible(plot_dir), st.Store(db, create=False) as store:  # closed: SQLite drops -wal, -shm
         return _report(store, db, sim, plot_dir)
+
+
+@contextlib.contextmanager
+def interruptible(plot_dir: str | None = None):
+    """SIGINT and SIGTERM inside the block raise :class:`~gaz_cli.errors.Interrupted` saying the
+    analysis stopped (SIGTERM's default action would end the process without a word, exit 143)."""
+    try:
+        with interrupts.catching():
+            yield
+    except Interrupted as exc:
+        figures = f"; the figures already drawn stay in '{plot_dir}'" if plot_dir is not None else ""
+        raise Interrupted(exc.signum, f"the analysis stopped before printing its tables{figures}") from None
 
 
 def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
