@@ -912,10 +912,25 @@ def wall_pressure_theory(run: Run, temperature: float, best: Expectation | None 
     return {w: best for w in run.walls}
 
 
-def _species_partial_weights(run: Run) -> np.ndarray:
-    """Expected share of the wall hits of each species: N_s / ((L - 2R_s) sqrt(m_s)), normalised."""
+def _species_partial_weights(run: Run, temperature: float = NA) -> np.ndarray:
+    """Expected share of the wall hits of each species, normalised.
+
+    A wall's hits per second are its pressure over sqrt(2 pi m kT), the mean momentum a hit
+    gives (physics.md section 6): a species' share is the sum over the walls of its partial
+    pressure over sqrt(m_s), N_s / ((L - 2R_s) sqrt(m_s)) without gravity. Under gravity (at
+    ``temperature``, K) the floor and ceiling take each species' own barometric pressures, the
+    2D - 2 side walls its N_s kT/((L - 2R_s) L^(D-1)): heavy species sit low and hit the
+    ceiling less.
+    """
     counts, radii, masses = _counts_radii_masses(run)
-    w = counts / ((run.length - 2.0 * radii) * np.sqrt(masses))
+    d, L = run.dim, run.length
+    if run.gravity > 0.0 and not run.periodic and math.isfinite(temperature):
+        walls = np.array([sum(theory.ideal_gravity_wall_pressures(d, L, temperature, c, r, m, run.gravity))
+                          + (2 * d - 2) * theory.ideal_wall_pressure(d, L, temperature, c, r)
+                          for c, r, m in zip(counts, radii, masses)])
+        w = walls / np.sqrt(masses)
+    else:
+        w = counts / ((L - 2.0 * radii) * np.sqrt(masses))
     return w / w.sum()
 
 
@@ -1194,8 +1209,8 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
             temperature = hits.mean
     h = run.hits
     rows = []
-    expected_all = 0.0
-    weights = _species_partial_weights(run) if len(run.species) else []
+    expected_all = expected_all_error = 0.0
+    weights = _species_partial_weights(run, temperature) if len(run.species) else []
     pa = h.PA_NUM.to_numpy(dtype=np.int64) if len(h) else np.zeros(0, dtype=np.int64)
     frozen_forever = run.dim == 1 and run.one_species
     relax = math.inf if frozen_forever else errorbars.SPEED_RELAXATION
@@ -1214,6 +1229,7 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         if frozen_forever:
             exp.note = "1D equal masses: the N speeds drawn at the start are kept for ever (in ERR)"
         expected_all = expected_all + w * exp.value
+        expected_all_error += w * exp.error          # one temperature for all species: errors add
         rows.append({"SPECIES": sp.NAME, "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": exp.value,
                      "DEV_SIGMA": _dev(est.mean, est.error, exp.value, True, exp.error),
@@ -1230,9 +1246,12 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         est = _estimate(run, sums, counts, static_var=static, relaxation=errorbars.SPEED_RELAXATION, end_var=0.0)
         rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
-                     "DEV_SIGMA": _dev(est.mean, est.error, expected_all),
+                     "DEV_SIGMA": _dev(est.mean, est.error, expected_all, not run.ordered_rods, expected_all_error),
                      "REL_DEV": _rel(est.mean, expected_all), "GAS_MEAN_SPEED": NA,
-                     "NOTE": "theory weighted by each species' share of the hits, N_s/((L-2R_s) sqrt(m_s))"})
+                     "NOTE": ("theory weighted by each species' share of the hits, N_s/((L-2R_s) sqrt(m_s))"
+                              if run.gravity <= 0.0 else
+                              "theory weighted by each species' share of the hits, its barometric floor and "
+                              "ceiling pressures and side pressure over sqrt(m_s)")})
     frame = pd.DataFrame(rows)
     if run.restitution < 1.0 and len(frame):
         frame["NOTE"] = "cooling gas: theory at the initial temperature"
@@ -1243,7 +1262,10 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         frame["NOTE"] = (run.never_settles or
                          (f"under gravity: the settled part (from {run.duration - run.window:.3g} s) against "
                           f"{source}" if run.settled else
-                          "under gravity: the run did not settle (fall and thermalisation take over half of it)"))
+                          "under gravity: the run did not settle (fall and thermalisation take over half of it)")
+                         + ("; " + frame.NOTE if len(run.species) > 1 and not run.never_settles else ""))
+        if run.ordered_rods and not run.never_settles:
+            frame.loc[frame.SPECIES == "all (Q35)", "NOTE"] += "; shares of the hits: " + run.ordered_rods
         if not run.settled or run.never_settles:
             frame["DEV_SIGMA"] = NA
     return frame
@@ -1522,7 +1544,7 @@ def make_plots(run: Run, temperature: float, summary: dict, plot_dir: str) -> li
 
     b = run.bounces() if run.bounces_count else run.bounces().iloc[:0]
     species = ([(r.NAME, r.MASS_KG, w, r.COUNT / run.n)
-                for r, w in zip(run.species.itertuples(), _species_partial_weights(run))]
+                for r, w in zip(run.species.itertuples(), _species_partial_weights(run, temperature))]
                if len(run.species) else [])
     label = (f"simulation {run.si_num}: {run.n} particles, {run.dim}D, {run.boundary}, "
              f"L = {run.length:.3g} m, T_kin = {temperature:.4g} K")
