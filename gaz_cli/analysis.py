@@ -859,6 +859,8 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
                          "kinetic plus potential")
         if not _set_aside_unsettled(exp, run) and run.ordered_rods:
             exp.applies, exp.note = False, run.ordered_rods
+        elif exp.known and exp.applies and not run.one_species:
+            _set_aside_excess(exp, run, stat_rel)
         out.append(exp)
         return out
     if d == 1:
@@ -893,6 +895,22 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
                  "dilute limit (eta -> 0), exact for non-interacting particles")
     out.append(ideal)
     return out
+
+
+def _set_aside_excess(exp: Expectation, run: Run, stat_rel: float) -> None:
+    """A mixture under gravity, against the ideal mixture's barometric pressures: its excess pressure,
+    Z - 1 of one species at the mixture's packing fraction (the best model), is the model's
+    systematic error (SYST_REL); above the statistical error ``stat_rel`` (relative) ``exp`` does
+    not fit the scene and is set aside, the reason in its note."""
+    try:
+        exp.syst = float(theory.compressibility_factor(run.dim, run.packing_fraction)) - 1.0
+    except SceneError:
+        exp.syst = NA
+    if stat_rel > 0 and not exp.syst <= stat_rel:
+        exp.applies = False
+        exp.note = (f"the ideal mixture leaves out the excess pressure (about {exp.syst:.2g} relative at the "
+                    f"packing fraction {run.packing_fraction:.3g}: SYST_REL), above the statistical error "
+                    f"({stat_rel:.2g}); no mixture theory under gravity here: compare REL_DEV with SYST_REL")
 
 
 def wall_pressure_theory(run: Run, temperature: float, best: Expectation | None = None) -> dict[int, Expectation]:

@@ -161,3 +161,23 @@ def test_mixture_wall_hit_speed_under_gravity_weighs_species_by_their_barometric
     every = speed[speed.SPECIES == "all (Q35)"].iloc[0]
     assert every.ERR > 0 and abs(every.DEV_SIGMA) < 3.0, every
     assert "barometric" in every.NOTE
+
+
+@pytest.mark.parametrize("radius", [0.005, 0.0015], ids=["packing 0.03", "packing 0.003"])
+def test_mixture_pressure_under_gravity_is_set_aside_where_its_excess_shows(tmp_path, radius):
+    """The same mixture's mean wall pressure against the ideal mixture's barometric pressures.
+
+    At packing 0.03 the excess pressure (2D: Z - 1 = 6.6%) is above the statistical error (1.8%):
+    DEV_SIGMA had rms 3.0 and mean +2.9 over seeds 7-30. Now no deviation there, the excess in
+    SYST_REL and the reason in NOTE; ten times thinner (excess 0.6%), it is compared, within 3
+    errors (Gaussian: fails 1 in 370). 16 s: settled after 7 s at the thinner packing."""
+    db = str(tmp_path / "mix.db")
+    scene = Scene(dim=2, length=1.0, duration=16.0, gravity=1.0, temperature=1.0 / K_B, seed=1,
+                  components=((Species("A", 1.0, radius), 200), (Species("B", 3.0, radius), 200)))
+    summary = runner.simulate(scene, db=db)
+    row = analysis.report(db, sim=summary["si_num"])["pressure against theory"].iloc[0]
+    stat_rel = row.P_ERR / row.P_MEASURED
+    if row.SYST_REL > stat_rel:
+        assert radius == 0.005 and math.isnan(row.DEV_SIGMA) and "excess pressure" in row.NOTE, row
+    else:
+        assert radius == 0.0015 and abs(row.DEV_SIGMA) < 3.0, row
