@@ -200,6 +200,12 @@ class Run:
     """Where the temperature theory is evaluated at comes from: "kinetic" (the kinetic energy),
     "energy" (under gravity, the conserved energy of the initial state), "hits" (under gravity, the
     settled part's wall hits)."""
+    drag: float = 0.0
+    """Linear friction gamma of the step engine, 1/s (SCENE.SC_DRAG)."""
+    pair_gravity: float = 0.0
+    """G of the attraction between bodies, m^3/(kg s^2) (SCENE.SC_PAIR_GRAVITY)."""
+    planes: int = 0
+    """Extra plane walls of the scene file (its [[planes]])."""
     scene_file: str | None = None
     """The run's scene file (SCENE.SC_FILE), from which its initial state is rebuilt; None if not stored."""
     drift_energy: float = 0.0
@@ -293,6 +299,19 @@ class Run:
                     "swap velocities, so each rod's ghost keeps its own energy m g z + m v^2/2 for ever, and "
                     "the gas never reaches the barometric equilibrium")
         return ""
+
+    @property
+    def extra_forces(self) -> str:
+        """Why no hard-sphere theory describes the run, drag, pair attraction or extra plane walls
+        aside from the box ('' when none)."""
+        why = []
+        if self.drag > 0.0:
+            why.append(f"drag {self.drag:g} 1/s slows the particles (the gas cools: no equilibrium)")
+        if self.pair_gravity > 0.0:
+            why.append(f"pair gravity G = {self.pair_gravity:g} m^3/(kg s^2) (the bodies attract: not hard spheres)")
+        if self.planes:
+            why.append(f"{self.planes} extra plane wall(s) (the space is not the box [0, L]^D)")
+        return ("no theory for this scene: " + "; ".join(why)) if why else ""
 
     @property
     def ordered_rods(self) -> str:
@@ -391,6 +410,8 @@ def load_run(store, si_num: int) -> Run:
         run.tc, run.temperature, run.record = float(sc.SC_TC), float(sc.SC_TEMPERATURE), str(sc.SC_RECORD)
         text = sc.get("SC_FILE")
         run.scene_file = text if isinstance(text, str) and text else None
+        run.drag, run.pair_gravity = float(sc.SC_DRAG), float(sc.SC_PAIR_GRAVITY)
+        run.planes = _plane_count(run.scene_file)
     rs = _only_row(store, st.resultat, si_num)
     if rs is not None:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
@@ -423,6 +444,18 @@ def load_run(store, si_num: int) -> Run:
                 pairs = store.query("pair_collision_bins", **bins).dropna()
                 run.pair_bins = pairs.astype({"BIN": np.int64, "RANK_I": np.int64, "RANK_J": np.int64})
     return run
+
+
+def _plane_count(scene_file: str | None) -> int:
+    """How many extra plane walls a stored scene file has (0 without one, or if it does not load)."""
+    if not isinstance(scene_file, str) or "planes" not in scene_file:
+        return 0
+    from gaz_cli import scenefile
+
+    try:
+        return len(scenefile.loads(scene_file)[0].planes)
+    except GazError:
+        return 0
 
 
 _HIT_COLUMNS = ["RE_DIR", "PA_NUM", "BIN", "NB_REBONDS", "SUM_VP", "SUM_VIT", "SUM_VP2"]
@@ -826,6 +859,8 @@ def pressure_models(run: Run, temperature: float, stat_rel: float = 0.0) -> list
         return [Expectation(NA, "none", f"wall restitution {run.wall_restitution:g} < 1: the walls cool the gas, "
                                         "there is no equilibrium pressure; measured from (1 + e_w) m |v_perp| per "
                                         "bounce, as the run summary and Q36")]
+    if run.extra_forces:
+        return [Expectation(NA, "none", run.extra_forces)]
     out = []
     if run.periodic:
         n = run.n / L ** d
@@ -1094,7 +1129,9 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
     counts, radii, masses = _counts_radii_masses(run)
     d, L = run.dim, run.length
     rows = []
-    if not run.one_species:
+    if run.extra_forces:
+        rows.append(Expectation(NA, "Enskog", run.extra_forces))
+    elif not run.one_species:
         rows.append(Expectation(NA, "Enskog", "one species only (mixture: cross-sections and masses differ)"))
     elif not math.isfinite(temperature):
         rows.append(Expectation(NA, "Enskog", "temperature unknown"))
@@ -1125,7 +1162,7 @@ def collision_frame(run: Run, temperature: float) -> pd.DataFrame:
                          lambda: theory.enskog_collision_frequency(d, run.n / (L - sigma) ** d, sigma,
                                                                    temperature, masses[0]),
                          "walls: fewer partners near a wall, expect O(2R/L) off"))
-    if run.restitution < 1.0 and run.one_species and math.isfinite(temperature) and d > 1:
+    if run.restitution < 1.0 and run.one_species and math.isfinite(temperature) and d > 1 and not run.extra_forces:
         # a cooling gas: omega falls as sqrt(T); Haff integrates it over the run
         n = run.n / (L if run.periodic else L - 2 * radii[0]) ** d
 
@@ -1177,6 +1214,8 @@ def contact_frame(run: Run, temperature: float) -> pd.DataFrame:
                      "no CHOC rows, or no species ranks (COMPOSITION.CO_RANK) in this database")
     if not run.periodic:
         return empty("a periodic box only: walls thin the density next to them (contact values are bulk ones)")
+    if run.extra_forces:
+        return empty(run.extra_forces)
     if not math.isfinite(temperature):
         return empty("temperature unknown")
     volume = run.length ** run.dim
@@ -1286,6 +1325,9 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
             frame.loc[frame.SPECIES == "all (Q35)", "NOTE"] += "; shares of the hits: " + run.ordered_rods
         if not run.settled or run.never_settles:
             frame["DEV_SIGMA"] = NA
+    if run.extra_forces and len(frame):
+        frame["NOTE"] = run.extra_forces
+        frame["DEV_SIGMA"] = NA
     return frame
 
 
@@ -1308,9 +1350,12 @@ def gravity_frame(run: Run, temperature: float) -> pd.DataFrame:
         var1 = float(np.var(series[run.settle_bin:], ddof=1)) if series.size - run.settle_bin > 1 else NA
         est = errorbars.Estimate(est.mean, error, var1 / error ** 2, NA, False, 0.0)
     weight = float(np.sum(counts * masses) * run.gravity)
+    pushed = run.drag > 0.0 or run.planes     # forces on the gas other than the weight and the two walls
     rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": est.mean, "ERR": est.error, "N_EFF": est.n_eff,
-             "THEORY": weight, "DEV_SIGMA": _dev(est.mean, est.error, weight), "REL_DEV": _rel(est.mean, weight),
-             "NOTE": "sum N m g: exact momentum balance (settled part of the run); ERR: that of the gas's "
+             "THEORY": weight, "DEV_SIGMA": _dev(est.mean, est.error, weight, not pushed),
+             "REL_DEV": _rel(est.mean, weight),
+             "NOTE": run.extra_forces if pushed else
+                     "sum N m g: exact momentum balance (settled part of the run); ERR: that of the gas's "
                      "vertical momentum at its two ends"}]
     h = run.hits
     start = run.settle_bin
@@ -1332,6 +1377,8 @@ def gravity_frame(run: Run, temperature: float) -> pd.DataFrame:
         exp = Expectation(NA, "Boltzmann", "one species only")
     if run.never_settles:
         exp.applies, exp.note = False, run.never_settles
+    elif run.extra_forces:
+        exp.applies, exp.note = False, run.extra_forces
     rows.append({"QUANTITY": "ceiling/floor hit ratio", "MEASURED": ratio_est.mean, "ERR": ratio_est.error,
                  "N_EFF": ratio_est.n_eff, "THEORY": exp.value,
                  "DEV_SIGMA": _dev(ratio_est.mean, ratio_est.error, exp.value, run.settled and exp.applies),
@@ -1361,7 +1408,9 @@ def cooling_frame(run: Run) -> pd.DataFrame:
         # the loss summed over the run is BINS times the mean loss per bin; T is linear in K
         thermal = run.ke_start - (run.drift_energy if run.periodic else 0.0)
         err = est.error * errorbars.BINS * t0 / thermal
-    if run.one_species and math.isfinite(t0):
+    if run.extra_forces:
+        rows.append(Expectation(NA, "Haff T0/(1 + t/t0)^2", run.extra_forces))
+    elif run.one_species and math.isfinite(t0):
         sigma = 2 * radii[0]
         n = run.n / (run.length if run.periodic else run.length - sigma) ** d
 
@@ -1372,7 +1421,7 @@ def cooling_frame(run: Run) -> pd.DataFrame:
                          "homogeneous cooling only (before clusters form); Enskog rate at the initial density"))
     else:
         rows.append(Expectation(NA, "Haff T0/(1 + t/t0)^2", "one species only"))
-    if run.collisions is not None and math.isfinite(t0):
+    if run.collisions is not None and math.isfinite(t0) and not run.extra_forces:
         if run.chocs is not None and len(run.chocs) == run.collisions:
             elastic = tc_elastic(run.chocs.CH_T.to_numpy(dtype=float), run.chocs.CH_I.to_numpy(dtype=np.int64),
                                  run.chocs.CH_J.to_numpy(dtype=np.int64), run.tc)
