@@ -1269,7 +1269,9 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     expected_all = expected_all_error = 0.0
     weights = _species_partial_weights(run, temperature) if len(run.species) else []
     pa = h.PA_NUM.to_numpy(dtype=np.int64) if len(h) else np.zeros(0, dtype=np.int64)
-    frozen_forever = run.dim == 1 and run.one_species
+    # 1D rods of equal masses (one species, or several radii) swap velocities at each collision: the N
+    # speeds drawn at the start are kept for ever, and every wall sees the hits of all N ghosts
+    frozen_forever = run.dim == 1 and len(run.species) > 0 and run.species.MASS_KG.nunique() == 1
     relax = math.inf if frozen_forever else errorbars.SPEED_RELAXATION
     for sp, w in zip(run.species.itertuples(), weights):
         sel = pa == sp.PA_NUM
@@ -1278,7 +1280,8 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         exp = (_try("flux-weighted mean <v^2>/<|v|>",
                     lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG))
                if math.isfinite(temperature) else Expectation(NA, "flux-weighted", "temperature unknown"))
-        static = (errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
+        static = (errorbars.hit_speed_var(run.dim, run.n if frozen_forever else int(sp.COUNT),
+                                          K_B * temperature / sp.MASS_KG)
                   if math.isfinite(temperature) else 0.0)
         est = _estimate(run, sums, counts, static_var=static, relaxation=relax, end_var=0.0)
         if exp.known and run.temperature_error > 0:
@@ -1297,10 +1300,12 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
         sums = _per_bin(h.BIN, h.SUM_VIT) if len(h) else np.zeros(errorbars.BINS)
         counts = _per_bin(h.BIN, h.NB_REBONDS) if len(h) else np.zeros(errorbars.BINS)
         static = 0.0
-        if math.isfinite(temperature):   # the species' frozen spreads, weighted by their shares of the hits
+        if math.isfinite(temperature) and frozen_forever:    # one set of N speeds for all species
+            static = errorbars.hit_speed_var(run.dim, run.n, K_B * temperature / float(run.species.MASS_KG.iloc[0]))
+        elif math.isfinite(temperature):   # the species' frozen spreads, weighted by their shares of the hits
             static = sum((wt ** 2) * errorbars.hit_speed_var(run.dim, int(sp.COUNT), K_B * temperature / sp.MASS_KG)
                          for sp, wt in zip(run.species.itertuples(), weights))
-        est = _estimate(run, sums, counts, static_var=static, relaxation=errorbars.SPEED_RELAXATION, end_var=0.0)
+        est = _estimate(run, sums, counts, static_var=static, relaxation=relax, end_var=0.0)
         rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
                      "DEV_SIGMA": _dev(est.mean, est.error, expected_all, not run.ordered_rods, expected_all_error),
