@@ -977,6 +977,17 @@ def _species_partial_weights(run: Run, temperature: float = NA) -> np.ndarray:
     """
     counts, radii, masses = _counts_radii_masses(run)
     d, L = run.dim, run.length
+    if d == 1 and len(counts) > 1 and run.gravity <= 0.0 and len(run.hits):
+        # rods never pass each other: only the two end rods hit the walls, each wall's hits at the
+        # rate P/sqrt(2 pi m kT) of its end rod's mass (the same P on both walls), whatever N_s
+        w = np.zeros(len(counts))
+        index = {int(pa): k for k, pa in enumerate(run.species.PA_NUM)}
+        for _, at_wall in run.hits.groupby("RE_DIR").PA_NUM:
+            ends = [index[int(pa)] for pa in at_wall.unique() if int(pa) in index]
+            for k in ends:
+                w[k] += 1.0 / (len(ends) * math.sqrt(masses[k]))
+        if w.sum() > 0:
+            return w / w.sum()
     if run.gravity > 0.0 and not run.periodic and math.isfinite(temperature):
         walls = np.array([sum(theory.ideal_gravity_wall_pressures(d, L, temperature, c, r, m, run.gravity))
                           + (2 * d - 2) * theory.ideal_wall_pressure(d, L, temperature, c, r)
@@ -1310,7 +1321,9 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
                      "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
                      "DEV_SIGMA": _dev(est.mean, est.error, expected_all, not run.ordered_rods, expected_all_error),
                      "REL_DEV": _rel(est.mean, expected_all), "GAS_MEAN_SPEED": NA,
-                     "NOTE": ("theory weighted by each species' share of the hits, N_s/((L-2R_s) sqrt(m_s))"
+                     "NOTE": ("theory weighted by the species of the two end rods, the only ones hitting the "
+                              "walls, over sqrt(m_s)" if run.dim == 1 and run.gravity <= 0.0 else
+                              "theory weighted by each species' share of the hits, N_s/((L-2R_s) sqrt(m_s))"
                               if run.gravity <= 0.0 else
                               "theory weighted by each species' share of the hits, its barometric floor and "
                               "ceiling pressures and side pressure over sqrt(m_s)")})
