@@ -391,6 +391,7 @@ def load_run(store, si_num: int) -> Run:
     sim = store.table(st.simulation, si_num).iloc[0]
     comp = store.table(st.composition, si_num)
     particles = store.table(st.particule)
+    _check_stored(si_num, sim, comp.merge(particles, on="PA_NUM") if len(comp) else particles.iloc[:0])
     if len(comp):
         sp = comp.merge(particles, on="PA_NUM")
         species = pd.DataFrame({"PA_NUM": sp.PA_NUM.astype(int), "NAME": sp.PA_NOM,
@@ -456,6 +457,37 @@ def _plane_count(scene_file: str | None) -> int:
         return len(scenefile.loads(scene_file)[0].planes)
     except GazError:
         return 0
+
+
+def _check_stored(si_num: int, sim, species: pd.DataFrame) -> None:
+    """Refuse (StoreError) a SIMULATION row, or a species of its composition, that no run can have
+    (written by hand or by another program): analysis would divide by it."""
+    def bad(what, value, allowed):
+        value = value.item() if hasattr(value, "item") else value     # a numpy scalar: its Python value
+        raise StoreError(f"simulation {si_num} cannot be analysed: {what} is {value!r}, where a run has "
+                         f"{allowed}; correct the row, or analyse the others with --sim N")
+
+    def number(value):
+        try:
+            return float(value)
+        except (TypeError, ValueError):
+            return math.nan
+    dim, n, length, duration = (number(sim.SI_DIM), number(sim.SI_N), number(sim.SI_L), number(sim.SI_DUR))
+    if dim not in (1.0, 2.0, 3.0):
+        bad("its SI_DIM", sim.SI_DIM, "1, 2 or 3")
+    if not (n >= 1 and n == int(n)):
+        bad("its SI_N", sim.SI_N, "a whole number of particles >= 1")
+    if not (length > 0 and math.isfinite(length)):
+        bad("its SI_L", sim.SI_L, "a box side > 0 m")
+    if not (duration > 0 and math.isfinite(duration)):
+        bad("its SI_DUR", sim.SI_DUR, "a duration > 0 s")
+    for row in species.itertuples():
+        if not (number(row.PA_M) > 0 and math.isfinite(number(row.PA_M))):
+            bad(f"the PA_M of its species {row.PA_NOM!r}", row.PA_M, "a mass > 0 g")
+        if not (number(row.PA_R) >= 0 and math.isfinite(number(row.PA_R))):
+            bad(f"the PA_R of its species {row.PA_NOM!r}", row.PA_R, "a radius >= 0 m")
+        if not number(row.CO_N) >= 1:
+            bad(f"the CO_N of its species {row.PA_NOM!r}", row.CO_N, "a count >= 1")
 
 
 _HIT_COLUMNS = ["RE_DIR", "PA_NUM", "BIN", "NB_REBONDS", "SUM_VP", "SUM_VIT", "SUM_VP2"]
