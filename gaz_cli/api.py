@@ -133,9 +133,11 @@ def versus(db: str, key: str, plot: str | None = None):
     """What ``gaz analyse --vs KEY`` prints: per value of ``key`` the mean over the runs (seeds),
     its standard error and theory (a DataFrame); ``plot``: a folder for the figures."""
     from gaz_cli import studies
+    from gaz_cli.analysis import interruptible
 
-    with open_store(db) as store:
-        table = studies.versus(store, key)
-    if plot:
-        studies.plot(table, key, plot)
+    with interruptible(plot):
+        with open_store(db) as store:
+            table = studies.versus(store, key)
+        if plot:
+            studies.plot(table, key, plot)
     return table

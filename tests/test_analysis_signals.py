@@ -1,0 +1,58 @@
+"""gaz analyse stopped by SIGINT or SIGTERM: one line on stderr, exit 128 + signal, nothing on stdout.
+
+The signal is sent by the analysing process to itself from inside the analysis (a patched
+step of it), so that it lands there every time, whatever the machine's speed.
+"""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from gaz_cli import runner
+from gaz_cli.scene import Scene
+from gaz_cli.species import lookup
+
+CHILD = textwrap.dedent("""
+    import os, signal, sys
+    from gaz_cli import analysis, cli, studies
+
+    signum = int(sys.argv[1])
+    target = analysis if sys.argv[2] == "load_run" else studies
+    real = getattr(target, sys.argv[2])
+
+    def signalled(*args, **kw):
+        os.kill(os.getpid(), signum)
+        return real(*args, **kw)
+
+    setattr(target, sys.argv[2], signalled)
+    cli.main(sys.argv[3:])
+""")
+
+
+@pytest.fixture(scope="module")
+def db(tmp_path_factory):
+    """One run of the exam's own engine (no JIT to wait for), a few ms long."""
+    path = str(tmp_path_factory.mktemp("sig") / "g.db")
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((lookup("Ar"), 20),), seed=1,
+                  engine="reference")
+    runner.simulate(scene, db=path)
+    return path
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.parametrize("where, args", [("load_run", ["--sim", "1"]), ("versus", ["--vs", "n"])],
+                         ids=["sim", "vs"])
+def test_a_signal_stops_analyse_with_one_line(db, signum, where, args):
+    """Before: SIGTERM ended ``gaz analyse`` with exit 143 and not a word on stderr."""
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(int(signum)), where, "analyse", "--db", db, *args],
+                          capture_output=True, text=True, timeout=120)
+    name = signal.Signals(signum).name
+    assert proc.returncode == 128 + signum, (proc.returncode, proc.stderr)
+    assert proc.stdout == ""
+    assert proc.stderr.count("\n") == 1, proc.stderr
+    assert proc.stderr.startswith(f"gaz: interrupted by {name}; the analysis stopped before printing"), proc.stderr

@@ -1,0 +1,49 @@
+"""gaz analyse on rows no run can have (written by hand or by another program): one line, exit 1."""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+
+import pytest
+
+from cli_helpers import invoke
+from gaz_cli import runner
+from gaz_cli.scene import Scene
+from gaz_cli.species import lookup
+
+
+@pytest.fixture(scope="module")
+def good_db(tmp_path_factory):
+    """One run of the exam's own engine (no JIT to wait for), a few ms long."""
+    path = tmp_path_factory.mktemp("stored") / "g.db"
+    runner.simulate(Scene(dim=2, length=1e-7, duration=2e-10, components=((lookup("Ar"), 20),), seed=1,
+                          engine="reference"), db=str(path))
+    return path
+
+
+@pytest.mark.parametrize("update, column", [
+    # before: 'gaz: internal error: ZeroDivisionError: float division by zero', exit 3
+    ("UPDATE SIMULATION SET SI_DUR = 0", "SI_DUR"),
+    # before: two RuntimeWarning lines with their source line on stderr, then tables of inf and NaN
+    ("UPDATE SIMULATION SET SI_L = 0", "SI_L"),
+    ("UPDATE SIMULATION SET SI_L = 'abc'", "SI_L"),
+    # before: 'kinetic temperature needs at least 1 particle, got 0' and 'dimension must be the
+    # integer 1, 2 or 3, got 4', which named no row to correct
+    ("UPDATE SIMULATION SET SI_N = 0", "SI_N"),
+    ("UPDATE SIMULATION SET SI_DIM = 4", "SI_DIM"),
+    ("UPDATE PARTICULE SET PA_M = 0", "PA_M"),
+    ("UPDATE PARTICULE SET PA_R = -1", "PA_R"),
+    ("UPDATE COMPOSITION SET CO_N = 0", "CO_N"),
+])
+@pytest.mark.parametrize("sim", [["--sim", "1"], []], ids=["sim", "all"])
+def test_a_row_no_run_can_have_is_one_line_naming_it(good_db, tmp_path, update, column, sim):
+    db = tmp_path / "bad.db"
+    shutil.copy(good_db, db)
+    with sqlite3.connect(db) as con:
+        con.execute(update)
+    con.close()
+    res = invoke(["analyse", "--db", str(db), *sim])
+    assert res.exit_code == 1 and res.stdout == "", res.output
+    assert res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith(f"gaz: error: simulation 1 cannot be analysed: ") and column in res.stderr, res.stderr
