@@ -412,7 +412,7 @@ def load_run(store, si_num: int) -> Run:
         text = sc.get("SC_FILE")
         run.scene_file = text if isinstance(text, str) and text else None
         run.drag, run.pair_gravity = float(sc.SC_DRAG), float(sc.SC_PAIR_GRAVITY)
-        run.planes = _plane_count(run.scene_file)
+        run.planes = plane_count(run.scene_file)
     rs = _only_row(store, st.resultat, si_num)
     if rs is not None:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
@@ -447,7 +447,7 @@ def load_run(store, si_num: int) -> Run:
     return run
 
 
-def _plane_count(scene_file: str | None) -> int:
+def plane_count(scene_file: str | None) -> int:
     """How many extra plane walls a stored scene file has (0 without one, or if it does not load)."""
     if not isinstance(scene_file, str) or "planes" not in scene_file:
         return 0

@@ -104,6 +104,8 @@ def _no_theory(run) -> str:
         return f"drag {run.drag:g} 1/s slows the gas: no equilibrium"
     if run.pair_gravity > 0:
         return "pair gravity: not a hard-sphere gas"
+    if run.planes:
+        return f"{run.planes} extra plane wall(s): the space is not the box [0, L]^D of this table's theory"
     return ""
 
 
@@ -114,7 +116,8 @@ SETTINGS = {"SC_GRAVITY": "gravity", "SC_RESTITUTION": "restitution", "SC_TC": "
 species and counts, box, duration and temperature). Not the seed, nor how a scene is run or
 what is stored of it (engine, placement, record): runs differing in those are repeats."""
 
-SCENE_KEYS = ("DIM", "BOUNDARY", "names", "species", "n", "length", "temperature", "duration", *SETTINGS.values())
+SCENE_KEYS = ("DIM", "BOUNDARY", "names", "species", "n", "length", "temperature", "duration", *SETTINGS.values(),
+              "planes")
 """What one scene is, apart from its seed: runs that agree on all of these are its repeats."""
 
 FREE = {"packing": ("length",), "density": ("length",), "length": ("length",),
@@ -145,6 +148,7 @@ def _scenes(store) -> pd.DataFrame:
                         for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
     out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
     out["scene_file"] = scenes.SC_FILE if "SC_FILE" in scenes else None
+    out["planes"] = [analysis.plane_count(f) for f in out.scene_file]  # extra walls make another scene
     return out.merge(mix, on="SI_NUM", how="left")
 
 

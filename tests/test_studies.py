@@ -268,3 +268,22 @@ def test_runs_under_gravity_get_no_uniform_theory(tmp_path):
     for name in ("P", "Z", "RATE"):
         assert math.isnan(row[f"{name}_THEORY"]) and math.isnan(row[f"{name}_DEV_SIGMA"]), row
     assert "gravity" in row.NOTE and "--sim" in row.NOTE
+
+
+def test_runs_with_extra_plane_walls_are_a_scene_of_their_own_without_theory(tmp_path):
+    """--vs grouped a run with an extra plane wall with the same scene without it (planes were
+    no scene setting) and compared both with the box's theory. Now the plane's runs make a row
+    of their own, with no theory and the reason in NOTE; the run without keeps its theory."""
+    from test_analysis_forces import _front_of_plane
+
+    db = str(tmp_path / "p.db")
+    state = _front_of_plane(n=36)
+    for planes in ((), (((5e-8, 0.0), (1.0, 0.0), 1.0),)):
+        simulate(Scene(dim=2, length=1e-7, duration=1e-11, components=((ARGON, 36),), engine="step",
+                       dt=1e-13, seed=1, planes=planes, initial=state), db=db)
+    with Store(db, create=False) as store:
+        table = studies.versus(store, "temperature")
+    assert len(table) == 2 and list(table.RUNS) == [1, 1], table
+    with_plane = table[table.NOTE.str.contains("plane", na=False)]
+    assert len(with_plane) == 1 and math.isnan(with_plane.iloc[0].P_THEORY), table
+    assert math.isfinite(table[~table.index.isin(with_plane.index)].iloc[0].P_THEORY), table
