@@ -278,11 +278,16 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     state), except when the particle came to
     rest within the step (infinitely many bounces for e > 0, or a resting
     contact): then it is the momentum per mass the wall gave it from the
-    contact to the step's end (w_end - w_c + |alpha| tau, by momentum
+    contact to the step's end (w_end - w_0 + |alpha| tau, by momentum
     balance) over 1 + e, so that the record's (1 + e) m v_rec (Q36, the
     pressure) counts the bounces of the series and the weight carried: a
     particle resting on the floor records one bounce a step, of v_rec =
-    |alpha| dt / (1 + e).
+    |alpha| dt / (1 + e). w_0 is w_c, or for a floor met at the start of
+    the age the normal velocity then even when moving in (w_c is 0 then):
+    a resting particle that a collision pushed towards the floor, its path
+    beyond it since, is stopped by it and records exactly the momentum it
+    lost, so that the rows sum to the momentum the walls gave
+    (tests/test_step_momentum.py).
     """
     w_e = w_h + alpha * h
     tau = -1.0
@@ -304,14 +309,11 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
         if alpha >= 0.0 or w_e >= 0.0:
             return -1.0, w_e, 0.0, w_h, -_velocity_at(w_h, alpha, h, gamma), 0
         tau = age  # a floor, still moving out at the end: on it at the start of the age
-        w_c = w_e - alpha * tau
-        if w_c > 0.0:
-            w_c = 0.0
-    else:
-        w_c = w_e - alpha * tau
+    w_0 = w_e - alpha * tau  # normal velocity at the contact, or at the start of the age (> 0: moving in)
+    w_c = w_0 if w_0 < 0.0 else 0.0
     w_out = -e * w_c
     if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
-        return tau, w_c, 0.0, -alpha * hr, -(w_c + alpha * tau) / (1.0 + e), 0
+        return tau, w_c, 0.0, -alpha * hr, -(w_0 + alpha * tau) / (1.0 + e), 0
     s = tau  # time of flight since the last bounce, launched at w_out
     hops = 0
     if alpha < 0.0 and 2.0 * w_out < -alpha * tau:
