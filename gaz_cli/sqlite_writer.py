@@ -218,7 +218,33 @@ def database_name(db) -> str:
     if not isinstance(db, str) or not db.strip():
         raise StoreError(f"--db {db!r} names no database; give a file path or a URL")
     scheme, sep, rest = db.partition("://")
+    if not sep:
+        refuse_a_uri(db, db)
     return scheme.lower() + sep + rest if sep else db
+
+
+def refuse_a_uri(name: str, given: str) -> None:
+    """Raise StoreError when the SQLite file name ``name`` (of ``--db`` ``given``: the name itself,
+    or a ``sqlite:///`` URL) starts with ``file:``: SQLite reads such a name as a URI (``--db
+    file:x.db`` wrote x.db, and ``gaz analyse --db file:x.db`` looked for a file named
+    'file:x.db'). A path given as ``./file:x.db`` is that file (gaz opens files by their
+    absolute path, :func:`file_name`); a URL with ``?uri=true`` is read as a URI, as asked."""
+    if not name.startswith("file:"):
+        return
+    meant = name[len("file:"):].split("?", 1)[0].split("#", 1)[0] or "gaz.db"
+    if "://" in given:
+        fix = (f"give --db 'sqlite:///{meant}' for the file {meant!r}, 'sqlite:///./{name}' for a file named "
+               f"{name!r}, or add ?uri=true to read it as a URI")
+    else:
+        fix = f"give --db {meant!r} for the file {meant!r}, or --db './{name}' for a file named {name!r}"
+    raise StoreError(f"--db {given!r}: SQLite reads a name starting with 'file:' as a URI, not as a file "
+                     f"name; {fix}")
+
+
+def file_name(path) -> str:
+    """The absolute path of a SQLite file, as it is given to SQLite: never read as a URI (a
+    relative ``./file:x.db`` is the file of that name; pathlib drops its './')."""
+    return os.path.abspath(os.path.expanduser(os.fspath(path)))
 
 
 def is_file_path(db: str) -> bool:
@@ -256,7 +282,7 @@ class SqliteFile(RunStore):
         self.db = self.shown = db
         self.path = path if path is not None else Path(db).expanduser()
         refuse_a_folder(self.path, self.shown)
-        args, kwargs = connect if connect is not None else ((self.path,), {})
+        args, kwargs = connect if connect is not None else ((file_name(self.path),), {})
         self.conn = None
         with self._errors():
             # check_same_thread: a run's early insert (_EarlyInsert) uses it from its thread,

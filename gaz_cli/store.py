@@ -229,8 +229,8 @@ def url_for(db: str) -> sa.URL:
     ``postgres://``, use psycopg 3), anything else is a SQLite file path. Raises StoreError for a malformed URL or a
     backend other than SQLite and PostgreSQL (the two gaz's schema, SQL files and
     writers are made and tested for)."""
-    if "://" not in db:
-        return sa.URL.create("sqlite", database=str(Path(db).expanduser()))
+    if "://" not in db:  # (absolute: never read as a URI, sqlite_writer.file_name)
+        return sa.URL.create("sqlite", database=db if db == ":memory:" else sqlite_writer.file_name(db))
     try:
         url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError) as err:
@@ -240,6 +240,8 @@ def url_for(db: str) -> sa.URL:
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
+    if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
+        sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
     if url.get_backend_name() == "postgresql" and url.get_driver_name() != "psycopg":
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
