@@ -284,14 +284,16 @@ def query_names() -> list[str]:
 
 # --- the store ------------------------------------------------------------------
 class Store(RunStore):
-    """A results database. ``create=False`` refuses to make a new one (for readers).
+    """A results database. ``create=False`` refuses to make a new one (for readers); with
+    ``empty_ok`` too, an existing database without any table (an empty file, a new PostgreSQL
+    database) is read as holding no run, and left as it is.
 
     Opening checks (and for a writer creates or migrates) the schema; see the
     module docstring. Every failure is a :class:`StoreError`. ``close()``
     releases the connections (SQLite then removes its WAL file).
     """
 
-    def __init__(self, db: str, create: bool = True):
+    def __init__(self, db: str, create: bool = True, empty_ok: bool = False):
         db = sqlite_writer.database_name(db)
         self.db = db
         self.shown = shown(db)
@@ -316,7 +318,7 @@ class Store(RunStore):
                 else:
                     with self.engine.connect() as conn:
                         version = self._schema_state(conn)
-                    if version == 0:
+                    if version == 0 and not empty_ok:
                         raise StoreError(f"{self.shown!r} is not a gaz database (no table SIMULATION); "
                                          "point --db at a file written by 'gaz simulate'")
         except BaseException:
@@ -484,8 +486,13 @@ class Store(RunStore):
             yield run
 
     def scene_files(self) -> list[str]:
-        """The scene file text of every stored simulation that has one (SCENE.SC_FILE)."""
+        """The scene file text of every stored simulation that has one (SCENE.SC_FILE); none in
+        a database without it (schema 1 and 2, read without migrating; an empty one)."""
         with self._errors(), self.engine.connect() as conn:
+            insp = sa.inspect(conn)
+            if not (insp.has_table(scene_table.name) and scene_table.c.sc_file.name in
+                    {c["name"].lower() for c in insp.get_columns(scene_table.name)}):
+                return []
             return [r[0] for r in conn.execute(sa.select(scene_table.c.sc_file)
                                                .where(scene_table.c.sc_file.is_not(None)))]
 

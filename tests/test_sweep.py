@@ -331,6 +331,54 @@ def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_a
     check_database_space([load(scene)[0]], db)  # the file's own run alone (300 K): 2 x 0.38 MB
 
 
+def test_a_sweep_refused_for_its_disk_leaves_an_older_database_unmigrated(tmp_path, monkeypatch, tiny_disk):
+    """A sweep into a database of an older schema migrated it (Store opened for writing, to read
+    its stored runs) before the disk check refused the sweep: a refused sweep wrote to it. Now
+    the stored runs are read without writing; the refused sweep leaves the file byte for byte."""
+    from cli_helpers import invoke
+    from test_store import _version_1
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "disks.toml"
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    db = tiny_disk / "old.db"
+    _version_1(str(db))
+    before = db.read_bytes()
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200,300,400", "--db", str(db), "--quiet"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert f"database '{db}' would grow by about" in res.stderr, res.stderr
+    assert db.read_bytes() == before and sorted(p.name for p in tiny_disk.iterdir()) == ["old.db"]
+
+
+@pytest.mark.postgres
+def test_a_sweep_past_postgresqls_row_numbers_creates_no_schema(tmp_path, monkeypatch, postgres_db):
+    """A sweep into PostgreSQL opened the database for writing -- creating gaz's nine tables in a
+    new one -- before refusing its runs whose rows would number past the 32-bit RE_NUM. Now the
+    refusal comes first, one line; the database is left without a table."""
+    import sqlalchemy as sa
+    from cli_helpers import invoke
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "big.toml"  # the README example run for 2e-4 s: about 3.6e9 wall bounces
+    scene.write_text('dim = 3\nlength = 3.4e-8\nduration = 2e-4\nseed = 1\n[[species]]\nname = "Ar"\n'
+                     'count = 1000\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=300,310", "--db", postgres_db, "--quiet"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert "32-bit integer" in res.stderr, res.stderr
+    engine = sa.create_engine(postgres_db)
+    try:
+        with engine.connect() as conn:
+            assert sa.inspect(conn).get_table_names() == []
+    finally:
+        engine.dispose()
+
+
 def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_path, monkeypatch):
     """gaz sweep rods.toml --vary temperature=100,200 --workers 100000 started a LocalCluster of
     as many worker processes as runs, whatever the cores (100,000 runs: 100,000 processes). Now
