@@ -14,7 +14,7 @@ disk is refused, as ``gaz simulate`` refuses one run
 (:func:`gaz_cli.scene.check_database_space`: every run's rows, and the largest one's
 copy in the WAL file and scratch file), and a sweep into PostgreSQL whose runs would
 number their rows past its 32-bit integers (:func:`gaz_cli.scene.check_row_numbers`).
-Until these checks have passed, the database is only read (the
+Until these checks have passed and the cluster answers, the database is only read (the
 runs it holds already): nothing is created or migrated for a sweep that is refused.
 
 A run already in the database -- the same scene file text, seed included
@@ -352,7 +352,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
                                  fix="vary fewer values or seeds, shorten `duration`")
     except SceneError as err:
         raise SceneError(str(err)) from None
-    with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
+    # the cluster before the database: an unreachable --scheduler creates or migrates nothing
+    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, Store(db) as store, \
             _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:

@@ -164,10 +164,13 @@ def test_a_database_given_as_a_pathlib_path_is_used(tmp_path, cluster):
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
+    """An unreachable --scheduler is one line, and creates no database (a new --db file was
+    created, empty, before the scheduler was asked)."""
     monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
     with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
         sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
                   scheduler="tcp://127.0.0.1:9", progress=False)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_malformed_scheduler_address_is_one_line(tmp_path):
