@@ -273,6 +273,15 @@ class SqliteFile(RunStore):
     Opening creates the schema if the file has none of gaz's tables; raises
     ``ForTheStore`` for anything else (see :func:`open_for_writing`) and
     :class:`StoreError` for a failure.
+
+    A file that does not exist yet is made under a name of its own beside it
+    (``.NAME.PID.XXXX.new``, :data:`NEW_SUFFIX`), and takes its real name only once its
+    first run is committed (:meth:`publish`): a run that is refused, fails or is
+    interrupted leaves no file behind, and nobody else ever sees a half-made one. The
+    name is taken with ``os.link``, which never replaces a file: when another process
+    has created the database meanwhile (two runs into one new file, started together),
+    this run is committed again into that one, from its staged rows, and the private
+    file deleted -- both runs land, numbered apart.
     """
 
     def __init__(self, db: str, path: Path | None = None, connect: tuple = None):
@@ -282,18 +291,26 @@ class SqliteFile(RunStore):
         self.db = self.shown = db
         self.path = path if path is not None else Path(db).expanduser()
         refuse_a_folder(self.path, self.shown)
-        args, kwargs = connect if connect is not None else ((file_name(self.path),), {})
         self.conn = None
+        self.private: Path | None = None  # the file made under a name of its own, until published
         with self._errors():
-            # check_same_thread: a run's early insert (_EarlyInsert) uses it from its thread,
-            # the one user of the connection until it is joined
-            self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": BUSY_TIMEOUT_S,
-                                                  "isolation_level": None, "check_same_thread": False})
+            if connect is None and not os.path.lexists(self.path):
+                staging.remove_stale(self.path)
+                self.private = _private_file(self.path, self.shown)
+            target = self.private if self.private is not None else file_name(self.path)
+            args, kwargs = connect if connect is not None else ((str(target),), {})
             try:
-                self._prepare()
+                self._connect(args, kwargs)
             except BaseException:
                 self.close()
                 raise
+
+    def _connect(self, args, kwargs) -> None:
+        # check_same_thread: a run's early insert (_EarlyInsert) uses it from its thread,
+        # the one user of the connection until it is joined
+        self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": BUSY_TIMEOUT_S,
+                                              "isolation_level": None, "check_same_thread": False})
+        self._prepare()
 
     def _prepare(self) -> None:
         conn = self.conn
@@ -314,11 +331,51 @@ class SqliteFile(RunStore):
                     conn.executemany("INSERT INTO particule (pa_nom, pa_m, pa_r) VALUES (?, ?, ?)",
                                      [(s.name, s.mass_g, s.radius) for s in BUILTIN.values()])
 
-    def close(self) -> None:
-        """Close the connection (SQLite then removes its WAL file); idempotent."""
+    def publish(self) -> bool:
+        """After a commit into the private file of a new database: give it its real name. True
+        when done (later runs go into it under that name); False when another process has made
+        the database meanwhile (or this file system has no hard links): the private file is
+        deleted, the connection is on the real one, and the caller commits its run again there.
+        Called with interrupts held."""
+        if self.private is None:
+            return True
         conn, self.conn = self.conn, None
-        if conn is not None:
-            conn.close()
+        busy, frames, copied = conn.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
+        conn.close()  # (the last connection: SQLite deletes the emptied WAL file)
+        if busy or frames != copied or os.path.exists(f"{self.private}-wal"):
+            raise StoreError(f"database {self.shown!r}: its new file could not be completed "
+                             f"({str(self.private)!r} kept its WAL file); nothing was stored, try again")
+        private, self.private = self.private, None
+        try:
+            os.link(private, file_name(self.path))  # never over a file: FileExistsError instead
+            published = True
+        except OSError:
+            published = False
+        _remove_private(private)
+        with contextlib.suppress(OSError):  # the new name on disk (a crash after it keeps the run)
+            folder = os.open(os.path.dirname(file_name(self.path)), os.O_RDONLY)
+            try:
+                os.fsync(folder)
+            finally:
+                os.close(folder)
+        try:
+            self._connect((file_name(self.path),), {})
+        except ForTheStore:
+            raise StoreError(f"database {self.shown!r} was created by another process during this run, not "
+                             "as a gaz database of this version; nothing was stored in it") from None
+        return published
+
+    def close(self) -> None:
+        """Close the connection (SQLite then removes its WAL file); idempotent. A new database
+        whose first run was not committed is deleted (its private file)."""
+        conn, self.conn = self.conn, None
+        try:
+            if conn is not None:
+                conn.close()
+        finally:
+            private, self.private = self.private, None
+            if private is not None:
+                _remove_private(private)
 
     @contextlib.contextmanager
     def _errors(self):
@@ -330,6 +387,34 @@ class SqliteFile(RunStore):
 
     def _writer(self, scene: Scene, started: _dt.datetime) -> "StagedRun":
         return StagedRun(self, scene, started)
+
+
+NEW_SUFFIX = staging.NEW_SUFFIX
+"""The suffix of a new database's private file (:class:`SqliteFile`), named as staging's scratch
+files: one left by a process killed with SIGKILL is removed by the next writer
+(:func:`gaz_cli.staging.remove_stale`)."""
+
+
+def _private_file(path: Path, shown: str) -> Path:
+    """A new, empty file beside ``path`` where its database is made (see :class:`SqliteFile`)."""
+    import tempfile
+
+    name = file_name(path)
+    try:
+        fd, private = tempfile.mkstemp(prefix=f".{os.path.basename(name)}.{os.getpid()}.", suffix=NEW_SUFFIX,
+                                       dir=os.path.dirname(name))
+    except OSError as err:
+        raise StoreError(f"cannot open database {shown!r} ({err.strerror}); check that its folder exists "
+                         "and is writable") from None
+    os.close(fd)
+    return Path(private)
+
+
+def _remove_private(private: Path) -> None:
+    """Delete a private file and what SQLite keeps beside it."""
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        with contextlib.suppress(OSError):
+            os.unlink(f"{private}{suffix}")
 
 
 LOCK_POLL_S = 0.1
@@ -443,9 +528,20 @@ class StagedRun(TableRecorder):
             if early.finish():  # its transaction holds every row: the result, and commit
                 with interrupts.held():
                     self._commit_early(early)
+                    self._publish()
+                self.stage.discard()
                 return
             self._early = None  # it gave up: the staged way
         self.stage.seal()
+        # the commit and, for a new database, its file's real name: together or not at all
+        with interrupts.held():
+            self._commit_staged()
+            self._publish()
+        self.stage.discard()
+
+    def _commit_staged(self) -> None:
+        """The staged rows moved in, with the run's other rows, in one transaction (called
+        with interrupts held; waiting for the lock, a signal stops it, nothing written)."""
         conn, columns = self.file.conn, layout().columns
         attach = self.stage.path is not None
         if attach:
@@ -454,18 +550,24 @@ class StagedRun(TableRecorder):
         # hold the SI_NUM and PA_NUM this transaction has just inserted or read
         conn.execute("PRAGMA foreign_keys = OFF")
         try:
-            with interrupts.held():
-                with _transaction(conn):
-                    si_num, nums = _simulation_rows(conn, self.scene, self.started)
-                    staging.move_in(conn, self.stage, "rebond", columns["rebond"], si_num, nums)
-                    staging.move_in(conn, self.stage, "choc", columns["choc"], si_num)
-                    _result_row(conn, si_num, *self._result)
-                self.si_num = si_num
+            with _transaction(conn):
+                si_num, nums = _simulation_rows(conn, self.scene, self.started)
+                staging.move_in(conn, self.stage, "rebond", columns["rebond"], si_num, nums)
+                staging.move_in(conn, self.stage, "choc", columns["choc"], si_num)
+                _result_row(conn, si_num, *self._result)
+            self.si_num = si_num
         finally:
             conn.execute("PRAGMA foreign_keys = ON")
             if attach:
                 conn.execute("DETACH DATABASE stage")
-        self.stage.discard()
+
+    def _publish(self) -> None:
+        """After the run's commit into a new database's private file: the file takes its real
+        name (:meth:`SqliteFile.publish`); when another process has made that database
+        meanwhile, the run is committed again into it, from its staged rows (interrupts held)."""
+        if not self.file.publish():
+            self.si_num = None
+            self._commit_staged()
 
     def _commit_early(self, early: "_EarlyInsert") -> None:
         """The end of a run whose rows the early insert has put in: the RESULTAT row, COMMIT
@@ -483,7 +585,6 @@ class StagedRun(TableRecorder):
             early.outcome, self._early = _ENDED, None
             conn.execute("PRAGMA foreign_keys = ON")
         self.si_num = early.si_num
-        self.stage.discard()
 
     def abort(self) -> None:
         early, self._early = self._early, None

@@ -37,3 +37,70 @@ def test_a_file_uri_as_db_is_refused_and_a_dotted_path_is_that_file(tmp_path, mo
     assert simulations(tmp_path / "file:x.db") == [1]
     res = invoke(["analyse", "--db", "./file:x.db", "--format", "json"])
     assert res.exit_code == 0, res.output
+
+
+def test_a_run_that_fails_or_is_interrupted_leaves_no_new_database(tmp_path, monkeypatch):
+    """A run into a new --db that failed before its commit (--save-state on a full disk), or was
+    interrupted, left the file behind: an empty gaz database of 45 kB. Now the folder is as it
+    was; the next run creates the file, with simulation 1."""
+    from gaz_cli import runner
+    from gaz_cli.errors import Interrupted
+
+    db = tmp_path / "new.db"
+    res = invoke([*QUICK, "--db", str(db), "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert list(tmp_path.iterdir()) == []
+
+    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
+        raise Interrupted(2)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(runner, "run_pressure", interrupted)
+        res = invoke([*QUICK, "--db", str(db)])
+    assert res.exit_code == 130, res.output
+    assert f"nothing was written to '{db}'" in res.stderr, res.stderr
+    assert list(tmp_path.iterdir()) == []
+    assert invoke([*QUICK, "--db", str(db)]).exit_code == 0
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_two_runs_into_one_new_file_both_land(tmp_path):
+    """Two writers open one new file; the second to commit finds it made by the first (its own
+    private file cannot take the name) and commits into it: SI_NUM 1 and 2, no file left over."""
+    from gaz_cli import sqlite_writer
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    db = tmp_path / "new.db"
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    state = initial_state(scene)
+    first, second = sqlite_writer.SqliteFile(str(db)), sqlite_writer.SqliteFile(str(db))
+    assert not db.exists()  # nothing under the real name before a commit
+    stored = []
+    for file in (first, second):
+        with file, file.simulation(scene) as run:
+            run.add_bounces([1e-11, 2e-11], [0, 1], [1, -2], [300.0, 310.0], [200.0, 100.0])
+            run.finish(RunStats(2, 2, 0, 0.01, state), 1.0, 1.0)
+        stored.append(run.si_num)
+    assert stored == [1, 2] and simulations(db) == [1, 2]
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT si_num, COUNT(*) FROM rebond GROUP BY si_num").fetchall() == [(1, 2), (2, 2)]
+    con.close()
+    assert [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_two_processes_started_together_into_one_new_file_both_land(tmp_path):
+    """gaz simulate --db new.db twice at once: both exit 0, with distinct simulation numbers."""
+    import json
+    import subprocess
+    import sys
+
+    db = tmp_path / "new.db"
+    procs = [subprocess.Popen([sys.executable, "-m", "gaz_cli", *QUICK[:-1], str(seed), "--db", str(db),
+                               "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for seed in (1, 2)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], outs
+    assert sorted(json.loads(out)["si_num"] for out, _ in outs) == [1, 2]
+    assert simulations(db) == [1, 2] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
