@@ -312,7 +312,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.scene import check_database_space, check_row_numbers
     from gaz_cli.store import Store
 
-    from gaz_cli.sqlite_writer import database_name
+    from gaz_cli.sqlite_writer import database_name, open_for_writing
 
     check_workers(workers, scheduler)
     db = database_name(db)  # a pathlib.Path as its text
@@ -353,7 +353,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     except SceneError as err:
         raise SceneError(str(err)) from None
     # the cluster before the database: an unreachable --scheduler creates or migrates nothing
-    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, Store(db) as store, \
+    # a new SQLite file takes its name with the first run stored (sqlite_writer.SqliteFile): none if none is
+    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, open_for_writing(db) as store, \
             _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:

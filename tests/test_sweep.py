@@ -148,6 +148,22 @@ def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cl
     assert status[20][0] == "failed" and "placement stuck" in status[20][1] and "\n" not in status[20][1]
 
 
+def test_a_sweep_whose_runs_all_fail_creates_no_database(tmp_path, cluster):
+    """Every run failing on the workers (random placement beyond its jamming density), the sweep
+    reports them and left --db, new, behind as an empty gaz database; now no file."""
+    import math
+
+    def jammed(overrides):
+        scene = scene_of(overrides)
+        return replace(scene, placement="rejection",
+                       length=math.sqrt(scene.n * math.pi * BUILTIN["Ar"].radius ** 2 / 0.6))
+
+    report = sweep.run(sweep.plan([("n", [20])], seeds=2), jammed, key_of, str(tmp_path / "sweep.db"),
+                       scheduler=cluster, progress=False)
+    assert [s for _, s, _, _ in report.rows] == ["failed", "failed"]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
     report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
                        str(tmp_path / "s.db"), scheduler=cluster, progress=False)
