@@ -104,3 +104,15 @@ def test_two_processes_started_together_into_one_new_file_both_land(tmp_path):
     assert [p.returncode for p in procs] == [0, 0], outs
     assert sorted(json.loads(out)["si_num"] for out, _ in outs) == [1, 2]
     assert simulations(db) == [1, 2] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_a_failing_run_into_a_new_sqlite_url_leaves_no_file(tmp_path):
+    """--db sqlite:///PATH went through SQLAlchemy's store, which created the file on opening: a
+    run failing before its commit left it behind, empty. A URL without options is now written as
+    the file path is (its name taken at the first commit); the next run is simulation 1."""
+    db = tmp_path / "new.db"
+    res = invoke([*QUICK, "--db", f"sqlite:///{db}", "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert list(tmp_path.iterdir()) == []
+    assert invoke([*QUICK, "--db", f"sqlite:///{db}"]).exit_code == 0
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
