@@ -352,8 +352,10 @@ class SqliteFile(RunStore):
         if self.private is None:
             return True
         conn, self.conn = self.conn, None
-        busy, frames, copied = conn.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
-        conn.close()  # (the last connection: SQLite deletes the emptied WAL file)
+        try:
+            busy, frames, copied = conn.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
+        finally:
+            conn.close()  # (the last connection: SQLite deletes the emptied WAL file)
         if busy or frames != copied or os.path.exists(f"{self.private}-wal"):
             raise StoreError(f"database {self.shown!r}: its new file could not be completed "
                              f"({str(self.private)!r} kept its WAL file); nothing was stored, try again")
@@ -370,12 +372,17 @@ class SqliteFile(RunStore):
                 os.fsync(folder)
             finally:
                 os.close(folder)
+        if published:
+            return True  # (the connection is opened again by the next run, if any: _writer)
+        self._reconnect()
+        return False
+
+    def _reconnect(self) -> None:
         try:
             self._connect((file_name(self.path),), {})
         except ForTheStore:
-            raise StoreError(f"database {self.shown!r} was created by another process during this run, not "
+            raise StoreError(f"database {self.shown!r} was created by another process meanwhile, not "
                              "as a gaz database of this version; nothing was stored in it") from None
-        return published
 
     def close(self) -> None:
         """Close the connection (SQLite then removes its WAL file); idempotent. A new database
@@ -398,6 +405,8 @@ class SqliteFile(RunStore):
             raise StoreError(explain(err, self.db, self.shown)) from None
 
     def _writer(self, scene: Scene, started: _dt.datetime) -> "StagedRun":
+        if self.conn is None:  # published by the run before
+            self._reconnect()
         return StagedRun(self, scene, started)
 
 
@@ -577,7 +586,12 @@ class StagedRun(TableRecorder):
         """After the run's commit into a new database's private file: the file takes its real
         name (:meth:`SqliteFile.publish`); when another process has made that database
         meanwhile, the run is committed again into it, from its staged rows (interrupts held)."""
-        if not self.file.publish():
+        try:
+            published = self.file.publish()
+        except BaseException:
+            self.si_num = None  # the private file, and the run in it, are gone
+            raise
+        if not published:
             self.si_num = None
             self._commit_staged()
 

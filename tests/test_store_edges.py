@@ -116,3 +116,42 @@ def test_a_failing_run_into_a_new_sqlite_url_leaves_no_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
     assert invoke([*QUICK, "--db", f"sqlite:///{db}"]).exit_code == 0
     assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_a_new_file_that_cannot_be_completed_stores_nothing_and_says_so(tmp_path, monkeypatch):
+    """The new file's WAL not emptied into it (here: said so by a stub) fails the run in one line:
+    exit 1, no file, no simulation number in the summary (the run, committed in the private
+    file, was counted as stored). Without hard links the run goes into the file made anew."""
+    import errno
+    import os
+
+    from gaz_cli import sqlite_writer
+
+    import pytest
+
+    from gaz_cli.errors import StoreError
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    db = tmp_path / "new.db"
+    real_exists = os.path.exists
+    with monkeypatch.context() as patch:
+        patch.setattr(sqlite_writer.os.path, "exists", lambda p: str(p).endswith("-wal") or real_exists(p))
+        res = invoke([*QUICK, "--db", str(db)])
+        assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+        assert "could not be completed" in res.stderr, res.output
+        scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+        with pytest.raises(StoreError, match="could not be completed"):
+            with sqlite_writer.SqliteFile(str(db)) as file, file.simulation(scene) as run:
+                run.finish(RunStats(0, 0, 0, 0.01, initial_state(scene)), 1.0, 1.0)
+        assert run.si_num is None  # not stored (it said 1)
+    assert list(tmp_path.iterdir()) == []
+
+    def no_links(*args):
+        raise OSError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(sqlite_writer.os, "link", no_links)
+    res = invoke([*QUICK, "--db", str(db), "--json"])
+    assert res.exit_code == 0, res.output
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
