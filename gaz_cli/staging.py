@@ -270,12 +270,22 @@ class Stage:
                 self.path.unlink(missing_ok=True)
 
 
+NEW_SUFFIX = ".new"
+"""The suffix of the private file in which a new database is made until its first commit
+(:class:`gaz_cli.sqlite_writer.SqliteFile`), named as the scratch files are."""
+
+_LEFT = tuple(f"{suffix}{extra}" for suffix in (SUFFIX, NEW_SUFFIX) for extra in ("", "-wal", "-shm", "-journal"))
+
+
 def remove_stale(database: Path) -> None:
-    """Delete the scratch files left beside ``database`` by processes that no longer exist."""
+    """Delete the scratch files, and new databases' private files (with their WAL), left beside
+    ``database`` by processes that no longer exist."""
     database = Path(database)
     with contextlib.suppress(OSError):
         # the name escaped: 'run[1].db' is a name, not a pattern ('[1]' matched '1', never itself)
-        for path in database.resolve().parent.glob(f".{glob.escape(database.name)}.*{SUFFIX}"):
+        for path in database.resolve().parent.glob(f".{glob.escape(database.name)}.*"):
+            if not path.name.endswith(_LEFT):
+                continue
             pid = path.name[len(database.name) + 2:].split(".", 1)[0]
             if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
                 path.unlink(missing_ok=True)

@@ -229,8 +229,8 @@ def url_for(db: str) -> sa.URL:
     ``postgres://``, use psycopg 3), anything else is a SQLite file path. Raises StoreError for a malformed URL or a
     backend other than SQLite and PostgreSQL (the two gaz's schema, SQL files and
     writers are made and tested for)."""
-    if "://" not in db:
-        return sa.URL.create("sqlite", database=str(Path(db).expanduser()))
+    if "://" not in db:  # (absolute: never read as a URI, sqlite_writer.file_name)
+        return sa.URL.create("sqlite", database=db if db == ":memory:" else sqlite_writer.file_name(db))
     try:
         url = sa.make_url(db)
     except (sa_exc.ArgumentError, ValueError) as err:
@@ -240,6 +240,8 @@ def url_for(db: str) -> sa.URL:
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
+    if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
+        sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
     if url.get_backend_name() == "postgresql" and url.get_driver_name() != "psycopg":
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
@@ -282,14 +284,16 @@ def query_names() -> list[str]:
 
 # --- the store ------------------------------------------------------------------
 class Store(RunStore):
-    """A results database. ``create=False`` refuses to make a new one (for readers).
+    """A results database. ``create=False`` refuses to make a new one (for readers); with
+    ``empty_ok`` too, an existing database without any table (an empty file, a new PostgreSQL
+    database) is read as holding no run, and left as it is.
 
     Opening checks (and for a writer creates or migrates) the schema; see the
     module docstring. Every failure is a :class:`StoreError`. ``close()``
     releases the connections (SQLite then removes its WAL file).
     """
 
-    def __init__(self, db: str, create: bool = True):
+    def __init__(self, db: str, create: bool = True, empty_ok: bool = False):
         db = sqlite_writer.database_name(db)
         self.db = db
         self.shown = shown(db)
@@ -314,7 +318,7 @@ class Store(RunStore):
                 else:
                     with self.engine.connect() as conn:
                         version = self._schema_state(conn)
-                    if version == 0:
+                    if version == 0 and not empty_ok:
                         raise StoreError(f"{self.shown!r} is not a gaz database (no table SIMULATION); "
                                          "point --db at a file written by 'gaz simulate'")
         except BaseException:
@@ -482,8 +486,13 @@ class Store(RunStore):
             yield run
 
     def scene_files(self) -> list[str]:
-        """The scene file text of every stored simulation that has one (SCENE.SC_FILE)."""
+        """The scene file text of every stored simulation that has one (SCENE.SC_FILE); none in
+        a database without it (schema 1 and 2, read without migrating; an empty one)."""
         with self._errors(), self.engine.connect() as conn:
+            insp = sa.inspect(conn)
+            if not (insp.has_table(scene_table.name) and scene_table.c.sc_file.name in
+                    {c["name"].lower() for c in insp.get_columns(scene_table.name)}):
+                return []
             return [r[0] for r in conn.execute(sa.select(scene_table.c.sc_file)
                                                .where(scene_table.c.sc_file.is_not(None)))]
 

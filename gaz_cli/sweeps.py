@@ -12,7 +12,10 @@ run, and an interrupt keeps every run already stored.
 Before any cluster starts, a sweep into a SQLite file whose runs would not fit on its
 disk is refused, as ``gaz simulate`` refuses one run
 (:func:`gaz_cli.scene.check_database_space`: every run's rows, and the largest one's
-copy in the WAL file and scratch file); a new file is not created for that.
+copy in the WAL file and scratch file), and a sweep into PostgreSQL whose runs would
+number their rows past its 32-bit integers (:func:`gaz_cli.scene.check_row_numbers`).
+Until these checks have passed and the cluster answers, the database is only read (the
+runs it holds already): nothing is created or migrated for a sweep that is refused.
 
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
@@ -309,7 +312,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.scene import check_database_space, check_row_numbers
     from gaz_cli.store import Store
 
-    from gaz_cli.sqlite_writer import database_name
+    from gaz_cli.sqlite_writer import database_name, open_for_writing
 
     check_workers(workers, scheduler)
     db = database_name(db)  # a pathlib.Path as its text
@@ -322,12 +325,19 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
             report.rows.append((point, "failed", None, str(err)))
     _refuse_a_sweep_that_cannot_run(points, report.rows)
-    todo = []
     path = sqlite_file(db)
+    try:
+        if path is None and db.startswith("postgres"):  # before any connection, as gaz simulate
+            check_row_numbers([scene for _, scene in built])
+    except SceneError as err:
+        raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+    todo = []
     if path is not None and not os.path.exists(os.path.expanduser(path)):
         done = set()  # a new file: every point runs, and the file is created after the checks
     else:
-        with Store(db) as store:
+        # read only: a database refused (foreign, newer) is refused here, and one to create or
+        # migrate is written only once the checks below have passed and the cluster answers
+        with Store(db, create=False, empty_ok=True) as store:
             done = set(store.scene_files())
     for point, scene in built:
         if key(scene) in done:
@@ -340,11 +350,11 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         if path is not None:  # the runs to do, one after the other, on the database's disk
             check_database_space([scene for _, scene in todo], path,
                                  fix="vary fewer values or seeds, shorten `duration`")
-        elif db.startswith("postgres"):
-            check_row_numbers([scene for _, scene in todo])
     except SceneError as err:
-        raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
-    with interrupts.catching(), Store(db) as store, _client(workers, scheduler, len(todo)) as client, \
+        raise SceneError(str(err)) from None
+    # the cluster before the database: an unreachable --scheduler creates or migrates nothing
+    # a new SQLite file takes its name with the first run stored (sqlite_writer.SqliteFile): none if none is
+    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, open_for_writing(db) as store, \
             _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:

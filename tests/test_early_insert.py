@@ -29,6 +29,15 @@ def forbid(monkeypatch, obj, name):
     monkeypatch.setattr(obj, name, refused)
 
 
+def existing(path) -> str:
+    """A gaz database at ``path``, made before the run (a new one is made under a name of its
+    own until its first commit, gaz_cli.sqlite_writer.SqliteFile): these tests share its lock."""
+    from gaz_cli.store import Store
+
+    Store(str(path)).close()
+    return str(path)
+
+
 def lock_is_free(db) -> bool:
     con = sqlite3.connect(db, timeout=0, isolation_level=None)
     try:
@@ -120,7 +129,7 @@ def test_a_run_past_the_bound_gives_the_lock_back_to_another_writer(tmp_path, mo
     writer, waiting for the lock meanwhile, gets in and commits while the first run's engine
     still runs; the first run then commits the staged way; both runs' rows are all there."""
     monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0.3)
-    db = str(tmp_path / "g.db")
+    db = existing(tmp_path / "g.db")
     slow, other = runs()
     with sqlite_writer.open_for_writing(db) as opened:
         with opened.simulation(slow, started=STARTED) as w:
@@ -153,7 +162,7 @@ def test_a_run_past_the_bound_gives_the_lock_back_to_another_writer(tmp_path, mo
 def test_a_held_lock_sends_the_run_the_staged_way(tmp_path, monkeypatch):
     """The write lock held by another writer when the first chunk comes: the early insert
     gives up after TRY_LOCK_S, and the run is committed the staged way once the lock is free."""
-    db = str(tmp_path / "g.db")
+    db = existing(tmp_path / "g.db")
     scene = runs()[1]
     with sqlite_writer.open_for_writing(db) as opened:
         holder = sqlite3.connect(db, isolation_level=None)
@@ -181,7 +190,7 @@ def test_a_failure_in_the_thread_is_raised_and_leaves_nothing(tmp_path, monkeypa
     """A failure in the early insert's thread (a full disk; anything else) is raised in the
     main thread -- at the run's next chunk, or at its end -- as the one StoreError line (a
     driver error) or as itself; no row of the run, no lock, no thread left."""
-    db = str(tmp_path / "g.db")
+    db = existing(tmp_path / "g.db")
     scene = runs()[0]
     calls = []
     insert = sqlite_writer._EarlyInsert._insert
@@ -210,7 +219,7 @@ def test_a_failure_in_the_thread_is_raised_and_leaves_nothing(tmp_path, monkeypa
 def test_an_interrupt_mid_run_rolls_back_and_frees_the_lock(tmp_path):
     """Ctrl-C (KeyboardInterrupt) while the early insert holds the lock: the run's block
     unwinds, the thread rolls back and ends, no row is left and the lock is free."""
-    db = str(tmp_path / "g.db")
+    db = existing(tmp_path / "g.db")
     scene = runs()[0]
     with sqlite_writer.open_for_writing(db) as opened:
         with pytest.raises(KeyboardInterrupt):
@@ -233,7 +242,7 @@ def test_ctrl_c_through_the_runner(tmp_path, monkeypatch, when):
     written, the lock free, no thread left; during the early commit (the RESULTAT row), the
     commit is done whole and the interrupt takes effect after it."""
     scene = Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 1000),), seed=1)
-    db = str(tmp_path / "g.db")
+    db = existing(tmp_path / "g.db")
     monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 60.0)
     if when == "engine":
         insert = sqlite_writer._EarlyInsert._insert

@@ -135,7 +135,10 @@ def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch, path):
     """A failure at the commit rolls the whole run back: no SIMULATION, SCENE, COMPOSITION or
     REBOND row, the file consistent; one StoreError line -- while the staged rows move in, or
     when the rows inserted early get their RESULTAT row."""
+    from gaz_cli.store import Store
+
     db = tmp_path / "g.db"
+    Store(str(db)).close()  # a gaz database (a new one is not created for a run that fails)
 
     def full(*args, **kwargs):
         raise sqlite3.OperationalError("database or disk is full")
@@ -255,7 +258,9 @@ def test_a_signal_stops_the_wait_for_another_writers_lock(tmp_path, phase):
 
     db = tmp_path / "gaz.db"
     scene = runs()[0]
-    sqlite_writer.SqliteFile(str(db)).close()  # a gaz database, at the current schema
+    from gaz_cli.store import Store
+
+    Store(str(db)).close()  # a gaz database, at the current schema
     holder = sqlite3.connect(db, isolation_level=None, check_same_thread=False)
     main = threading.main_thread().ident
     released, signalled = threading.Event(), threading.Event()

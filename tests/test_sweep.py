@@ -148,6 +148,22 @@ def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cl
     assert status[20][0] == "failed" and "placement stuck" in status[20][1] and "\n" not in status[20][1]
 
 
+def test_a_sweep_whose_runs_all_fail_creates_no_database(tmp_path, cluster):
+    """Every run failing on the workers (random placement beyond its jamming density), the sweep
+    reports them and left --db, new, behind as an empty gaz database; now no file."""
+    import math
+
+    def jammed(overrides):
+        scene = scene_of(overrides)
+        return replace(scene, placement="rejection",
+                       length=math.sqrt(scene.n * math.pi * BUILTIN["Ar"].radius ** 2 / 0.6))
+
+    report = sweep.run(sweep.plan([("n", [20])], seeds=2), jammed, key_of, str(tmp_path / "sweep.db"),
+                       scheduler=cluster, progress=False)
+    assert [s for _, s, _, _ in report.rows] == ["failed", "failed"]
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_sweep_runs_on_an_existing_scheduler(tmp_path, cluster):
     report = sweep.run(sweep.plan([("n", [10])], seeds=2), scene_of, key_of,
                        str(tmp_path / "s.db"), scheduler=cluster, progress=False)
@@ -164,10 +180,13 @@ def test_a_database_given_as_a_pathlib_path_is_used(tmp_path, cluster):
 
 
 def test_an_unreachable_scheduler_is_one_line(tmp_path, monkeypatch):
+    """An unreachable --scheduler is one line, and creates no database (a new --db file was
+    created, empty, before the scheduler was asked)."""
     monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
     with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler"):
         sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
                   scheduler="tcp://127.0.0.1:9", progress=False)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_malformed_scheduler_address_is_one_line(tmp_path):
@@ -329,6 +348,54 @@ def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_a
     assert "vary fewer values or seeds, shorten duration, use record none" in lines[0], lines[0]
     assert res.stdout == "" and list(tiny_disk.iterdir()) == []
     check_database_space([load(scene)[0]], db)  # the file's own run alone (300 K): 2 x 0.38 MB
+
+
+def test_a_sweep_refused_for_its_disk_leaves_an_older_database_unmigrated(tmp_path, monkeypatch, tiny_disk):
+    """A sweep into a database of an older schema migrated it (Store opened for writing, to read
+    its stored runs) before the disk check refused the sweep: a refused sweep wrote to it. Now
+    the stored runs are read without writing; the refused sweep leaves the file byte for byte."""
+    from cli_helpers import invoke
+    from test_store import _version_1
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "disks.toml"
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    db = tiny_disk / "old.db"
+    _version_1(str(db))
+    before = db.read_bytes()
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200,300,400", "--db", str(db), "--quiet"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert f"database '{db}' would grow by about" in res.stderr, res.stderr
+    assert db.read_bytes() == before and sorted(p.name for p in tiny_disk.iterdir()) == ["old.db"]
+
+
+@pytest.mark.postgres
+def test_a_sweep_past_postgresqls_row_numbers_creates_no_schema(tmp_path, monkeypatch, postgres_db):
+    """A sweep into PostgreSQL opened the database for writing -- creating gaz's nine tables in a
+    new one -- before refusing its runs whose rows would number past the 32-bit RE_NUM. Now the
+    refusal comes first, one line; the database is left without a table."""
+    import sqlalchemy as sa
+    from cli_helpers import invoke
+
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "big.toml"  # the README example run for 2e-4 s: about 3.6e9 wall bounces
+    scene.write_text('dim = 3\nlength = 3.4e-8\nduration = 2e-4\nseed = 1\n[[species]]\nname = "Ar"\n'
+                     'count = 1000\n')
+    res = invoke(["sweep", str(scene), "--vary", "temperature=300,310", "--db", postgres_db, "--quiet"])
+    assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
+    assert "32-bit integer" in res.stderr, res.stderr
+    engine = sa.create_engine(postgres_db)
+    try:
+        with engine.connect() as conn:
+            assert sa.inspect(conn).get_table_names() == []
+    finally:
+        engine.dispose()
 
 
 def test_more_workers_than_cores_is_one_line_before_any_database_or_cluster(tmp_path, monkeypatch):

@@ -1,0 +1,157 @@
+"""The store's edges: what a run that is refused, fails or is interrupted leaves on disk (nothing),
+and names SQLite would read otherwise than as written."""
+
+import sqlite3
+
+from cli_helpers import invoke
+
+# a run of the exam's own engine (no JIT to wait for), a few ms long
+QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",
+         "--duration", "2e-10", "--seed", "1"]
+
+
+def simulations(path):
+    con = sqlite3.connect(path)
+    try:
+        return [r[0] for r in con.execute("SELECT si_num FROM simulation ORDER BY si_num")]
+    finally:
+        con.close()
+
+
+def test_a_file_uri_as_db_is_refused_and_a_dotted_path_is_that_file(tmp_path, monkeypatch):
+    """SQLite reads a name starting with 'file:' as a URI: --db file:x.db wrote x.db, while
+    gaz analyse --db file:x.db looked for a file named 'file:x.db' ("does not exist"). Both
+    commands refuse it in one line naming the two fixes, creating nothing; ./file:x.db is the file
+    of that name, written and read; sqlite:///file:x.db (no ?uri=true) is refused alike."""
+    monkeypatch.chdir(tmp_path)
+    for command in (QUICK, ["analyse"], ["query", "q34"]):
+        for db in ("file:x.db", "sqlite:///file:x.db"):
+            res = invoke([*command, "--db", db])
+            assert res.exit_code == 1 and res.stdout == "", res.output
+            assert res.stderr.count("\n") == 1, res.stderr
+            assert "reads a name starting with 'file:' as a URI" in res.stderr and "'x.db'" in res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    res = invoke([*QUICK, "--db", "./file:x.db"])
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file:x.db"]
+    assert simulations(tmp_path / "file:x.db") == [1]
+    res = invoke(["analyse", "--db", "./file:x.db", "--format", "json"])
+    assert res.exit_code == 0, res.output
+
+
+def test_a_run_that_fails_or_is_interrupted_leaves_no_new_database(tmp_path, monkeypatch):
+    """A run into a new --db that failed before its commit (--save-state on a full disk), or was
+    interrupted, left the file behind: an empty gaz database of 45 kB. Now the folder is as it
+    was; the next run creates the file, with simulation 1."""
+    from gaz_cli import runner
+    from gaz_cli.errors import Interrupted
+
+    db = tmp_path / "new.db"
+    res = invoke([*QUICK, "--db", str(db), "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert list(tmp_path.iterdir()) == []
+
+    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
+        raise Interrupted(2)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(runner, "run_pressure", interrupted)
+        res = invoke([*QUICK, "--db", str(db)])
+    assert res.exit_code == 130, res.output
+    assert f"nothing was written to '{db}'" in res.stderr, res.stderr
+    assert list(tmp_path.iterdir()) == []
+    assert invoke([*QUICK, "--db", str(db)]).exit_code == 0
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_two_runs_into_one_new_file_both_land(tmp_path):
+    """Two writers open one new file; the second to commit finds it made by the first (its own
+    private file cannot take the name) and commits into it: SI_NUM 1 and 2, no file left over."""
+    from gaz_cli import sqlite_writer
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    db = tmp_path / "new.db"
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    state = initial_state(scene)
+    first, second = sqlite_writer.SqliteFile(str(db)), sqlite_writer.SqliteFile(str(db))
+    assert not db.exists()  # nothing under the real name before a commit
+    stored = []
+    for file in (first, second):
+        with file, file.simulation(scene) as run:
+            run.add_bounces([1e-11, 2e-11], [0, 1], [1, -2], [300.0, 310.0], [200.0, 100.0])
+            run.finish(RunStats(2, 2, 0, 0.01, state), 1.0, 1.0)
+        stored.append(run.si_num)
+    assert stored == [1, 2] and simulations(db) == [1, 2]
+    con = sqlite3.connect(db)
+    assert con.execute("SELECT si_num, COUNT(*) FROM rebond GROUP BY si_num").fetchall() == [(1, 2), (2, 2)]
+    con.close()
+    assert [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_two_processes_started_together_into_one_new_file_both_land(tmp_path):
+    """gaz simulate --db new.db twice at once: both exit 0, with distinct simulation numbers."""
+    import json
+    import subprocess
+    import sys
+
+    db = tmp_path / "new.db"
+    procs = [subprocess.Popen([sys.executable, "-m", "gaz_cli", *QUICK[:-1], str(seed), "--db", str(db),
+                               "--json"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for seed in (1, 2)]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0], outs
+    assert sorted(json.loads(out)["si_num"] for out, _ in outs) == [1, 2]
+    assert simulations(db) == [1, 2] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_a_failing_run_into_a_new_sqlite_url_leaves_no_file(tmp_path):
+    """--db sqlite:///PATH went through SQLAlchemy's store, which created the file on opening: a
+    run failing before its commit left it behind, empty. A URL without options is now written as
+    the file path is (its name taken at the first commit); the next run is simulation 1."""
+    db = tmp_path / "new.db"
+    res = invoke([*QUICK, "--db", f"sqlite:///{db}", "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert list(tmp_path.iterdir()) == []
+    assert invoke([*QUICK, "--db", f"sqlite:///{db}"]).exit_code == 0
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
+
+
+def test_a_new_file_that_cannot_be_completed_stores_nothing_and_says_so(tmp_path, monkeypatch):
+    """The new file's WAL not emptied into it (here: said so by a stub) fails the run in one line:
+    exit 1, no file, no simulation number in the summary (the run, committed in the private
+    file, was counted as stored). Without hard links the run goes into the file made anew."""
+    import errno
+    import os
+
+    from gaz_cli import sqlite_writer
+
+    import pytest
+
+    from gaz_cli.errors import StoreError
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    db = tmp_path / "new.db"
+    real_exists = os.path.exists
+    with monkeypatch.context() as patch:
+        patch.setattr(sqlite_writer.os.path, "exists", lambda p: str(p).endswith("-wal") or real_exists(p))
+        res = invoke([*QUICK, "--db", str(db)])
+        assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+        assert "could not be completed" in res.stderr, res.output
+        scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+        with pytest.raises(StoreError, match="could not be completed"):
+            with sqlite_writer.SqliteFile(str(db)) as file, file.simulation(scene) as run:
+                run.finish(RunStats(0, 0, 0, 0.01, initial_state(scene)), 1.0, 1.0)
+        assert run.si_num is None  # not stored (it said 1)
+    assert list(tmp_path.iterdir()) == []
+
+    def no_links(*args):
+        raise OSError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(sqlite_writer.os, "link", no_links)
+    res = invoke([*QUICK, "--db", str(db), "--json"])
+    assert res.exit_code == 0, res.output
+    assert simulations(db) == [1] and [p.name for p in tmp_path.iterdir()] == ["new.db"]
