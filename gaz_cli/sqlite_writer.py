@@ -13,7 +13,8 @@ standard library's ``sqlite3`` alone:
   version; anything else -- an older gaz database to migrate, a foreign one to
   refuse, another URL, ``:memory:`` -- goes to :class:`gaz_cli.store.Store`, which
   migrates or refuses, with the same words;
-- the guarantees are the store's: WAL mode, a busy timeout, the schema created
+- the guarantees are the store's: WAL mode (but for a new file's first run, written into a
+  private file that nobody else reads, see :class:`SqliteFile`), a busy timeout, the schema created
   in ``BEGIN IMMEDIATE`` (several processes may create one file at once), the
   run's rows staged outside the write lock (:mod:`gaz_cli.staging`) and moved
   in with the SIMULATION, SCENE, COMPOSITION and RESULTAT rows in one short
@@ -294,6 +295,16 @@ class SqliteFile(RunStore):
     has created the database meanwhile (two runs into one new file, started together),
     this run is committed again into that one, from its staged rows, and the private
     file deleted -- both runs land, numbered apart.
+
+    The private file keeps SQLite's rollback journal, not WAL: nobody reads it while the run
+    writes, and a transaction's pages go straight into it, where in WAL they are written
+    twice (into the WAL, then, at the close's checkpoint, into the file); the early insert's
+    thread flushes them to the disk as it goes (``fdatasync``), so that the commit's fsync
+    has only the last ones left. The next writer puts the database in WAL mode
+    (:func:`use_wal`), as every other. Measured on the README example (177,635 bounces,
+    a 0.075 s engine), 2 cores at load 1.5, 9 alternating rounds each: the run's commit,
+    as the user waits for it (last chunks, RESULTAT row, COMMIT, close, name), 13-15 ms
+    against 31-54 ms in WAL.
     """
 
     def __init__(self, db: str, path: Path | None = None, connect: tuple = None):
@@ -329,7 +340,8 @@ class SqliteFile(RunStore):
         conn.execute("PRAGMA foreign_keys = ON")
         if _state(conn) is None:  # read only: a database for the store is left as it was
             raise ForTheStore
-        use_wal(conn)
+        if self.private is None:  # (a private file, which nobody else sees, keeps SQLite's rollback journal)
+            use_wal(conn)
         # also when there is nothing to create: a read-only or locked file fails here,
         # before the run, not at its commit
         with _transaction(conn):
@@ -352,10 +364,10 @@ class SqliteFile(RunStore):
         if self.private is None:
             return True
         conn, self.conn = self.conn, None
-        try:
+        try:  # (a no-op in the rollback journal the private file is made in; kept for a file in WAL)
             busy, frames, copied = conn.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
         finally:
-            conn.close()  # (the last connection: SQLite deletes the emptied WAL file)
+            conn.close()  # (the last connection: SQLite deletes an emptied WAL file)
         if busy or frames != copied or os.path.exists(f"{self.private}-wal"):
             raise StoreError(f"database {self.shown!r}: its new file could not be completed "
                              f"({str(self.private)!r} kept its WAL file); nothing was stored, try again")
@@ -670,6 +682,8 @@ class _EarlyInsert:
 
     def __init__(self, run: StagedRun, first: list):
         self.conn = run.file.conn
+        self._flushed = run.file.private  # a new database's private file: its pages flushed as they go
+        self._fd = None
         self.scene, self.started = run.scene, run.started
         self.names = layout().columns
         self.si_num = None
@@ -724,6 +738,13 @@ class _EarlyInsert:
     # --- the thread's side
     def _insert(self, table: str, columns: list) -> None:
         staging.insert_chunk(self.conn, table, self.names[table], columns, self.si_num, self._pa_nums[table])
+        if self._flushed is not None:
+            # the pages SQLite has written so far go to the disk now, while the engine runs,
+            # so that the commit's fsync has only the last ones left (nobody else reads this
+            # file: its transaction's pages are written into it, not into a WAL)
+            if self._fd is None:
+                self._fd = os.open(self._flushed, os.O_RDONLY)
+            os.fdatasync(self._fd)
 
     def _main(self) -> None:
         conn = self.conn
@@ -765,6 +786,8 @@ class _EarlyInsert:
                 if conn.in_transaction:
                     conn.execute("ROLLBACK")
         finally:
+            if self._fd is not None:
+                os.close(self._fd)
             with contextlib.suppress(sqlite3.Error):
                 conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
                 if self.outcome != _HOLDING:
