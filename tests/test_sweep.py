@@ -321,6 +321,17 @@ def test_a_sweep_no_point_of_which_can_run_is_one_line_before_any_database_or_cl
     assert res.stdout == "" and not db.exists()
 
 
+def _disks_without_a_cluster(tmp_path, monkeypatch):
+    """A scene file of 20 argon disks whose rows fill a tiny disk, and no cluster allowed to start."""
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
+
+    monkeypatch.setattr(sweep, "_client", no_cluster)
+    scene = tmp_path / "disks.toml"
+    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    return scene
+
+
 def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_any_run(tmp_path, monkeypatch,
                                                                                       tiny_disk):
     """gaz sweep had no disk check (gaz simulate has one): four runs of 0.2 to 0.4 MB of rows
@@ -333,12 +344,7 @@ def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_a
     from gaz_cli.scene import check_database_space
     from gaz_cli.scenefile import load
 
-    def no_cluster(*args):
-        raise AssertionError("a cluster was started")
-
-    monkeypatch.setattr(sweep, "_client", no_cluster)
-    scene = tmp_path / "disks.toml"
-    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    scene = _disks_without_a_cluster(tmp_path, monkeypatch)
     db = tiny_disk / "s.db"
     res = invoke(["sweep", str(scene), "--vary", "temperature=100,200,300,400", "--db", str(db), "--quiet"])
     lines = res.stderr.splitlines()
@@ -357,12 +363,7 @@ def test_a_sweep_refused_for_its_disk_leaves_an_older_database_unmigrated(tmp_pa
     from cli_helpers import invoke
     from test_store import _version_1
 
-    def no_cluster(*args):
-        raise AssertionError("a cluster was started")
-
-    monkeypatch.setattr(sweep, "_client", no_cluster)
-    scene = tmp_path / "disks.toml"
-    scene.write_text('dim = 2\nlength = 1e-7\nduration = 1e-7\nseed = 1\n[[species]]\nname = "Ar"\ncount = 20\n')
+    scene = _disks_without_a_cluster(tmp_path, monkeypatch)
     db = tiny_disk / "old.db"
     _version_1(str(db))
     before = db.read_bytes()
