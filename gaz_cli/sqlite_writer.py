@@ -738,10 +738,11 @@ class _EarlyInsert:
     # --- the thread's side
     def _insert(self, table: str, columns: list) -> None:
         staging.insert_chunk(self.conn, table, self.names[table], columns, self.si_num, self._pa_nums[table])
-        if self._flushed is not None:
+        if self._flushed is not None and not self._done.is_set():
             # the pages SQLite has written so far go to the disk now, while the engine runs,
             # so that the commit's fsync has only the last ones left (nobody else reads this
-            # file: its transaction's pages are written into it, not into a WAL)
+            # file: its transaction's pages are written into it, not into a WAL); not once the
+            # engine has stopped: the commit's fsync follows at once
             if self._fd is None:
                 self._fd = os.open(self._flushed, os.O_RDONLY)
             os.fdatasync(self._fd)
