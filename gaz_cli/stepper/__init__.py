@@ -34,7 +34,14 @@ and dt/2) and friction mixed with walls (a bounce under friction and a
 constant acceleration changes the velocity with an O(dt^2) error; the hops of
 a series within one step fly without friction). A bounce's row holds the
 velocity at its contact time (kernels._velocity_at), as a collision's impulse
-does, not the drift velocity of the step's middle, which is off by O(dt).
+does, not the drift velocity of the step's middle, which is off by O(dt). A
+ball resting on a floor is held there until the end of the step: an impact
+on it is found and met on its true path (at rest), not on its drift line
+(kernels._held_root; a ball merely resting on it keeps seed 002's rule on
+the drift lines, whose impulse carries its weight); one that a
+collision takes off it flies freely from the contact (kernels._release: it
+ends the step on the free parabola, and its floor row loses the support of
+the time left), friction aside.
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces

@@ -21,7 +21,10 @@ block of steps; each step is, in order:
    impulse of the velocities at the contact time, see :func:`_collide`), and
    it is moved forward to the end of the step; a wall contact does the same
    with the wall (restitution, exact under uniform gravity, the pair
-   attraction taken constant over the step, see :func:`_wall_contact`). The particles that moved are the next pass's
+   attraction taken constant over the step, see :func:`_wall_contact`); a particle that comes
+   to rest on a floor is *held* by it until the step's end (:func:`_hold`), and a collision
+   that takes it off releases it there: it flies freely from the contact
+   (:func:`_release`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
    is hit (then every particle still beyond a box wall bounces until it is
    inside, and off the planes once: :func:`_walls_sweep`);
@@ -312,7 +315,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     w_0 = w_e - alpha * tau  # normal velocity at the contact, or at the start of the age (> 0: moving in)
     w_c = w_0 if w_0 < 0.0 else 0.0
     w_out = -e * w_c
-    if alpha < 0.0 and 2.0 * w_out <= -alpha * (1.0 - e) * tau:
+    if _rests(w_c, alpha, e, tau):
         return tau, w_c, 0.0, -alpha * hr, -(w_0 + alpha * tau) / (1.0 + e), 0
     s = tau  # time of flight since the last bounce, launched at w_out
     hops = 0
@@ -320,6 +323,52 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
         s, w_out, hops = _last_flight(w_out, alpha, e, tau)
     d_new = w_out * s + 0.5 * alpha * s * s
     return tau, w_c, d_new, w_out + alpha * s - alpha * h, -_velocity_at(w_h, alpha, h - tau, gamma), hops
+
+
+@njit
+def _rests(w_c, alpha, e, tau):
+    """True when a particle meeting a floor (alpha < 0, m/s^2) at the normal velocity w_c <= 0 m/s
+    tau s before the step's end comes to rest on it within the step (its bounce series e^k
+    over, :func:`_wall_contact`): it is then held by the floor until the step's end."""
+    return alpha < 0.0 and -2.0 * e * w_c <= -alpha * (1.0 - e) * tau
+
+
+@njit
+def _hold(i, normal_sign, d, alpha, tau, support, hold_row, row):
+    """Note particle i as held by a wall (box axis d, inward normal sign normal_sign) from tau s
+    before the step's end: support[i] = -alpha along the normal (m/s^2, the wall's push that
+    cancels its normal acceleration alpha < 0), hold_row[i] = its bounce row (-1: none)."""
+    for k in range(support.shape[1]):
+        support[i, k] = 0.0
+    support[i, d] = -alpha * normal_sign
+    hold_row[i] = row
+
+
+@njit
+def _release(i, tau, pos, vel, support, hold_row, bf, ew):
+    """A particle held by a floor (support[i] != 0) that a collision takes off it tau s before
+    the step's end: the floor held it only until then. In the kernel a held particle ends the
+    step with the drift velocity that the closing half kick takes to rest, the floor's support
+    paid until the step's end; from the contact on it flies freely, so its drift velocity loses
+    support tau and its end position support tau^2 / 2 (the free parabola from its resting
+    place, at rest at the contact), and its floor row (hold_row[i] >= 0) the support it was
+    credited for those tau s: (1 + ew) m v_perp stays the momentum the floor gave."""
+    dim = pos.shape[1]
+    a2 = 0.0
+    for d in range(dim):
+        a = support[i, d]
+        a2 += a * a
+        vel[i, d] -= a * tau
+        pos[i, d] -= 0.5 * a * tau * tau
+        support[i, d] = 0.0
+    row = hold_row[i]
+    if row >= 0:
+        vp = bf[row, 2]
+        t2 = bf[row, 1] * bf[row, 1] - vp * vp
+        vp -= math.sqrt(a2) * tau / (1.0 + ew)
+        bf[row, 2] = vp
+        bf[row, 1] = math.sqrt(vp * vp + (t2 if t2 > 0.0 else 0.0))
+    hold_row[i] = -1
 
 
 @njit
@@ -403,7 +452,8 @@ def _plane_alpha(acc, planes, i, p, g):
 
 
 @njit
-def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb):
+def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
+                support, hold_row):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
     Taken back to its contact (:func:`_wall_contact`), its normal velocity
@@ -413,7 +463,8 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, g
     |v|, |v_perp| at contact, :func:`_velocity_at`) and bi (particle, RE_DIR) at row nb when
     ``want``, and so is each later bounce of a series of hops on a floor within the step
     (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
-    row of a series longer than MAX_HOP_ROWS).
+    row of a series longer than MAX_HOP_ROWS). A particle that comes to rest on the wall is
+    noted as held by it (:func:`_hold`).
     """
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
@@ -421,11 +472,14 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, g
     d_e = (length - r - pos[i, d]) if upper else (pos[i, d] - r)
     w_h = sign * vel[i, d]
     tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], ew)
+    rest = tau >= 0.0 and _rests(w_c, alpha, ew, tau)
     tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, ew, alpha, h)
     bounced = 0
     folded = 0
     if tau >= 0.0:
         rows = hops if hops <= MAX_HOP_ROWS else MAX_HOP_ROWS
+        if rest:
+            _hold(i, sign, d, alpha, tau, support, hold_row, nb if want else -1)
         if want:
             code = (d + 1) if upper else -(d + 1)
             t2 = _tangential2(vel, acc, i, d, g, h - tau, gamma)
@@ -510,7 +564,7 @@ def _plane_distance(pos, vel, planes, i, p):
 
 
 @njit
-def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
+def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma, support, hold_row):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
     Same contact rule as the box walls (:func:`_wall_contact`); returns the bounces (1 and
@@ -523,10 +577,15 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma):
     e = planes[p, 2 * dim]
     alpha = _plane_alpha(acc, planes, i, p, g)
     tau, w_c, d_new, w_new, v_rec, hops = _wall_contact(d_e, w_h, alpha, h, hr, gamma, age[i], e)
+    rest = tau >= 0.0 and _rests(w_c, alpha, e, tau)
     tau, w_c, d_new, w_new, v_rec, hops = _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h)
     bounced = 0
     if tau >= 0.0:
         bounced = 1 + hops
+        if rest:  # held by the plane: its support along the plane's normal, no row
+            for d in range(dim):
+                support[i, d] = -alpha * planes[p, dim + d]
+            hold_row[i] = -1
         if tau < age[i]:
             age[i] = tau
     if d_new < 0.0:
@@ -635,18 +694,19 @@ def _wall_scan(pos, vel, acc, radius, age, last, active, length, ew, g, h, hr, g
 
 @njit
 def _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi,
-                nb, counters):
+                nb, counters, support, hold_row):
     """Bounce particle i off wall w (box walls w = 2 d + upper, planes 2 D + p), counted in
     counters, noted in last (N,); returns (bf, bi, nb)."""
     dim = pos.shape[1]
     last[i] = w
     if w < 2 * dim:
         bf, bi, nb, b, f = _box_bounce(i, w // 2, w % 2 == 1, pos, vel, acc, radius, age, length, ew, g, h, hr,
-                                       gamma, t_end, want, bf, bi, nb)
+                                       gamma, t_end, want, bf, bi, nb, support, hold_row)
         counters[C_BOUNCES] += b
         counters[C_FOLDED] += f
     else:
-        counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+        counters[C_PLANE] += _plane_bounce(i, w - 2 * dim, pos, vel, acc, radius, age, planes, g, h, hr, gamma,
+                                           support, hold_row)
     return bf, bi, nb
 
 
@@ -665,7 +725,7 @@ def _grow_candidates(cand_i, cand_j, cand_tau, keep, need):
 
 @njit
 def _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end, want, bf, bi, nb,
-                 counters):
+                 counters, support, hold_row):
     """Safety net after the pass limit: every particle beyond a box wall bounces, earliest contact
     first, until it is inside the box (a particle crossing the box many times in one step gets
     every bounce); then once off each plane it is behind; then any centre still outside
@@ -678,13 +738,14 @@ def _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr,
             if w < 0:
                 break
             bf, bi, nb = _apply_wall(i, w, pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma,
-                                     t_end, want, bf, bi, nb, counters)
+                                     t_end, want, bf, bi, nb, counters, support, hold_row)
         for p in range(planes.shape[0]):
             dist = 0.0
             for d in range(dim):
                 dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
             if dist < radius[i]:
-                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma)
+                counters[C_PLANE] += _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma,
+                                                   support, hold_row)
                 last[i] = 2 * dim + p
         r = radius[i]
         for d in range(dim):
@@ -759,11 +820,14 @@ def _bin(pos, length, nc, cell_of, start, order):
 
 
 @njit
-def _contact_tau(pos, vel, i, j, sigma, age_max, swept):
+def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
     """(tau, c): how far back (s, >= 0) pair (i, j) touched within age_max, or -1 for no contact;
     c = |dr|^2 - sigma^2 at the step end, m^2 (< 0: overlapping).
 
-    See the module docstring for the rule; always the cancellation-free root.
+    See the module docstring for the rule; always the cancellation-free root. When a wall
+    holds one of the two (support (N, D), :func:`_hold`) their relative path is not straight
+    but the parabola dr - dv tau + A tau^2 / 2, A = support_j - support_i: the straight root
+    is refined on it (:func:`_held_root`).
     """
     dim = pos.shape[1]
     a = 0.0
@@ -779,19 +843,73 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept):
         if c >= 0.0:
             return -1.0, c  # approaching but apart: a future contact
         tau = -c / (math.sqrt(b * b - a * c) - b)
+        tau = _held_root(pos, vel, support, i, j, sigma, tau)[0]
         return tau if tau < age_max else age_max, c
     if not swept or a <= 0.0:
         return -1.0, c
     disc = b * b - a * c
     if disc < 0.0:
         return -1.0, c
-    tau = (b + math.sqrt(disc)) / a
+    tau = _held_root(pos, vel, support, i, j, sigma, (b + math.sqrt(disc)) / a)[0]
     return tau if tau <= age_max else -1.0, c
 
 
 @njit
+def _held_root(pos, vel, support, i, j, sigma, tau0):
+    """(tau, impact): the contact time back (s) of pair (i, j) on its relative path p(tau) = dr -
+    dv tau + A tau^2 / 2 (dr, dv at the step's end, A = support_j - support_i, m/s^2: a particle
+    held at rest by a wall does not fall along its drift line, its partner does), by Newton's
+    method on |p|^2 = sigma^2 from the straight-line root tau0, and True, when the pair hits
+    there: entering contact going forward, faster than the support's relative acceleration
+    along the line of centres builds up over those tau s (-v_n > |A.n| tau). Otherwise (tau0,
+    False): neither is held, Newton found no such root, or the pair merely rests on the held
+    one (a ball on a ball on the floor touches it at the step's start at v_n = 0): that
+    contact keeps seed 002's rule on the drift lines, whose impulse of the drift velocities
+    carries the weight (met on the true path, it is a series of vanishing impacts within the
+    step that the passes cannot end: a resting stack sank through itself)."""
+    dim = pos.shape[1]
+    held = False
+    for d in range(dim):
+        if support[j, d] != 0.0 or support[i, d] != 0.0:
+            held = True
+    if not held:
+        return tau0, False
+    tau = tau0
+    for _ in range(30):
+        f = -sigma * sigma
+        fp = 0.0
+        for d in range(dim):
+            a_d = support[j, d] - support[i, d]
+            dv = vel[j, d] - vel[i, d]
+            p = pos[j, d] - pos[i, d] - dv * tau + 0.5 * a_d * tau * tau
+            f += p * p
+            fp += 2.0 * p * (a_d * tau - dv)
+        if fp <= 0.0:
+            return tau0, False
+        step = f / fp
+        tau -= step
+        if abs(step) <= 1e-10 * abs(tau):  # converging quadratically: the next step is round-off
+            if tau < 0.0:
+                return tau0, False
+            pp = 0.0
+            vn = 0.0
+            an = 0.0
+            for d in range(dim):
+                a_d = support[j, d] - support[i, d]
+                dv = vel[j, d] - vel[i, d]
+                p = pos[j, d] - pos[i, d] - dv * tau + 0.5 * a_d * tau * tau
+                pp += p * p
+                vn += (dv - a_d * tau) * p
+                an += a_d * p
+            if -vn > abs(an) * tau:  # both scaled by |p|
+                return tau, True
+            return tau0, False
+    return tau0, False
+
+
+@njit
 def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, dt, length, nc,
-            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau, left):
+            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau, left, support):
     """Write the pairs in contact with at least one active particle from row k; returns the new count.
 
     With ``all_active`` (a step's first pass) also tallies in ``left`` (2,) the pairs the
@@ -811,6 +929,8 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
       sigma_max + 2 |v_i| dt; otherwise within sigma_max + (|v_i| + vmax) dt,
       a pair of two active particles still from the faster. So only the fast
       particles search far. ``speed`` (N,) |v| m/s, ``vmax`` its maximum.
+    ``support`` (N, D) m/s^2: the push of the wall holding each particle at rest (0: free),
+    for the contacts of a held particle (:func:`_contact_tau`).
     """
     n, dim = pos.shape
     side = length / nc
@@ -851,7 +971,7 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
                             continue
                     amax = age[i] if age[i] < age[j] else age[j]
                     sigma = radius[i] + radius[j]
-                    tau, c = _contact_tau(pos, vel, i, j, sigma, amax, swept)
+                    tau, c = _contact_tau(pos, vel, i, j, sigma, amax, swept, support)
                     if tau < 0.0:
                         if all_active and c < shrink * sigma * sigma:
                             left[0] += 1.0
@@ -868,7 +988,8 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
 
 
 @njit
-def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair, gamma, h):
+def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair, gamma, h, support, hold_row,
+             bf, ew):
     """Take pair (i, j) back by tau s, change its velocities along the line of centres, move it forward.
 
     Restitution e, or 1 under the TC model when either partner collided less
@@ -886,12 +1007,20 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     velocity change is added to the drift velocities, so that the closing
     half kick continues from the velocities after the contact (under friction the drift
     velocity changes by e^{gamma s} times the change at the contact).
+
+    A particle a wall holds at rest (support (N, D), :func:`_hold`) is there, at rest, at the
+    contact, not on its drift line: when its partner hits it (:func:`_held_root`), the line of
+    centres and the relative velocity are taken on the true paths (dr - dv tau + A tau^2 / 2
+    and dv - A tau, A = support_j - support_i), and it is released (:func:`_release`): it
+    flies freely from the contact. A partner merely resting on it keeps the drift lines.
     """
     dim = pos.shape[1]
     nrm = np.empty(dim)
     dist2 = 0.0
+    hit = _held_root(pos, vel, support, i, j, radius[i] + radius[j], tau)[1]
     for d in range(dim):
-        nrm[d] = (pos[j, d] - vel[j, d] * tau) - (pos[i, d] - vel[i, d] * tau)
+        a_d = support[j, d] - support[i, d] if hit else 0.0
+        nrm[d] = (pos[j, d] - vel[j, d] * tau) - (pos[i, d] - vel[i, d] * tau) + 0.5 * a_d * tau * tau
         dist2 += nrm[d] * nrm[d]
     if dist2 <= 0.0:
         return 0.0
@@ -900,11 +1029,17 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     an = 0.0
     for d in range(dim):
         nrm[d] *= inv
-        vn += (vel[j, d] - vel[i, d]) * nrm[d]
+        a_d = support[j, d] - support[i, d] if hit else 0.0
+        vn += (vel[j, d] - vel[i, d] - a_d * tau) * nrm[d]
         if has_pair:
             an += (acc[j, d] - acc[i, d]) * nrm[d]
     if vn >= 0.0:
         return 0.0
+    for k in (i, j):
+        for d in range(dim):
+            if hit and support[k, d] != 0.0:
+                _release(k, tau, pos, vel, support, hold_row, bf, ew)
+                break
     s = h - tau  # contact time - the step's middle, s
     back = 1.0  # a velocity change at the contact is back times that of the drift velocity
     if gamma > 0.0:
@@ -968,6 +1103,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
     last = np.full(n, -1, np.int64)  # the wall each particle's path last bent at in this step (-1: none)
+    support = np.zeros((n, dim))  # a wall's push on the particles it holds at rest in this step (_hold), m/s^2
+    hold_row = np.full(n, -1, np.int64)  # the bounce row of that rest (-1: none)
     done = np.zeros(n, np.uint8)
     speed = np.zeros(n)
     cand_i = np.empty(64, np.int64)
@@ -992,6 +1129,9 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
         for i in range(n):
             active[i] = 1
             last[i] = -1
+            hold_row[i] = -1
+            for d in range(dim):
+                support[i, d] = 0.0
         passes = 0
         wall_time = 0.0
         while True:
@@ -1026,13 +1166,13 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
             left[0] = 0.0
             left[1] = 1.0
             k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length, nc,
-                        cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left)
+                        cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left, support)
             if k > cand_i.shape[0]:
                 cand_i, cand_j, cand_tau = _grow_candidates(cand_i, cand_j, cand_tau, kw, k)
                 left[0] = 0.0
                 left[1] = 1.0
                 k = _detect(pos, vel, radius, age, active, passes == 1, speed, vmax, 2.0 * rmax, dt, length,
-                            nc, cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left)
+                            nc, cell_of, start, order, swept, kw, cand_i, cand_j, cand_tau, left, support)
             if passes == 1 and left[0] > 0.0:
                 if counters[C_OVERLAP_STEPS] == 0:
                     overlap[G_FIRST_TIME] = t_end
@@ -1056,13 +1196,13 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                     if j < 0:
                         w0 = _now(clock_id, tbuf)
                         bf, bi, nb = _apply_wall(i, -1 - j, pos, vel, acc, radius, age, last, planes, length, ew, g, h,
-                                                 hr, gamma, t_end, want_b, bf, bi, nb, counters)
+                                                 hr, gamma, t_end, want_b, bf, bi, nb, counters, support, hold_row)
                         done[i] = 1
                         applied += 1
                         wall_time += _now(clock_id, tbuf) - w0
                         continue
                     impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair,
-                                       gamma, h)
+                                       gamma, h, support, hold_row, bf, ew)
                     if impulse <= 0.0:
                         continue
                     done[i] = 1
@@ -1089,7 +1229,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                 counters[C_PASS_LIMIT] += 1
                 w0 = _now(clock_id, tbuf)
                 bf, bi, nb = _walls_sweep(pos, vel, acc, radius, age, last, planes, length, ew, g, h, hr, gamma, t_end,
-                                          want_b, bf, bi, nb, counters)
+                                          want_b, bf, bi, nb, counters, support, hold_row)
                 wall_time += _now(clock_id, tbuf) - w0
                 break
         counters[C_PASSES] += passes
@@ -1125,4 +1265,4 @@ def _overlaps_approaching(pos, vel, radius, length):
     cj = np.empty(16, np.int64)
     ct = np.empty(16, np.float64)
     return _detect(pos, vel, radius, age, active, True, np.zeros(n), 0.0, 2.0 * rmax, 0.0, length, nc, cell_of, start,
-                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]))
+                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]), np.zeros((n, dim)))
