@@ -302,9 +302,9 @@ class SqliteFile(RunStore):
     thread flushes them to the disk as it goes (``fdatasync``), so that the commit's fsync
     has only the last ones left. The next writer puts the database in WAL mode
     (:func:`use_wal`), as every other. Measured on the README example (177,635 bounces,
-    a 0.075 s engine), 2 cores at load 1.5, 9 alternating rounds each: the run's commit,
-    as the user waits for it (last chunks, RESULTAT row, COMMIT, close, name), 13-15 ms
-    against 31-54 ms in WAL.
+    a 0.075 s engine), 2 cores at load 0.6-2.1, 9 alternating rounds a run: the run's
+    commit, as the user waits for it (last chunks, RESULTAT row, COMMIT, close, name),
+    13-21 ms against 31-54 ms in WAL.
     """
 
     def __init__(self, db: str, path: Path | None = None, connect: tuple = None):
@@ -745,7 +745,7 @@ class _EarlyInsert:
             # engine has stopped: the commit's fsync follows at once
             if self._fd is None:
                 self._fd = os.open(self._flushed, os.O_RDONLY)
-            os.fdatasync(self._fd)
+            getattr(os, "fdatasync", os.fsync)(self._fd)  # (macOS has fsync only)
 
     def _main(self) -> None:
         conn = self.conn
