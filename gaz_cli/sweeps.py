@@ -28,6 +28,7 @@ runs, row for row.
 
 from __future__ import annotations
 
+import gc
 import itertools
 import logging
 import math
@@ -458,12 +459,22 @@ class _client:
             raise GazError("gaz sweep runs on Dask, which is not installed; "
                            "pip install 'gaz[sweep]' (or pip install 'dask[distributed]')") from None
         if self.scheduler:
+            failure = None
             try:
                 self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s")
             except (OSError, TimeoutError, ValueError) as err:  # ValueError: a malformed address
-                raise GazError(f"--scheduler {self.scheduler!r}: cannot reach the Dask scheduler "
-                               f"({' '.join(str(err).split()) or type(err).__name__}); "
-                               "check the address, or leave --scheduler out to run here") from None
+                failure = (f"--scheduler {self.scheduler!r}: cannot reach the Dask scheduler "
+                           f"({' '.join(str(err).split()) or type(err).__name__}); "
+                           "check the address, or leave --scheduler out to run here")
+            if failure is not None:
+                # the half-made Client is closed now, by its __del__: left to the garbage
+                # collector (its traceback keeps it until then), it was closed at any later
+                # allocation, once inside another Client's start, which holds the lock that
+                # every Client's loop runner shares and that its close takes: a sweep hung
+                # for good (distributed's LoopRunner._lock). Raised outside the except
+                # block, so that the error does not keep the failure's traceback either.
+                gc.collect()
+                raise GazError(failure)
             return self.client
         workers = self.workers or cores()
         # the cluster's own logs stay off stderr up to ERROR (a worker's heartbeat failing as an

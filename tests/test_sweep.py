@@ -3,6 +3,8 @@ run gives, failures reported while the others go on, a stored run skipped."""
 
 from __future__ import annotations
 
+import gc
+
 from dataclasses import replace
 
 import numpy as np
@@ -196,6 +198,24 @@ def test_a_malformed_scheduler_address_is_one_line(tmp_path):
         sweep.run(sweep.plan([("n", [10])], seeds=1), scene_of, key_of, str(tmp_path / "s.db"),
                   scheduler="nonsense", progress=False)
     assert "\n" not in str(err.value) and "missing port number" in str(err.value)
+
+
+@pytest.mark.parametrize("address", ["tcp://127.0.0.1:9", "nonsense"])
+def test_a_scheduler_that_fails_leaves_no_client_for_the_garbage_collector(monkeypatch, address):
+    """.ci/run hung for good in test_gaz_sweep_stores_then_skips_and_analyse_tabulates: the
+    Client that an unreachable --scheduler left half-made (kept by the error's traceback) was
+    closed by the garbage collector inside the next sweep's Client start, which held the lock
+    that its close takes (py-spy: Client.__del__ -> LoopRunner.stop under
+    LoopRunner._start_unlocked). Now no Client of the failed call is alive once it has failed,
+    collected or not."""
+    from distributed import Client
+
+    monkeypatch.setattr(sweep, "SCHEDULER_TIMEOUT_S", 1)
+    before = {id(o) for o in gc.get_objects() if isinstance(o, Client)}
+    with pytest.raises(sweep.GazError, match="cannot reach the Dask scheduler") as err:
+        sweep._client(None, address, 1).__enter__()
+    left = [o for o in gc.get_objects() if isinstance(o, Client) and id(o) not in before]  # (no gc.collect)
+    assert left == [], (left, err.value)
 
 
 # --- from the command line ------------------------------------------------------------
