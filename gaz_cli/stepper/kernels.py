@@ -855,6 +855,15 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
 
 
 @njit
+def _held_gap(pos, vel, support, i, j, d, tau):
+    """Along axis d, for the pair (i, j) of :func:`_held_root`: the relative acceleration of
+    the supports, the relative drift velocity, and the separation tau s before the step's end."""
+    a_d = support[j, d] - support[i, d]
+    dv = vel[j, d] - vel[i, d]
+    return a_d, dv, pos[j, d] - pos[i, d] - dv * tau + 0.5 * a_d * tau * tau
+
+
+@njit
 def _held_root(pos, vel, support, i, j, sigma, tau0):
     """(tau, impact): the contact time back (s) of pair (i, j) on its relative path p(tau) = dr -
     dv tau + A tau^2 / 2 (dr, dv at the step's end, A = support_j - support_i, m/s^2: a particle
@@ -879,9 +888,7 @@ def _held_root(pos, vel, support, i, j, sigma, tau0):
         f = -sigma * sigma
         fp = 0.0
         for d in range(dim):
-            a_d = support[j, d] - support[i, d]
-            dv = vel[j, d] - vel[i, d]
-            p = pos[j, d] - pos[i, d] - dv * tau + 0.5 * a_d * tau * tau
+            a_d, dv, p = _held_gap(pos, vel, support, i, j, d, tau)
             f += p * p
             fp += 2.0 * p * (a_d * tau - dv)
         if fp <= 0.0:
@@ -895,9 +902,7 @@ def _held_root(pos, vel, support, i, j, sigma, tau0):
             vn = 0.0
             an = 0.0
             for d in range(dim):
-                a_d = support[j, d] - support[i, d]
-                dv = vel[j, d] - vel[i, d]
-                p = pos[j, d] - pos[i, d] - dv * tau + 0.5 * a_d * tau * tau
+                a_d, dv, p = _held_gap(pos, vel, support, i, j, d, tau)
                 pp += p * p
                 vn += (dv - a_d * tau) * p
                 an += a_d * p
