@@ -507,17 +507,18 @@ def read_trajectory(path: str | os.PathLike) -> dict:
         return read_gsd(path)
     if fmt == "vtk":
         return read_vtk(path)
-    if fmt is None and not _is_hdf5(path):  # (an H5MD file may have any name)
+    if fmt is None and not _is_hdf5(path):  # (an H5MD file may have any name: read by its signature)
         raise SceneError(f"cannot read trajectory {str(path)!r}: not a file gaz simulate --trajectory "
                          "writes (.h5 or .hdf5: H5MD, .gsd: GSD, .pvd or .vtu: VTK)")
     return read_h5md(path)
 
 
 def _is_hdf5(path) -> bool:
-    """Whether ``path`` starts with the HDF5 signature (False if it cannot be read)."""
+    """Whether ``path`` is an HDF5 file (h5py's own test of the signature; False if unreadable)."""
+    import h5py
+
     try:
-        with open(path, "rb") as f:
-            return f.read(8) == b"\x89HDF\r\n\x1a\n"
+        return bool(h5py.is_hdf5(path))
     except OSError:
         return False
 
