@@ -364,11 +364,8 @@ class SqliteFile(RunStore):
         if self.private is None:
             return True
         conn, self.conn = self.conn, None
-        try:  # (a no-op in the rollback journal the private file is made in; kept for a file in WAL)
-            busy, frames, copied = conn.execute("PRAGMA wal_checkpoint(TRUNCATE)").fetchone()
-        finally:
-            conn.close()  # (the last connection: SQLite deletes an emptied WAL file)
-        if busy or frames != copied or os.path.exists(f"{self.private}-wal"):
+        conn.close()  # (the private file is in the rollback journal: no checkpoint, no WAL file)
+        if os.path.exists(f"{self.private}-wal"):  # (a file that took WAL is not whole without it)
             raise StoreError(f"database {self.shown!r}: its new file could not be completed "
                              f"({str(self.private)!r} kept its WAL file); nothing was stored, try again")
         private, self.private = self.private, None
