@@ -25,6 +25,10 @@ class Recorder:
 
     ``want_bounces`` / ``want_collisions`` tell the engine whether to collect
     those arrays at all: an engine must not spend time on what nobody wants.
+
+    The arrays an engine hands are the recorder's to keep: made for the call, never
+    modified by the engine afterwards (a recorder keeps them without a copy; it must not
+    modify them either, :class:`gaz_cli.runner.Tee` hands the same arrays to several).
     """
 
     want_bounces = False
@@ -172,7 +176,8 @@ class TableRecorder(Recorder):
 
 
 class MemoryRecorder(Recorder):
-    """Keeps every chunk in memory; for tests and small runs."""
+    """Keeps every chunk in memory (the engine's arrays, see :class:`Recorder`); for tests
+    and small runs."""
 
     want_bounces = True
 
@@ -182,10 +187,10 @@ class MemoryRecorder(Recorder):
         self._collisions: list[tuple] = []
 
     def add_bounces(self, t, particle, wall, speed, vperp):
-        self._bounces.append(tuple(np.array(a, copy=True) for a in (t, particle, wall, speed, vperp)))
+        self._bounces.append(tuple(np.asarray(a) for a in (t, particle, wall, speed, vperp)))
 
     def add_collisions(self, t, i, j, impulse):
-        self._collisions.append(tuple(np.array(a, copy=True) for a in (t, i, j, impulse)))
+        self._collisions.append(tuple(np.asarray(a) for a in (t, i, j, impulse)))
 
     def bounces(self) -> dict[str, np.ndarray]:
         """All bounces so far: dict of arrays t, particle, wall, speed, vperp."""

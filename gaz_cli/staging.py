@@ -10,7 +10,8 @@ the chunks kept in memory straight into the database, under a bounded hold of th
 write lock: :class:`gaz_cli.sqlite_writer._EarlyInsert`; the rows stay staged
 here all the same, for the commit to take them if it gives up.)
 
-Up to :data:`MEMORY_ROWS` rows the chunks stay as the engine's arrays (copied):
+Up to :data:`MEMORY_ROWS` rows the chunks stay as the engine's arrays (not copied: an engine
+never touches the arrays it hands again, see :class:`gaz_cli.recording.Recorder`):
 the commit inserts them straight into the database, one pass, each row
 bound once (:func:`insert_rows`). Beyond it, everything goes to a scratch
 file: in the database's folder (same file system), named
@@ -219,14 +220,15 @@ class Stage:
     def add(self, table: str, columns: list) -> list | None:
         """Append rows given as column arrays (one per column of the table, in order).
 
-        Returns the copy kept in memory (not to be modified), or None once the rows go to
-        the scratch file."""
+        Returns the list of arrays kept in memory (the arrays given, not copied: a
+        :class:`gaz_cli.recording.Recorder`'s, which nobody modifies; not to be modified), or
+        None once the rows go to the scratch file."""
         k = len(columns[0])
         if self._chunks is not None and sum(self.rows.values()) + k > MEMORY_ROWS:
             self._spill()
         kept = None
         if self._chunks is not None:
-            kept = [np.array(c, copy=True) for c in columns]
+            kept = [np.asarray(c) for c in columns]
             self._chunks[table].append(kept)
         else:
             insert_rows(self._conn, table, self.tables[table], columns)
