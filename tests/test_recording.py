@@ -50,3 +50,37 @@ def test_the_arrays_an_engine_hands_are_never_modified_afterwards(engine, kw, ch
     for chunk in keeper.kept:
         for handed, copy in chunk:
             np.testing.assert_array_equal(handed, copy)
+
+
+class Chunks(Recorder):
+    """Keeps each chunk of bounces as handed."""
+
+    want_bounces = True
+
+    def __init__(self):
+        self.chunks = []
+
+    def add_bounces(self, *arrays):
+        self.chunks.append(arrays)
+
+
+def test_the_event_engines_last_chunk_is_small_and_its_rows_the_same():
+    """The buffers taper near the run's end (driver._chunk_cap): a writer inserting each chunk
+    while the engine computes the next leaves the user waiting for a small last one; when
+    the kernel hands its rows over changes no event."""
+    scene = Scene(dim=3, length=3.4e-8, duration=2.3e-9, components=((ARGON, 1000),), seed=1, engine="event")
+    tapered, whole = Chunks(), Chunks()
+    engines.engine_run("event")(scene, initial_state(scene), tapered)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(driver, "TAIL_ROWS", driver.BUFFER_ROWS)  # no taper
+        engines.engine_run("event")(scene, initial_state(scene), whole)
+    sizes = [len(c[0]) for c in tapered.chunks]
+    assert sum(sizes) > 2 * driver.BUFFER_ROWS  # a run of several full buffers
+    assert max(sizes) <= driver.BUFFER_ROWS
+    # the pace so far guesses the rows to come within a few percent here (~35 thousand
+    # bounces, Poisson): the last chunk stays near TAIL_ROWS, far below a buffer
+    assert sizes[-1] <= 2 * driver.TAIL_ROWS < driver.BUFFER_ROWS / 2
+    assert len(whole.chunks[-1][0]) > 2 * driver.TAIL_ROWS  # (untapered, this run's last is large)
+    for k in range(5):
+        np.testing.assert_array_equal(np.concatenate([c[k] for c in tapered.chunks]),
+                                      np.concatenate([c[k] for c in whole.chunks]))

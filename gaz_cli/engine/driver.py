@@ -54,6 +54,11 @@ all (0.26 s); measured again later the same day, with a faster engine (0.09 s): 
 64.6 % with 65536, 42.9 % and 46.2 % with 16384 (--buffer-rows, sessions alternating, the
 same CPU). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
 
+TAIL_ROWS = 1 << 11
+"""The smallest chunk the buffers are tapered to near the run's end (:meth:`_Simulation._chunk_cap`):
+the rows a recorder's writer is still inserting when the engine stops, what the user waits
+for (~1 ms of SQLite inserts), for a few more kernel returns (~4, tens of microseconds each)."""
+
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
 """Systems of RESTART_FROM_N particles or more are renumbered in space order every
@@ -261,6 +266,7 @@ class _Simulation(Rows):
 
         self.S = np.zeros(1, STATE)  # the loop's state: self.st, its one record
         st = self.st = self.S[0]
+        self.buffer_rows = BUFFER_ROWS
         st["bufcap"], st["recb"], st["recc"] = BUFFER_ROWS, self.want_b, self.want_c
         pf_from = min(PREFETCH_FROM_N, PREFETCH_LISTS_FROM_N) if self.use_nl else PREFETCH_FROM_N
         st["nc"], st["n"], st["pf"] = nc, n, n >= pf_from and self.mix is None
@@ -372,9 +378,26 @@ class _Simulation(Rows):
         self._rebased_at = int(self.st["events"])
         self.rebases += 1
 
+    def _chunk_cap(self) -> int:
+        """Rows a buffer may hold before the kernel hands them over: BUFFER_ROWS, tapered near
+        the run's end, where it halves the rows expected to come at the pace so far (down to
+        TAIL_ROWS), so that the last chunk is small: a run into a SQLite file inserts each chunk
+        from a thread while the engine computes the next, and the user waits for the last one
+        (gaz_cli.sqlite_writer._EarlyInsert). When the kernel returns changes no event."""
+        st = self.st
+        now = float(st["tnow"]) + self.origin
+        elapsed = now - self.start_time
+        rows = max(self.handed[0] + int(st["nbb"]), self.handed[1] + int(st["ncb"]))
+        if elapsed <= 0.0 or rows == 0:
+            return self.buffer_rows
+        expected = rows / elapsed * (self.t_end - now)
+        return int(min(self.buffer_rows, max(TAIL_ROWS, expected / 2)))
+
     def _flush(self) -> None:
         st = self.st
         nb = int(st["nbb"])
+        self.handed[0] += nb
+        self.handed[1] += int(st["ncb"])
         if nb:
             self.rec.add_bounces(self.bt[:nb] + self.origin, self.bp[:nb].copy(), self.bw[:nb].copy(),
                                  self.bs[:nb].copy(), self.bv[:nb].copy())
@@ -396,6 +419,7 @@ class _Simulation(Rows):
                                          - int(st["events"])))
             if self.rec.wants_progress:
                 budget = min(budget, EVENTS_PER_REPORT)
+            st["bufcap"] = self._chunk_cap()
             status = self._loop(t_stop - self.origin, budget)
             self.rec.progress(float(self.st["tnow"]) + self.origin, int(st["coll"] + st["bounce"]))
             if status == DONE:
@@ -430,7 +454,8 @@ class _Simulation(Rows):
         compile_s = self._warm_up()
         t0 = time.perf_counter()
         self.origin = start_time  # the kernels' clock reads t - origin (see _rebase)
-        self.t_end = start_time + self.duration
+        self.start_time, self.t_end = start_time, start_time + self.duration
+        self.handed = [0, 0]  # bounce, collision rows handed to the recorder so far
         self.rebase_every = (REBASE_EVENTS_PER_PARTICLE_GRAVITY if self.g != 0.0
                              else REBASE_EVENTS_PER_PARTICLE) * self.n
         self._rebased_at = 0
