@@ -1294,7 +1294,9 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     """Q35's mean speed of wall hits, per species (and all), against the flux-weighted mean.
 
     Error: reblocking plus the spread of the N_s speeds drawn at the start
-    (frozen until collisions redraw them, for ever for equal-mass rods).
+    (frozen until collisions redraw them, for ever for equal-mass rods). Theory at the
+    run's kinetic temperature is the fixed-energy value
+    (:func:`gaz_cli.theory.fixed_energy_hit_speed_factor`, 1 - 1/(4 D N)).
     Under gravity, over the settled part of the run only, against the temperature of
     the same hits' <m v_perp^2> = 2 k_B T (:func:`settled_temperature`): a test of the
     flux-weighted Maxwell-Boltzmann shape. Against the conserved energy's temperature the
@@ -1316,12 +1318,16 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     # speeds drawn at the start are kept for ever, and every wall sees the hits of all N ghosts
     frozen_forever = run.dim == 1 and len(run.species) > 0 and run.species.MASS_KG.nunique() == 1
     relax = math.inf if frozen_forever else errorbars.SPEED_RELAXATION
+    # at the run's own kinetic temperature, the D N velocity components share a fixed energy
+    components = (run.dim * run.n if run.temperature_source == "kinetic" and run.gravity <= 0.0
+                  and not run.periodic and run.restitution >= 1.0 and run.wall_restitution >= 1.0
+                  and run.n >= 1 else None)
     for sp, w in zip(run.species.itertuples(), weights):
         sel = pa == sp.PA_NUM
         sums = _per_bin(h.BIN[sel], h.SUM_VIT[sel]) if len(h) else np.zeros(errorbars.BINS)
         counts = _per_bin(h.BIN[sel], h.NB_REBONDS[sel]) if len(h) else np.zeros(errorbars.BINS)
         exp = (_try("flux-weighted mean <v^2>/<|v|>",
-                    lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG))
+                    lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG, components))
                if math.isfinite(temperature) else Expectation(NA, "flux-weighted", "temperature unknown"))
         static = (errorbars.hit_speed_var(run.dim, run.n if frozen_forever else int(sp.COUNT),
                                           K_B * temperature / sp.MASS_KG)
