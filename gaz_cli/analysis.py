@@ -1611,7 +1611,7 @@ def interruptible(plot_dir: str | None = None):
             yield
     except Interrupted as exc:
         figures = f"; the figures already drawn stay in '{plot_dir}'" if plot_dir is not None else ""
-        raise Interrupted(exc.signum, f"the analysis stopped before printing its tables{figures}") from None
+        raise Interrupted(exc.signum, f"{interrupts.STOPPED_ANALYSIS}{figures}") from None
 
 
 def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:
