@@ -427,11 +427,12 @@ def load_run(store, si_num: int) -> Run:
     if run.hits is None:  # PostgreSQL, or rows not in time order: one GROUP BY of them all
         hits = store.query("bounce_bins", **bins)
         hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
-        key = np.rint(hits.pop("BIN_KEY").to_numpy(dtype=float)).astype(np.int64)
+        key = _checked_bin_keys(run, hits.pop("BIN_KEY").to_numpy(dtype=float))
         hits.insert(0, "RE_DIR", key % 8 - 4)
         hits.insert(1, "PA_NUM", (key // 8) % 1048576)
         hits.insert(2, "BIN", np.clip(key // (8 * 1048576), 0, errorbars.BINS - 1))
         run.hits = hits
+    _check_bounce_speeds(run)
     if run.record == "all":
         coll = store.query("collision_bins", **bins)
         coll = coll[coll.BIN.notna()].reset_index(drop=True)
@@ -459,13 +460,22 @@ def plane_count(scene_file: str | None) -> int:
         return 0
 
 
+def _refuse_stored(si_num: int, problem: str):
+    """StoreError: simulation ``si_num`` holds rows no run can have (``problem`` says which, and what a run has)."""
+    raise StoreError(f"simulation {si_num} cannot be analysed: {problem}; correct the row, or analyse "
+                     "the others with --sim N")
+
+
 def _check_stored(si_num: int, sim, species: pd.DataFrame) -> None:
     """Refuse (StoreError) a SIMULATION row, or a species of its composition, that no run can have
-    (written by hand or by another program): analysis would divide by it."""
+    (written by hand or by another program): analysis would divide by it, or its squares and
+    products overflow (the ranges of :func:`gaz_cli.scene.check_magnitudes`; a duration up to
+    sqrt(scene.HUGE), the error of a time average taking its square)."""
+    from gaz_cli import scene as sc
+
     def bad(what, value, allowed):
         value = value.item() if hasattr(value, "item") else value     # a numpy scalar: its Python value
-        raise StoreError(f"simulation {si_num} cannot be analysed: {what} is {value!r}, where a run has "
-                         f"{allowed}; correct the row, or analyse the others with --sim N")
+        _refuse_stored(si_num, f"{what} is {value!r}, where a run has {allowed}")
 
     def number(value):
         try:
@@ -477,20 +487,62 @@ def _check_stored(si_num: int, sim, species: pd.DataFrame) -> None:
         bad("its SI_DIM", sim.SI_DIM, "1, 2 or 3")
     if not (n >= 1 and n == int(n)):
         bad("its SI_N", sim.SI_N, "a whole number of particles >= 1")
+    lo, hi = sc.length_range(int(dim))
     if not (length > 0 and math.isfinite(length)):
         bad("its SI_L", sim.SI_L, "a box side > 0 m")
+    if not lo <= length <= hi:
+        bad("its SI_L", sim.SI_L, f"a box side in [{lo:.2g}, {hi:.2g}] m (what double precision carries)")
     if not (duration > 0 and math.isfinite(duration)):
         bad("its SI_DUR", sim.SI_DUR, "a duration > 0 s")
+    if not duration <= math.sqrt(sc.HUGE):
+        bad("its SI_DUR", sim.SI_DUR, f"a duration up to {math.sqrt(sc.HUGE):.2g} s (what double precision carries)")
+    (mlo, mhi), (rlo, rhi) = sc.mass_range(), sc.radius_range()
     for row in species.itertuples():
         if not (number(row.PA_M) > 0 and math.isfinite(number(row.PA_M))):
             bad(f"the PA_M of its species {row.PA_NOM!r}", row.PA_M, "a mass > 0 g")
+        if not 1000.0 * mlo <= number(row.PA_M) <= 1000.0 * mhi:
+            bad(f"the PA_M of its species {row.PA_NOM!r}", row.PA_M,
+                f"a mass in [{1000.0 * mlo:.2g}, {1000.0 * mhi:.2g}] g (what double precision carries)")
         if not (number(row.PA_R) >= 0 and math.isfinite(number(row.PA_R))):
             bad(f"the PA_R of its species {row.PA_NOM!r}", row.PA_R, "a radius >= 0 m")
+        if number(row.PA_R) > 0 and not rlo <= number(row.PA_R) <= rhi:
+            bad(f"the PA_R of its species {row.PA_NOM!r}", row.PA_R,
+                f"a radius of 0 or in [{rlo:.2g}, {rhi:.2g}] m (what double precision carries)")
         if not number(row.CO_N) >= 1:
             bad(f"the CO_N of its species {row.PA_NOM!r}", row.CO_N, "a count >= 1")
 
 
 _HIT_COLUMNS = ["RE_DIR", "PA_NUM", "BIN", "NB_REBONDS", "SUM_VP", "SUM_VIT", "SUM_VP2"]
+_KEYS_PER_BIN = 8 * 1048576
+"""sql/bounce_bins.sql's BIN_KEY = (BIN * 1048576 + PA_NUM) * 8 + RE_DIR + 4: keys per time bin."""
+
+
+def _checked_bin_keys(run: Run, key: np.ndarray) -> np.ndarray:
+    """sql/bounce_bins.sql's BIN_KEY as int64, refused (StoreError) where a bounce's RE_T is outside
+    [0, SI_DUR] (bin BINS: a bounce at SI_DUR itself, kept in the last bin)."""
+    ok = np.isfinite(key) & (key >= 0) & (key < (errorbars.BINS + 1) * _KEYS_PER_BIN)
+    if not ok.all():
+        _refuse_stored(run.si_num, f"a REBOND row has an RE_T outside [0, SI_DUR] = [0, {run.duration:.6g}] s, "
+                                   "where a run records its bounces")
+    return np.rint(key).astype(np.int64)
+
+
+def _check_bounce_speeds(run: Run) -> None:
+    """Refuse (StoreError) REBOND rows whose RE_VIT or RE_VP is not a speed a run in this box records:
+    negative, or above :func:`gaz_cli.scene.speed_range`'s largest (squares and products in double
+    precision), read from the per-bin sums (a bin's sum of k speeds is at most k times the largest)."""
+    from gaz_cli import scene as sc
+
+    h = run.hits
+    if h is None or not len(h):
+        return
+    top = sc.speed_range(run.length, run.species.RADIUS_M.to_numpy(dtype=float) if len(run.species) else [])[1]
+    count = h.NB_REBONDS.to_numpy(dtype=float)
+    for column, name in (("SUM_VIT", "RE_VIT"), ("SUM_VP", "RE_VP")):
+        total = h[column].to_numpy(dtype=float)
+        if not np.all(np.isfinite(total) & (total >= 0) & (total <= top * count)):
+            _refuse_stored(run.si_num, f"a REBOND row has an {name} outside [0, {top:.2g}] m/s, the speeds a "
+                                       f"run records in a box of {run.length:.3g} m (what double precision carries)")
 
 
 def _bin_floor(t: float, duration: float) -> int:
@@ -573,6 +625,9 @@ def _bin_sums_by_ranges(store, run: Run) -> pd.DataFrame | None:
                     seen[r] = sql("lookup_bounce", si_num=run.si_num, re_num=r)[0]
                 return seen[r]
 
+            t_first, t_last = at(int(first))[1], at(int(last))[1]
+            if not (0.0 <= t_first and t_last * errorbars.BINS / duration < errorbars.BINS + 1):
+                return None     # a time no run has: bounce_bins.sql's path refuses it (_checked_bin_keys)
             starts = _bin_starts(at, int(first), int(last), duration)
             for b in range(errorbars.BINS):
                 if starts[b] == starts[b + 1]:
@@ -1294,7 +1349,9 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     """Q35's mean speed of wall hits, per species (and all), against the flux-weighted mean.
 
     Error: reblocking plus the spread of the N_s speeds drawn at the start
-    (frozen until collisions redraw them, for ever for equal-mass rods).
+    (frozen until collisions redraw them, for ever for equal-mass rods). Theory at the
+    run's kinetic temperature is the fixed-energy value
+    (:func:`gaz_cli.theory.fixed_energy_hit_speed_factor`, 1 - 1/(4 D N)).
     Under gravity, over the settled part of the run only, against the temperature of
     the same hits' <m v_perp^2> = 2 k_B T (:func:`settled_temperature`): a test of the
     flux-weighted Maxwell-Boltzmann shape. Against the conserved energy's temperature the
@@ -1316,12 +1373,16 @@ def wall_speed_frame(run: Run, temperature: float) -> pd.DataFrame:
     # speeds drawn at the start are kept for ever, and every wall sees the hits of all N ghosts
     frozen_forever = run.dim == 1 and len(run.species) > 0 and run.species.MASS_KG.nunique() == 1
     relax = math.inf if frozen_forever else errorbars.SPEED_RELAXATION
+    # at the run's own kinetic temperature, the D N velocity components share a fixed energy
+    components = (run.dim * run.n if run.temperature_source == "kinetic" and run.gravity <= 0.0
+                  and not run.periodic and run.restitution >= 1.0 and run.wall_restitution >= 1.0
+                  and run.n >= 1 else None)
     for sp, w in zip(run.species.itertuples(), weights):
         sel = pa == sp.PA_NUM
         sums = _per_bin(h.BIN[sel], h.SUM_VIT[sel]) if len(h) else np.zeros(errorbars.BINS)
         counts = _per_bin(h.BIN[sel], h.NB_REBONDS[sel]) if len(h) else np.zeros(errorbars.BINS)
         exp = (_try("flux-weighted mean <v^2>/<|v|>",
-                    lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG))
+                    lambda: theory.wall_hit_mean_speed(run.dim, temperature, sp.MASS_KG, components))
                if math.isfinite(temperature) else Expectation(NA, "flux-weighted", "temperature unknown"))
         static = (errorbars.hit_speed_var(run.dim, run.n if frozen_forever else int(sp.COUNT),
                                           K_B * temperature / sp.MASS_KG)
@@ -1550,7 +1611,7 @@ def interruptible(plot_dir: str | None = None):
             yield
     except Interrupted as exc:
         figures = f"; the figures already drawn stay in '{plot_dir}'" if plot_dir is not None else ""
-        raise Interrupted(exc.signum, f"the analysis stopped before printing its tables{figures}") from None
+        raise Interrupted(exc.signum, f"{interrupts.STOPPED_ANALYSIS}{figures}") from None
 
 
 def _report(store, db: str, sim: int | None, plot_dir: str | None) -> dict:

@@ -16,7 +16,7 @@ import warnings
 
 import click
 
-from gaz_cli import __version__
+from gaz_cli import __version__, interrupts
 from gaz_cli.engines import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import GazError, GazWarning
 
@@ -393,7 +393,8 @@ def analyse(db, sim, fmt, plot, table, vs):
       gaz analyse --db gaz.db --sim 1 --format csv --table q36 > walls.csv
       gaz analyse --db iso.db --vs packing --plot figs      # after gaz sweep
     """
-    from gaz_cli import analysis, api
+    with interrupts.saying(interrupts.STOPPED_ANALYSIS):    # a second of imports
+        from gaz_cli import analysis, api
 
     if vs is not None:
         if sim is not None or table is not None:
@@ -564,7 +565,9 @@ def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
     try:
-        with warnings.catch_warnings():  # restores the filters and showwarning on the way out
+        # SIGTERM as SIGINT from here on: its default action ends the process without a word,
+        # and a command's imports (NumPy, pandas, SQLAlchemy...) take about a second
+        with interrupts.from_the_start(), warnings.catch_warnings():  # both restored on the way out
             warnings.simplefilter("always", GazWarning)
             warnings.showwarning = _show_warning
             cli.main(args=argv, prog_name=prog, standalone_mode=False)

@@ -10,6 +10,11 @@ that must not be cut in half.
 - :func:`held` (around a commit, a trajectory snapshot): a signal arriving
   inside the block is recorded and raised when the block has ended, so the
   block is done whole or not started.
+- :func:`from_the_start` (the command line's first act): SIGTERM raises
+  Interrupted wherever it lands, as SIGINT raises KeyboardInterrupt, where its
+  default action would end the process without a word (the imports of NumPy,
+  pandas, SQLAlchemy... take about a second before a command's own handling).
+  :func:`saying` gives the words for a step (e.g. analyse's imports).
 
 Handlers are installed from the main thread only (Python's rule); elsewhere
 these are no-ops.
@@ -89,6 +94,39 @@ def held():
         if installed is not None:
             _pending.clear()
         raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def from_the_start():
+    """SIGTERM raises Interrupted inside the block (the command line's whole command), as SIGINT
+    raises KeyboardInterrupt; the old handler comes back after. A SIGTERM ignored stays ignored.
+
+    :func:`catching` and :func:`held` install their handler over it and put it back after.
+    """
+    previous = signal.getsignal(signal.SIGTERM) if _main_thread() else signal.SIG_IGN
+    if previous is signal.SIG_IGN:
+        yield
+        return
+    signal.signal(signal.SIGTERM, _handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        _pending.clear()    # the command is over: no later held() block of this process raises it
+
+
+STOPPED_ANALYSIS = "the analysis stopped before printing its tables"
+"""What ``gaz analyse`` left when a signal stopped it (:func:`saying`, analysis.interruptible)."""
+
+
+@contextlib.contextmanager
+def saying(left: str):
+    """A SIGINT or SIGTERM inside the block ends the command with ``left`` as what it left
+    (Interrupted(signum, left), the one line the command line prints)."""
+    try:
+        yield
+    except KeyboardInterrupt as exc:
+        raise Interrupted(getattr(exc, "signum", signal.SIGINT), left) from None
 
 
 def interrupt_in(exc: BaseException) -> KeyboardInterrupt | None:

@@ -47,7 +47,7 @@ __all__ = [
     "compressibility_factor", "hard_sphere_pressure",
     "contact_value", "enskog_collision_frequency", "pair_collision_density", "mean_free_path",
     "speed_pdf", "mean_speed", "rms_speed", "most_probable_speed",
-    "wall_hit_speed_pdf", "wall_hit_mean_speed",
+    "wall_hit_speed_pdf", "wall_hit_mean_speed", "fixed_energy_hit_speed_factor",
     "wall_hit_normal_speed_pdf", "wall_hit_mean_normal_speed", "wall_hit_rate",
     "barometric_height_pdf", "ideal_gravity_wall_pressures", "floor_minus_ceiling_pressure",
     "chemical_potential_excess", "hard_sphere_gravity_wall_pressures", "hard_sphere_gravity_profile",
@@ -727,13 +727,37 @@ def wall_hit_speed_pdf(dim: int, speed, temperature, mass):
                 / mean_speed(dim, temperature, mass))
 
 
-def wall_hit_mean_speed(dim: int, temperature, mass):
+def wall_hit_mean_speed(dim: int, temperature, mass, shared_components: int | None = None):
     """Mean speed of particles hitting a wall, <v^2>/<|v|> (m/s): what Q35 measures.
 
     In units of sqrt(kT/m): sqrt(pi/2) = 1.2533 (1D), sqrt(8/pi) = 1.5958 (2D),
     3 sqrt(pi/8) = 1.8800 (3D); ratio to the gas's mean speed pi/2, 4/pi, 3 pi/8.
+    With ``shared_components`` = D N (a walled box of N particles at a fixed kinetic
+    energy, k_B T = 2K/(D N) its kinetic temperature), times
+    :func:`fixed_energy_hit_speed_factor` (1 - 1/(4 D N)): the microcanonical value.
     """
-    return _out(np.asarray(rms_speed(dim, temperature, mass)) ** 2 / mean_speed(dim, temperature, mass))
+    canonical = np.asarray(rms_speed(dim, temperature, mass)) ** 2 / mean_speed(dim, temperature, mass)
+    if shared_components is None:
+        return _out(canonical)
+    return _out(canonical * fixed_energy_hit_speed_factor(shared_components))
+
+
+def fixed_energy_hit_speed_factor(components: int) -> float:
+    """Mean wall-hit speed at a fixed kinetic energy over its canonical value at the same
+    kinetic temperature: sqrt(2/M) Gamma((M + 1)/2)/Gamma(M/2) = 1 - 1/(4M) + O(1/M^2).
+
+    M = D N velocity components share the energy K (walls: no conserved momentum). In the
+    variables u = sqrt(m) v they are uniform on the sphere |u|^2 = 2K whatever the masses, so
+    one particle's r = |u| has the density r^(D-1) (2K - r^2)^((M-D-2)/2). The flux weights a
+    hit by |u_perp|, whose angular factor cancels in the mean hit speed <r^2>/<r>: against the
+    Maxwellian's at k_B T = 2K/M, the ratio above, the same for every D and species (0.99377
+    for 40 rods, 0.99917 for 100 spheres). Exact for an ergodic gas; the canonical value is
+    biased high by 1/(4M) relative, a fifth of the error bar of a 1D run with 40 rods.
+    """
+    m = int(components)
+    if m < 1:
+        raise SceneError(f"a fixed-energy hit speed needs at least 1 velocity component, got {components!r}")
+    return math.sqrt(2.0 / m) * math.exp(math.lgamma((m + 1) / 2.0) - math.lgamma(m / 2.0))
 
 
 def rods_hit_speed_sampling_error(number, temperature, mass):

@@ -155,7 +155,7 @@ def test_report_on_an_ideal_gas_agrees_with_theory(synthetic_db):
         theory.ideal_wall_pressure(3, 1e-7, TEMPERATURE, 1000, RADIUS), rel=1e-12, abs=0)
     speed = frames["mean wall-hit speed against theory"].iloc[0]
     assert abs(speed.DEV_SIGMA) < 3
-    assert speed.THEORY == pytest.approx(theory.wall_hit_mean_speed(3, TEMPERATURE, MASS), rel=1e-12)
+    assert speed.THEORY == pytest.approx(theory.wall_hit_mean_speed(3, TEMPERATURE, MASS, 3 * 1000), rel=1e-12)
     sim = frames["simulation"]
     assert sim["T_KIN_K"] == pytest.approx(TEMPERATURE, rel=1e-12)
     # collisions without CHOC rows: the rate, a positive theory, no error bar and no deviation

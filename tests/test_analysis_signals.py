@@ -56,3 +56,36 @@ def test_a_signal_stops_analyse_with_one_line(db, signum, where, args):
     assert proc.stdout == ""
     assert proc.stderr.count("\n") == 1, proc.stderr
     assert proc.stderr.startswith(f"gaz: interrupted by {name}; the analysis stopped before printing"), proc.stderr
+
+
+EARLY_CHILD = textwrap.dedent("""
+    import os, signal, sys
+    from gaz_cli import cli
+
+    class SignalOnImport:
+        '''Sends the signal to this process when the command first imports module sys.argv[2].'''
+
+        def find_spec(self, name, path=None, target=None):
+            if name == sys.argv[2]:
+                sys.meta_path.remove(self)
+                os.kill(os.getpid(), int(sys.argv[1]))
+            return None
+
+    sys.meta_path.insert(0, SignalOnImport())
+    cli.main(sys.argv[3:])
+""")
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+@pytest.mark.parametrize("module", ["numpy", "gaz_cli.analysis"])
+def test_a_signal_during_analyses_imports_is_one_line(db, signum, module):
+    """The signal lands while ``gaz analyse`` imports NumPy (the first of about a second of
+    imports) or the analysis module: the process sends it to itself from the import system, so
+    that it lands there every time. Before: SIGTERM ended the process without a word (returncode
+    -15, stderr empty); SIGINT said 'nothing was written for the interrupted run'."""
+    proc = subprocess.run([sys.executable, "-c", EARLY_CHILD, str(int(signum)), module, "analyse", "--db", db,
+                           "--sim", "1"], capture_output=True, text=True, timeout=120)
+    name = signal.Signals(signum).name
+    assert proc.returncode == 128 + signum, (proc.returncode, proc.stderr)
+    assert proc.stdout == ""
+    assert proc.stderr == f"gaz: interrupted by {name}; the analysis stopped before printing its tables\n", proc.stderr

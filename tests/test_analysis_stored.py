@@ -35,6 +35,20 @@ def good_db(tmp_path_factory):
     ("UPDATE PARTICULE SET PA_M = 0", "PA_M"),
     ("UPDATE PARTICULE SET PA_R = -1", "PA_R"),
     ("UPDATE COMPOSITION SET CO_N = 0", "CO_N"),
+    # huge finite values. Before: a bounce at RE_T = 1e300 printed numpy's 'RuntimeWarning:
+    # invalid value encountered in cast' and its source line, then the tables (exit 0); RE_VIT,
+    # RE_VP = 1e300 'overflow encountered in square', then 'internal error: LinAlgError', exit 3;
+    # SI_L, SI_DUR = 1e300 'internal error: OverflowError', exit 3; PA_M, PA_R = 1e300 overflow
+    # warnings, then tables of inf and NaN
+    ("UPDATE REBOND SET RE_T = 1e300 WHERE RE_NUM = 1", "RE_T"),       # out of time order: GROUP BY
+    ("UPDATE REBOND SET RE_T = 1e300 WHERE RE_NUM = (SELECT MAX(RE_NUM) FROM REBOND)", "RE_T"),  # in order
+    ("UPDATE REBOND SET RE_T = -1 WHERE RE_NUM = 1", "RE_T"),
+    ("UPDATE REBOND SET RE_VIT = 1e300 WHERE RE_NUM = 2", "RE_VIT"),
+    ("UPDATE REBOND SET RE_VP = 1e300 WHERE RE_NUM = 2", "RE_VP"),
+    ("UPDATE SIMULATION SET SI_L = 1e300", "SI_L"),
+    ("UPDATE SIMULATION SET SI_DUR = 1e300", "SI_DUR"),
+    ("UPDATE PARTICULE SET PA_M = 1e300", "PA_M"),
+    ("UPDATE PARTICULE SET PA_R = 1e300", "PA_R"),
 ])
 @pytest.mark.parametrize("sim", [["--sim", "1"], []], ids=["sim", "all"])
 def test_a_row_no_run_can_have_is_one_line_naming_it(good_db, tmp_path, update, column, sim):
