@@ -86,3 +86,42 @@ def test_stale_scratch_files_of_this_database_are_removed_and_no_other(tmp_path,
     staging.remove_stale(tmp_path / name)
     assert not mine.exists() and theirs.exists() and alive.exists()
 
+
+
+@pytest.mark.parametrize("fault", ["scratch insert fails", "interrupted"])
+def test_a_spilled_run_that_fails_leaves_nothing_and_says_so(tmp_path, monkeypatch, fault):
+    """The scratch file is written by a thread of its own (staging._ScratchWriter): its failure
+    (a full disk) stops the run with one StoreError line, and an interrupt while it writes
+    stops it too; either way nothing is stored, the thread is gone and no scratch file is left,
+    and the database takes the next run."""
+    import sqlite3
+    import threading
+
+    from gaz_cli.errors import Interrupted, StoreError
+
+    db = str(tmp_path / "g.db")
+    scene = Scene(dim=3, length=3.4e-8, duration=4e-10, seed=1, components=((lookup("Ar"), 1000),))
+    assert runner.simulate(scene, db=db)["si_num"] == 1  # an existing database, in WAL
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 1000)  # this run's ~7 thousand bounces spill
+    insert_rows = staging.insert_rows
+
+    def failing(conn, table, *args, **kw):  # the scratch file's disk full, not the database's
+        if threading.current_thread().name == "gaz-scratch":
+            raise sqlite3.OperationalError("database or disk is full")
+        return insert_rows(conn, table, *args, **kw)
+
+    if fault == "scratch insert fails":
+        monkeypatch.setattr(staging, "insert_rows", failing)
+        with pytest.raises(StoreError, match="full"):
+            runner.simulate(scene, db=db)
+    else:
+        def interrupted(*args, **kwargs):  # a SIGINT after the engine, the scratch file written
+            raise Interrupted(2)
+        monkeypatch.setattr(runner, "run_pressure", interrupted)
+        with pytest.raises(Interrupted):
+            runner.simulate(scene, db=db)
+        monkeypatch.undo()
+    assert not any(t.name == "gaz-scratch" for t in threading.enumerate())
+    assert sorted(p.name for p in tmp_path.iterdir() if "staging" in p.name) == []
+    monkeypatch.setattr(staging, "insert_rows", insert_rows)
+    assert runner.simulate(scene, db=db)["si_num"] == 2
