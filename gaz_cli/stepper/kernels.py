@@ -594,7 +594,29 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma, sup
         nd = planes[p, dim + d]
         pos[i, d] += (d_new - d_e) * nd
         vel[i, d] += (w_new - w_h) * nd
+    _in_front(pos, planes, i, p, radius[i])
     return bounced
+
+
+@njit
+def _in_front(pos, planes, i, p, r):
+    """Move particle i's centre along extra plane p's normal until it is at least r m from the
+    plane. The move onto a tilted plane rounds (a few ulps of the coordinates), and a centre
+    left that little behind it was a contact again in every pass: a ball sliding on a plane of
+    slope 0.2 cost 41 passes and 9.4 plane contacts a step at dt 1e-3 for 2 and 1."""
+    dim = pos.shape[1]
+    scale = 0.0
+    for d in range(dim):
+        scale = max(scale, abs(pos[i, d]), abs(planes[p, d]))
+    for _ in range(8):
+        dist = 0.0
+        for d in range(dim):
+            dist += (pos[i, d] - planes[p, d]) * planes[p, dim + d]
+        if dist >= r:
+            return
+        step = max(r - dist, 2.220446049250313e-16 * scale)
+        for d in range(dim):
+            pos[i, d] += step * planes[p, dim + d]
 
 
 @njit
