@@ -133,3 +133,60 @@ def test_a_ball_sliding_on_a_tilted_plane_meets_it_once_a_step(dt):
     np.testing.assert_allclose(stats.final.positions[0], x0 + (u * t + 0.5 * a * t * t) * tangent,
                                rtol=ROUND_OFF, atol=ROUND_OFF * r)
     np.testing.assert_allclose(stats.final.velocities[0], (u + a * t) * tangent, rtol=ROUND_OFF, atol=ROUND_OFF)
+
+
+def two_balls_sliding_on_a_wall(dt, slope):
+    """A ball (1 kg, R 1 cm) at rest on a wall of restitution 0.7 and a second one sliding on it
+    at 1 m/s into the first, pair restitution 1, gravity G, 2D, 1 m box, 0.3 s: the floor
+    (slope None) or an extra plane tilted by ``slope`` (its rise over run; the balls slide down
+    it). Returns (scene, state, recorder, stats)."""
+    r = BALL.radius
+    u = 1.0
+    gap = 0.1537  # m between the two balls' surfaces: the collision in the middle of a step
+    if slope is None:
+        planes, point, tangent, normal = (), np.array([0.0, 0.0]), np.array([1.0, 0.0]), np.array([0.0, 1.0])
+    else:
+        normal = np.array([slope, 1.0]) / math.hypot(slope, 1.0)  # falls along +x
+        tangent = np.array([normal[1], -normal[0]])
+        point = np.array([0.0, 0.5])
+        planes = ((tuple(point), tuple(normal), 0.7),)
+    sc = Scene(dim=2, length=1.0, duration=0.3, components=((BALL, 2),), seed=1, engine="step", dt=dt,
+               gravity=G, wall_restitution=0.7, restitution=1.0, planes=planes)
+    base = point + r * normal if slope is not None else np.array([0.0, r])
+    x = base + np.outer([0.3 + 2 * r + gap, 0.3], tangent)
+    st = State(x, np.outer([0.0, u], tangent), sc.kinds())
+    rec = MemoryRecorder(collisions=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stats = stepper.run(sc, st, rec)
+    return sc, st, rec, stats
+
+
+@pytest.mark.parametrize("slope", [None, 0.2])
+@pytest.mark.parametrize("dt", [1e-3, 4e-3, 0.01])  # u dt < 2 R: seed 002's overlap rule sees the collision
+def test_a_ball_at_rest_on_a_wall_costs_one_contact_a_step_when_hit_along_it(dt, slope):
+    """Two balls on a wall (the box's floor, or a ramp of slope 0.2 as in the marbles preset)
+    collide along it: each keeps resting on the wall, one contact a step each (the floor's rows,
+    the plane's count), and they exchange their velocities along it.
+
+    Before, the collision released both balls from the wall (an impact on a held ball), though
+    it pushed neither off nor into it: each fell behind the wall by g tau^2 / 2 in the time left
+    and met it again, one more contact a ball for every collision (2 steps + 2 here; in the
+    marbles preset's pile on its ramp, 6.0 plane contacts a ball and step at t = 2.6 s, 2.9
+    before db25495's holds, 3.0 now). On the ramp the two balls' line of centres is parallel
+    to it only to round-off (kernels.LIFT_ROUND_OFF): taken for a lift, it released one ball
+    (2 steps + 1). Exact in the kernel: the exchange to round-off, the counts exactly."""
+    sc, st, rec, stats = two_balls_sliding_on_a_wall(dt, slope)
+    steps = stats.extras["steps"]
+    assert stats.collisions == 1
+    contacts = stats.wall_bounces if slope is None else stats.extras["plane_bounces"]
+    assert contacts == 2 * steps
+    accel = 0.0 if slope is None else G * slope / math.hypot(slope, 1.0)  # along the ramp, m/s^2
+    t = sc.duration
+    v_end = np.array([1.0 + accel * t, accel * t])  # the exchange: the first ball leaves at 1 m/s
+    v_along = stats.final.velocities @ np.array(st.velocities[1] / np.linalg.norm(st.velocities[1]))
+    np.testing.assert_allclose(v_along, v_end, rtol=ROUND_OFF, atol=ROUND_OFF)
+    if slope is None:
+        b = rec.bounces()
+        weight = 1.7 * float(np.sum(sc.masses()[b["particle"]] * b["vperp"]))  # (1 + e_w) m |v_perp|
+        assert weight == pytest.approx(2 * BALL.mass * G * t, rel=ROUND_OFF)

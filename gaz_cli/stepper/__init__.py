@@ -41,7 +41,9 @@ on it is found and met on its true path (at rest), not on its drift line
 the drift lines, whose impulse carries its weight); one that a
 collision takes off it flies freely from the contact (kernels._release: it
 ends the step on the free parabola, and its floor row loses the support of
-the time left), friction aside.
+the time left), friction aside; one that a collision pushes along the floor,
+or into it and to rest again within the step, stays held, the floor taking
+the push (kernels._wall_takes: one contact a step, its row the momentum).
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces

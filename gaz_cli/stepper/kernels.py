@@ -95,6 +95,11 @@ found are resolved to round-off, but the overlap rule misses grazing ones that e
 the contact distance within one step, whatever dt: with a relative displacement l = |dv| dt per
 step they end at most l^2 / (8 sigma) deep (a chord of length l), so a 1% overlap means the
 particles move about 0.3 sigma relative to each other in a step: dt is too long."""
+LIFT_ROUND_OFF = 64.0 * 2.220446049250313e-16
+"""Round-off of the normal part of a line of centres, per (largest coordinate / centres'
+distance): two balls a wall holds sit on it to a few ulps of their coordinates, so their line
+of centres is parallel to it within a few eps x |x| / sigma (64 eps leaves room for the
+projections and differences); a collision between them lifts neither (:func:`_wall_takes`)."""
 SWEEP_BOUNCES = 1 << 20
 """Box-wall bounces of one particle in the safety net after the pass limit (:func:`_walls_sweep`):
 a particle crossing the box that many times in one step is put back on the wall."""
@@ -334,25 +339,27 @@ def _rests(w_c, alpha, e, tau):
 
 
 @njit
-def _hold(i, normal_sign, d, alpha, tau, support, hold_row, row):
-    """Note particle i as held by a wall (box axis d, inward normal sign normal_sign) from tau s
-    before the step's end: support[i] = -alpha along the normal (m/s^2, the wall's push that
-    cancels its normal acceleration alpha < 0), hold_row[i] = its bounce row (-1: none)."""
-    for k in range(support.shape[1]):
+def _hold(i, normal_sign, d, alpha, e, support, hold_row, row):
+    """Note particle i as held by a wall (box axis d, inward normal sign normal_sign, restitution
+    e): support[i, :D] = -alpha along the normal (m/s^2, the wall's push that cancels its normal
+    acceleration alpha < 0), support[i, D] = e, hold_row[i] = its bounce row (-1: none)."""
+    dim = support.shape[1] - 1
+    for k in range(dim):
         support[i, k] = 0.0
     support[i, d] = -alpha * normal_sign
+    support[i, dim] = e
     hold_row[i] = row
 
 
 @njit
-def _release(i, tau, pos, vel, support, hold_row, bf, ew):
+def _release(i, tau, pos, vel, support, hold_row, bf):
     """A particle held by a floor (support[i] != 0) that a collision takes off it tau s before
     the step's end: the floor held it only until then. In the kernel a held particle ends the
     step with the drift velocity that the closing half kick takes to rest, the floor's support
     paid until the step's end; from the contact on it flies freely, so its drift velocity loses
     support tau and its end position support tau^2 / 2 (the free parabola from its resting
     place, at rest at the contact), and its floor row (hold_row[i] >= 0) the support it was
-    credited for those tau s: (1 + ew) m v_perp stays the momentum the floor gave."""
+    credited for those tau s: (1 + e_w) m v_perp stays the momentum the floor gave."""
     dim = pos.shape[1]
     a2 = 0.0
     for d in range(dim):
@@ -361,14 +368,58 @@ def _release(i, tau, pos, vel, support, hold_row, bf, ew):
         vel[i, d] -= a * tau
         pos[i, d] -= 0.5 * a * tau * tau
         support[i, d] = 0.0
-    row = hold_row[i]
-    if row >= 0:
-        vp = bf[row, 2]
-        t2 = bf[row, 1] * bf[row, 1] - vp * vp
-        vp -= math.sqrt(a2) * tau / (1.0 + ew)
-        bf[row, 2] = vp
-        bf[row, 1] = math.sqrt(vp * vp + (t2 if t2 > 0.0 else 0.0))
+    _credit_row(bf, hold_row[i], -math.sqrt(a2) * tau, support[i, dim])
     hold_row[i] = -1
+
+
+@njit
+def _credit_row(bf, row, dp, e):
+    """Add dp m/s (momentum per mass) to the momentum a bounce row (bf row ``row``; -1: none)
+    says its wall (restitution e) gave: its |v_perp| changes by dp / (1 + e), its |v| with it."""
+    if row < 0:
+        return
+    vp = bf[row, 2]
+    t2 = bf[row, 1] * bf[row, 1] - vp * vp
+    vp += dp / (1.0 + e)
+    bf[row, 2] = vp
+    bf[row, 1] = math.sqrt(vp * vp + (t2 if t2 > 0.0 else 0.0))
+
+
+@njit
+def _wall_takes(pos, support, i, j, k, dv, nrm, hit, tau):
+    """(takes, u_n): whether the wall holding particle k (support (N, D + 1), :func:`_hold`) of
+    the pair (i, j) takes at once the part u_n (m/s) along its push of the velocity change dv
+    nrm that a collision gives k at the contact, tau s before the step's end (dv m/s, nrm (D,)
+    the unit line of centres), k staying held: (False, 0.0) when no wall holds k or the
+    collision is no impact on it (not ``hit``).
+
+    It does for an impact on k (``hit``, :func:`_held_root`) that does not take k off the wall
+    (u_n <= 0 but for the round-off of the line of centres, LIFT_ROUND_OFF) and after which k
+    would be back at rest on it within the step (:func:`_rests` of a contact at u_n): the end
+    state is then that of the wall's bounce series, k at rest on it, and the wall's momentum
+    gains -m u_n. Otherwise a hit k is released (:func:`_release`: pushed into the wall, it
+    meets it again in the next pass); a partner merely resting on k (not ``hit``) keeps seed
+    002's rule on the drift lines."""
+    dim = pos.shape[1]
+    a2 = 0.0
+    un = 0.0
+    for d in range(dim):
+        a = support[k, d]
+        a2 += a * a
+        un += a * nrm[d]
+    if a2 == 0.0 or not hit:
+        return False, 0.0
+    a = math.sqrt(a2)
+    un *= dv / a
+    x = 0.0
+    for d in range(dim):
+        x = max(x, abs(pos[i, d]), abs(pos[j, d]))
+    dist2 = 0.0
+    for d in range(dim):
+        dist2 += (pos[j, d] - pos[i, d]) ** 2
+    if un > LIFT_ROUND_OFF * x / math.sqrt(dist2) * abs(dv):
+        return False, un
+    return _rests(un if un < 0.0 else 0.0, -a, support[k, dim], tau), un
 
 
 @njit
@@ -479,7 +530,7 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, g
     if tau >= 0.0:
         rows = hops if hops <= MAX_HOP_ROWS else MAX_HOP_ROWS
         if rest:
-            _hold(i, sign, d, alpha, tau, support, hold_row, nb if want else -1)
+            _hold(i, sign, d, alpha, ew, support, hold_row, nb if want else -1)
         if want:
             code = (d + 1) if upper else -(d + 1)
             t2 = _tangential2(vel, acc, i, d, g, h - tau, gamma)
@@ -585,6 +636,7 @@ def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma, sup
         if rest:  # held by the plane: its support along the plane's normal, no row
             for d in range(dim):
                 support[i, d] = -alpha * planes[p, dim + d]
+            support[i, dim] = e
             hold_row[i] = -1
         if tau < age[i]:
             age[i] = tau
@@ -847,7 +899,7 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
     c = |dr|^2 - sigma^2 at the step end, m^2 (< 0: overlapping).
 
     See the module docstring for the rule; always the cancellation-free root. When a wall
-    holds one of the two (support (N, D), :func:`_hold`) their relative path is not straight
+    holds one of the two (support (N, D + 1), :func:`_hold`) their relative path is not straight
     but the parabola dr - dv tau + A tau^2 / 2, A = support_j - support_i: the straight root
     is refined on it (:func:`_held_root`).
     """
@@ -956,7 +1008,7 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
       sigma_max + 2 |v_i| dt; otherwise within sigma_max + (|v_i| + vmax) dt,
       a pair of two active particles still from the faster. So only the fast
       particles search far. ``speed`` (N,) |v| m/s, ``vmax`` its maximum.
-    ``support`` (N, D) m/s^2: the push of the wall holding each particle at rest (0: free),
+    ``support`` (N, D + 1) m/s^2: the push of the wall holding each particle at rest (0: free),
     for the contacts of a held particle (:func:`_contact_tau`).
     """
     n, dim = pos.shape
@@ -1016,7 +1068,7 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
 
 @njit
 def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair, gamma, h, support, hold_row,
-             bf, ew):
+             bf):
     """Take pair (i, j) back by tau s, change its velocities along the line of centres, move it forward.
 
     Restitution e, or 1 under the TC model when either partner collided less
@@ -1035,11 +1087,16 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     half kick continues from the velocities after the contact (under friction the drift
     velocity changes by e^{gamma s} times the change at the contact).
 
-    A particle a wall holds at rest (support (N, D), :func:`_hold`) is there, at rest, at the
-    contact, not on its drift line: when its partner hits it (:func:`_held_root`), the line of
-    centres and the relative velocity are taken on the true paths (dr - dv tau + A tau^2 / 2
-    and dv - A tau, A = support_j - support_i), and it is released (:func:`_release`): it
-    flies freely from the contact. A partner merely resting on it keeps the drift lines.
+    A particle a wall holds at rest (support (N, D + 1), :func:`_hold`) is there, at rest, at
+    the contact, not on its drift line: when its partner hits it (:func:`_held_root`), the line
+    of centres and the relative velocity are taken on the true paths (dr - dv tau + A tau^2 / 2
+    and dv - A tau, A = support_j - support_i), and when the collision takes it off the wall it
+    is released (:func:`_release`): it flies freely from the contact. A partner merely resting
+    on it keeps the drift lines. When the collision leaves it on the wall (along it, or pushed
+    into it: :func:`_wall_takes`) the wall takes the normal part of its velocity change and it
+    stays held: a ball at rest on a wall costs the wall one contact a step, not one more for
+    each collision (the marbles preset's pile on its ramp at t = 2.6 s: 6.0 plane contacts a
+    ball and step with every impact released, 3.0 so).
     """
     dim = pos.shape[1]
     nrm = np.empty(dim)
@@ -1062,11 +1119,6 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
             an += (acc[j, d] - acc[i, d]) * nrm[d]
     if vn >= 0.0:
         return 0.0
-    for k in (i, j):
-        for d in range(dim):
-            if hit and support[k, d] != 0.0:
-                _release(k, tau, pos, vel, support, hold_row, bf, ew)
-                break
     s = h - tau  # contact time - the step's middle, s
     back = 1.0  # a velocity change at the contact is back times that of the drift velocity
     if gamma > 0.0:
@@ -1081,13 +1133,31 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
     mi = mass[i]
     mj = mass[j]
     jn = (1.0 + ee) * mi * mj / (mi + mj) * vn  # < 0
-    for d in range(dim):
-        dvi = back * jn / mi * nrm[d]
-        dvj = -back * jn / mj * nrm[d]
-        vel[i, d] += dvi
-        vel[j, d] += dvj
-        pos[i, d] += dvi * tau  # r_c + v' tau = r - v tau + v' tau
-        pos[j, d] += dvj * tau
+    dvs = np.empty((2, dim))
+    for m in range(2):
+        k = i if m == 0 else j
+        dv = jn / mi if m == 0 else -jn / mj  # velocity change at the contact along nrm, m/s
+        for d in range(dim):
+            dvs[m, d] = back * dv * nrm[d]
+        takes, un = _wall_takes(pos, support, i, j, k, dv, nrm, hit, tau)
+        if takes:  # the wall takes the part along its push: k stays on it, held
+            a = 0.0
+            for d in range(dim):
+                a += support[k, d] * support[k, d]
+            a = math.sqrt(a)
+            for d in range(dim):
+                dvs[m, d] -= back * un * support[k, d] / a
+            _credit_row(bf, hold_row[k], -un, support[k, dim])
+        elif hit:
+            for d in range(dim):
+                if support[k, d] != 0.0:
+                    _release(k, tau, pos, vel, support, hold_row, bf)
+                    break
+    for m in range(2):
+        k = i if m == 0 else j
+        for d in range(dim):
+            vel[k, d] += dvs[m, d]
+            pos[k, d] += dvs[m, d] * tau  # r_c + v' tau = r - v tau + v' tau
     age[i] = tau
     age[j] = tau
     tlast[i] = t_c
@@ -1130,7 +1200,8 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
     rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
     active = np.zeros(n, np.uint8)
     last = np.full(n, -1, np.int64)  # the wall each particle's path last bent at in this step (-1: none)
-    support = np.zeros((n, dim))  # a wall's push on the particles it holds at rest in this step (_hold), m/s^2
+    support = np.zeros((n, dim + 1))  # a wall's push on the particles it holds at rest in this step, m/s^2, and
+    # its restitution (_hold)
     hold_row = np.full(n, -1, np.int64)  # the bounce row of that rest (-1: none)
     done = np.zeros(n, np.uint8)
     speed = np.zeros(n)
@@ -1229,7 +1300,7 @@ def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes
                         wall_time += _now(clock_id, tbuf) - w0
                         continue
                     impulse = _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, has_pair,
-                                       gamma, h, support, hold_row, bf, ew)
+                                       gamma, h, support, hold_row, bf)
                     if impulse <= 0.0:
                         continue
                     done[i] = 1
@@ -1292,4 +1363,4 @@ def _overlaps_approaching(pos, vel, radius, length):
     cj = np.empty(16, np.int64)
     ct = np.empty(16, np.float64)
     return _detect(pos, vel, radius, age, active, True, np.zeros(n), 0.0, 2.0 * rmax, 0.0, length, nc, cell_of, start,
-                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]), np.zeros((n, dim)))
+                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]), np.zeros((n, dim + 1)))
