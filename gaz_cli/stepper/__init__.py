@@ -37,11 +37,16 @@ velocity at its contact time (kernels._velocity_at), as a collision's impulse
 does, not the drift velocity of the step's middle, which is off by O(dt). A
 ball resting on a floor is held there until the end of the step: an impact
 on it is found and met on its true path (at rest), not on its drift line
-(kernels._held_root; a ball merely resting on it keeps seed 002's rule on
-the drift lines, whose impulse carries its weight); one that a
+(kernels._held_root; a ball merely resting on it is held by it in turn, the
+contact stopping their approach on the drift lines whatever the restitution,
+its weight passed down to the floor's row within the step: kernels._rest_on,
+so a stack stands exactly; a ball resting on several at once, in a pile,
+still settles by repeated collisions each step); one that a
 collision takes off it flies freely from the contact (kernels._release: it
 ends the step on the free parabola, and its floor row loses the support of
-the time left), friction aside.
+the time left), friction aside; one that a collision pushes along the floor,
+or into it and to rest again within the step, stays held, the floor taking
+the push (kernels._wall_takes: one contact a step, its row the momentum).
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces
