@@ -8,6 +8,7 @@ Not a test: it prints numbers. Run from the repository root:
     python benchmarks/recording.py --rounds 7 --in-process   # recording / engine only
     python benchmarks/recording.py --rounds 7 --in-process --staged   # the same, no early insert
     python benchmarks/recording.py --rounds 7 --insert       # the INSERT alone
+    python benchmarks/recording.py --rounds 3 --in-process --longer 10 --existing   # spilled rows
 
 The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 --length 3.4e-8 --duration 1e-8 --seed 1 --db gaz.db``: 1000 argon atoms,
@@ -84,9 +85,17 @@ from gaz_cli.species import lookup
 ARGS = ["--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "1e-8", "--seed", "1"]
 
 
-def scene(record: str) -> Scene:
-    return Scene(dim=3, length=3.4e-8, duration=1e-8, components=((lookup("Ar"), 1000),), seed=1,
-                 record=record)
+LONGER = 1.0
+"""``--longer K``: the scene run K times longer (K >= 6: past staging.MEMORY_ROWS, the rows
+spill to a scratch file)."""
+EXISTING = False
+"""``--existing``: each round's run goes into a database that already holds one (in WAL;
+the early insert bounded by the write lock), not into a new file."""
+
+
+def scene(record: str, duration: float = 1e-8) -> Scene:
+    return Scene(dim=3, length=3.4e-8, duration=duration * LONGER, components=((lookup("Ar"), 1000),),
+                 seed=1, record=record)
 
 
 class Clock:
@@ -201,6 +210,8 @@ def _rounds(rounds, record, recording, opening, tail, log, processes=True) -> di
     with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:  # the disk a user's gaz.db is on
         for k in range(rounds):
             db = os.path.join(tmp, f"r{k}.db")
+            if EXISTING:  # (not timed: the clocks are reset by in_process)
+                runner.simulate(scene(record, 1e-12 / LONGER), db=db)
             r = in_process(db, record, recording, opening, tail)
             staged = [p.name for p in Path(tmp).iterdir() if p.name.endswith(".staging")]
             staged_any += staged
@@ -233,7 +244,7 @@ def _rounds(rounds, record, recording, opening, tail, log, processes=True) -> di
             rows["e2e_nodb"].append(wall_nodb)
             if log:
                 log(f"  round {k + 1}: {r['bounces']:,} bounces; no database {alone['wall']:.3f} s wall, "
-                    f"{alone['cpu']:.3f} s CPU; into a new file {r['wall']:.3f} s wall, {r['cpu']:.3f} s CPU "
+                    f"{alone['cpu']:.3f} s CPU; into the file {r['wall']:.3f} s wall, {r['cpu']:.3f} s CPU "
                     f"(opening {r['open_wall']:.3f} s wall); recording: waited {r['rec_wall']:.3f} s wall "
                     f"= {fig['ratio_wall']:.1%} of the engine, added {fig['added_wall']:.3f} s wall "
                     f"= {fig['ratio_added']:.1%}, {fig['rec_cpu']:.3f} s CPU = {fig['ratio_cpu']:.1%}; "
@@ -346,7 +357,14 @@ def main():
                     help="no early insert (sqlite_writer.LOCK_BOUND_S = 0): the rows moved in after the engine")
     ap.add_argument("--buffer-rows", type=int, default=None,
                     help="an experiment: the event engine's chunk of bounces (driver.BUFFER_ROWS, 16384)")
+    ap.add_argument("--longer", type=float, default=1.0,
+                    help="the scene run K times longer (6 or more: the rows spill to a scratch file)")
+    ap.add_argument("--existing", action="store_true",
+                    help="each run into a database that holds one already, not into a new file")
     args = ap.parse_args()
+    global LONGER, EXISTING
+    LONGER, EXISTING = args.longer, args.existing
+    ARGS[ARGS.index("--duration") + 1] = f"{1e-8 * LONGER:g}"
     if args.staged:
         sqlite_writer.LOCK_BOUND_S = 0
     if args.buffer_rows:
@@ -357,7 +375,7 @@ def main():
         insert_only(args.rounds)
         return
     print(f"gaz recording benchmark: README example ({' '.join(ARGS)}), --record {args.record}, "
-          f"{'staged' if args.staged else 'early insert'}"
+          f"{'staged' if args.staged else 'early insert'}, {'an existing' if EXISTING else 'a new'} file"
           + (f", chunks of {args.buffer_rows}" if args.buffer_rows else "") + "; "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds")
     med = measure(args.rounds, args.record, processes=not args.in_process)
