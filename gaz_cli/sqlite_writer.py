@@ -305,6 +305,15 @@ class SqliteFile(RunStore):
     a 0.075 s engine), 2 cores at load 0.6-2.1, 9 alternating rounds a run: the run's
     commit, as the user waits for it (last chunks, RESULTAT row, COMMIT, close, name),
     13-21 ms against 31-54 ms in WAL.
+
+    Nobody else can take the private file's write lock either: its first run's early insert
+    starts at the first chunk with no bound on the lock, and past staging.MEMORY_ROWS the
+    stage drops its copy of the rows rather than spill them to a scratch file to be moved in
+    at the commit (:class:`StagedRun`). The README scene run ten times longer (1.78 million
+    bounces, benchmarks/recording.py --in-process --longer 10, 2 alternating pairs at load
+    2.3-3.6): the user waited 2.16 / 1.57 s after a 1.1-1.7 s engine (125 / 142 %), now
+    0.08 / 0.05 s (5.5 / 4.0 %); recording CPU 1.47 / 1.57 s, now 0.81 / 0.90 s (each row
+    inserted once).
     """
 
     def __init__(self, db: str, path: Path | None = None, connect: tuple = None):
@@ -440,6 +449,22 @@ def _private_file(path: Path, shown: str) -> Path:
     return Path(private)
 
 
+def _second_name(private: Path, file: "SqliteFile") -> Path:
+    """A second name of a new database's private file (a hard link; a copy where the file
+    system has none), named as private files are: the run committed into it stays readable
+    when :meth:`SqliteFile.publish` has deleted the first name."""
+    second = _private_file(file.path, file.shown)
+    try:
+        os.unlink(second)
+        os.link(private, second)
+    except OSError:
+        import shutil
+
+        with file._errors():
+            shutil.copyfile(private, second)
+    return second
+
+
 def _remove_private(private: Path) -> None:
     """Delete a private file and what SQLite keeps beside it."""
     for suffix in ("", "-wal", "-shm", "-journal"):
@@ -507,9 +532,15 @@ class StagedRun(TableRecorder):
         self._pa_of_particle = scene.kinds()
         columns = layout().columns
         staging.remove_stale(file.path)
-        self.stage = staging.Stage(file.path, {t: columns[t] for t in self._n})
+        # a new database's first run: nobody else can take its private file's lock, so its early
+        # insert starts at the first chunk and is not bounded; past staging.MEMORY_ROWS the
+        # stage drops its copy of the rows instead of spilling them to a scratch file (they are
+        # in the private file: _publish copies them from there if it cannot take the name)
+        self._direct = file.private is not None and LOCK_BOUND_S > 0
+        self.stage = staging.Stage(file.path, {t: columns[t] for t in self._n}, spill=not self._direct)
         self._early: _EarlyInsert | None = None
         self._early_tried = False
+        self._private_run: tuple[int, list[int]] | None = None  # (SI_NUM, PA_NUMs) in the private file
         self._engine_start = time.monotonic()  # (the engine's own start, once it reports it)
 
     def progress(self, t: float, events: int) -> None:
@@ -520,6 +551,8 @@ class StagedRun(TableRecorder):
         return self.file._errors()
 
     def _add(self, table: str, columns):
+        if self._direct:
+            return self._add_direct(table, columns)
         early = self._early
         if early is not None:
             early.check()  # a failure of its thread stops the run here
@@ -534,7 +567,21 @@ class StagedRun(TableRecorder):
             self._early_tried = True
             # every chunk so far: the backlog, then the chunks to come
             self._early = _EarlyInsert(self, [(name, chunk) for name in self._n
-                                              for chunk in self.stage.chunks(name)])
+                                              for chunk in self.stage.chunks(name)], bound=LOCK_BOUND_S)
+
+    def _add_direct(self, table: str, columns) -> None:
+        """A chunk of a new database's first run: to its early insert, started at the first
+        chunk with no bound on the lock (the private file is nobody else's); once the stage has
+        dropped its copy, the run waits while the thread has staging.SCRATCH_QUEUE chunks to go
+        (memory stays bounded)."""
+        if self._early is None:
+            if self._early_tried:  # (ended: no chunk comes after the commit)
+                raise StoreError(f"database {self.file.shown!r}: a chunk of rows came after the run's end")
+            self._early_tried = True
+            self._early = _EarlyInsert(self, [], bound=None)
+        self._early.check()  # a failure of its thread stops the run here
+        kept = self.stage.add(table, columns)
+        self._early.hand(table, kept, wait=self.stage.dropped)
 
     def _ends_soon(self, table: str, columns: list) -> bool:
         """Whether the engine, at the simulated time of this chunk's last row, should stop
@@ -562,6 +609,9 @@ class StagedRun(TableRecorder):
                 self.stage.discard()
                 return
             self._early = None  # it gave up: the staged way
+        if self.stage.dropped:  # (a new database's private file cannot be busy: not expected)
+            raise StoreError(f"database {self.file.shown!r}: the run's rows could not be inserted into its "
+                             "new file; nothing was stored, run it again")
         self.stage.seal()
         # the commit and, for a new database, its file's real name: together or not at all
         with interrupts.held():
@@ -569,40 +619,53 @@ class StagedRun(TableRecorder):
             self._publish()
         self.stage.discard()
 
-    def _commit_staged(self) -> None:
+    def _commit_staged(self, copy: Path | None = None) -> None:
         """The staged rows moved in, with the run's other rows, in one transaction (called
-        with interrupts held; waiting for the lock, a signal stops it, nothing written)."""
+        with interrupts held; waiting for the lock, a signal stops it, nothing written).
+        ``copy``: the rows are copied from the run in that gaz database (the private file it
+        was committed into, :meth:`_publish`) instead."""
         conn, columns = self.file.conn, layout().columns
-        attach = self.stage.path is not None
-        if attach:
-            conn.execute("ATTACH DATABASE ? AS stage", (str(self.stage.path),))
+        attach = copy if copy is not None else self.stage.path
+        if attach is not None:
+            conn.execute("ATTACH DATABASE ? AS stage", (str(attach),))
         # no per-row key checks (as gaz_cli.store's SQLite writer): the REBOND and CHOC rows
         # hold the SI_NUM and PA_NUM this transaction has just inserted or read
         conn.execute("PRAGMA foreign_keys = OFF")
         try:
             with _transaction(conn):
                 si_num, nums = _simulation_rows(conn, self.scene, self.started)
-                staging.move_in(conn, self.stage, "rebond", columns["rebond"], si_num, nums)
-                staging.move_in(conn, self.stage, "choc", columns["choc"], si_num)
+                if copy is None:
+                    staging.move_in(conn, self.stage, "rebond", columns["rebond"], si_num, nums)
+                    staging.move_in(conn, self.stage, "choc", columns["choc"], si_num)
+                else:
+                    si, pa = self._private_run
+                    staging.copy_rows(conn, "rebond", columns["rebond"], si_num, nums, source=(si, pa))
+                    staging.copy_rows(conn, "choc", columns["choc"], si_num, source=(si, []))
                 _result_row(conn, si_num, *self._result)
             self.si_num = si_num
         finally:
             conn.execute("PRAGMA foreign_keys = ON")
-            if attach:
+            if attach is not None:
                 conn.execute("DETACH DATABASE stage")
 
     def _publish(self) -> None:
         """After the run's commit into a new database's private file: the file takes its real
         name (:meth:`SqliteFile.publish`); when another process has made that database
-        meanwhile, the run is committed again into it, from its staged rows (interrupts held)."""
+        meanwhile, the run is committed again into it (interrupts held): from its staged rows,
+        or, when the stage dropped them, from a second name of the private file, kept for that."""
+        copy = _second_name(self.file.private, self.file) if self.stage.dropped else None
         try:
-            published = self.file.publish()
-        except BaseException:
-            self.si_num = None  # the private file, and the run in it, are gone
-            raise
-        if not published:
-            self.si_num = None
-            self._commit_staged()
+            try:
+                published = self.file.publish()
+            except BaseException:
+                self.si_num = None  # the private file, and the run in it, are gone
+                raise
+            if not published:
+                self.si_num = None
+                self._commit_staged(copy)
+        finally:
+            if copy is not None:
+                _remove_private(copy)
 
     def _commit_early(self, early: "_EarlyInsert") -> None:
         """The end of a run whose rows the early insert has put in: the RESULTAT row, COMMIT
@@ -620,6 +683,7 @@ class StagedRun(TableRecorder):
             early.outcome, self._early = _ENDED, None
             conn.execute("PRAGMA foreign_keys = ON")
         self.si_num = early.si_num
+        self._private_run = (early.si_num, early.pa_nums)
 
     def abort(self) -> None:
         early, self._early = self._early, None
@@ -677,7 +741,9 @@ class _EarlyInsert:
     :meth:`cancel`), then the main thread's: never both at once.
     """
 
-    def __init__(self, run: StagedRun, first: list):
+    def __init__(self, run: StagedRun, first: list, bound: float | None):
+        self.bound = bound  # s the lock may be held while the engine runs; None: no bound
+        self._room = threading.Semaphore(staging.SCRATCH_QUEUE)  # chunks handed with wait=True
         self.conn = run.file.conn
         self._flushed = run.file.private  # a new database's private file: its pages flushed as they go
         self._fd = None
@@ -694,10 +760,16 @@ class _EarlyInsert:
         self._thread.start()
 
     # --- the main thread's side
-    def hand(self, table: str, columns: list) -> None:
-        """A chunk kept by the stage (column arrays, not modified after)."""
+    def hand(self, table: str, columns: list, wait: bool = False) -> None:
+        """A chunk kept by the stage (column arrays, not modified after). ``wait``: first wait
+        while staging.SCRATCH_QUEUE such chunks are still to be inserted (the stage kept no copy:
+        memory bounded)."""
+        if wait:
+            while not self._room.acquire(timeout=0.05):
+                if self.outcome is not None:
+                    return
         if self.outcome is None:
-            self._queue.put((table, columns))
+            self._queue.put((table, columns, wait))
 
     def check(self) -> None:
         """Raise the thread's failure, if any."""
@@ -756,11 +828,11 @@ class _EarlyInsert:
                     self.outcome = _GAVE_UP
                     return
                 raise
-            deadline = time.monotonic() + LOCK_BOUND_S
+            deadline = None if self.bound is None else time.monotonic() + self.bound
             self.si_num, nums = _simulation_rows(conn, self.scene, self.started)
-            self._pa_nums = {"rebond": nums, "choc": None}
+            self.pa_nums, self._pa_nums = nums, {"rebond": nums, "choc": None}
             while True:
-                if self._done.is_set():
+                if self._done.is_set() or deadline is None:
                     item = self._queue.get()
                 else:
                     try:
@@ -776,7 +848,9 @@ class _EarlyInsert:
                     conn.execute("ROLLBACK")
                     self.outcome = _GAVE_UP
                     return
-                self._insert(*item)
+                self._insert(item[0], item[1])
+                if item[2:] == (True,):  # handed with wait: room for one more
+                    self._room.release()
         except BaseException as err:  # raised in the main thread
             self.error = err
             self.outcome = _FAILED

@@ -173,15 +173,27 @@ def move_in(conn: sqlite3.Connection, stage: "Stage", table: str, names: list[st
         for staged in stage.chunks(table):
             insert_chunk(conn, table, names, staged, si_num, pa_nums)
         return
+    copy_rows(conn, table, names, si_num, pa_nums)
+
+
+def copy_rows(conn: sqlite3.Connection, table: str, names: list[str], si_num: int,
+              pa_nums: list[int] | None = None, source: tuple[int, list[int]] | None = None) -> None:
+    """One ``INSERT ... SELECT`` of ``table``'s rows from the database attached as ``stage`` into
+    the main one on ``conn``, under SI_NUM ``si_num`` and PA_NUM ``pa_nums[k]`` for species k.
+    ``source`` None: a scratch file's rows (PA_NUM the species index, in rowid order);
+    ``(si, pa)``: the run SI_NUM ``si`` of a gaz database, PA_NUM ``pa[k]`` for species k (its
+    rows in the key's order: RE_NUM, CH_NUM)."""
+    keys = range(len(pa_nums or [])) if source is None else source[1]
     values = ["?"]
     for name in names[1:]:
         if name == "pa_num" and pa_nums is not None:
-            cases = " ".join(f"WHEN {k} THEN {int(n)}" for k, n in enumerate(pa_nums))
+            cases = " ".join(f"WHEN {int(k)} THEN {int(n)}" for k, n in zip(keys, pa_nums))
             values.append(f"CASE pa_num {cases} END")
         else:
             values.append(name)
+    where = "ORDER BY rowid" if source is None else f"WHERE si_num = {int(source[0])} ORDER BY {names[1]}"
     conn.execute(f"INSERT INTO {table} ({', '.join(names)}) SELECT {', '.join(values)} "
-                 f"FROM stage.{table} ORDER BY rowid", (int(si_num),))
+                 f"FROM stage.{table} {where}", (int(si_num),))
 
 
 def insert_chunk(conn: sqlite3.Connection, table: str, names: list[str], staged: list, si_num: int,
@@ -209,13 +221,18 @@ class Stage:
     store turns them into :class:`~gaz_cli.errors.StoreError`).
     """
 
-    def __init__(self, database: Path, tables: dict[str, list[str]]):
+    def __init__(self, database: Path, tables: dict[str, list[str]], spill: bool = True):
         self.database = Path(database)
         self.tables = dict(tables)
         self.rows = {name: 0 for name in tables}
         self.path: Path | None = None
         self._chunks: dict[str, list] | None = {name: [] for name in tables}
         self._writer: _ScratchWriter | None = None
+        self.spill = spill
+        self.dropped = False
+        """With ``spill`` False, past MEMORY_ROWS the rows are dropped, not spilled (counted
+        only): a run whose rows reach the database by another way (a new database's early
+        insert, :class:`gaz_cli.sqlite_writer.StagedRun`)."""
 
     @property
     def in_memory(self) -> bool:
@@ -226,15 +243,19 @@ class Stage:
         """Append rows given as column arrays (one per column of the table, in order).
 
         Returns the list of arrays kept in memory (the arrays given, not copied: a
-        :class:`gaz_cli.recording.Recorder`'s, which nobody modifies; not to be modified), or
-        None once the rows go to the scratch file (by its thread: :class:`_ScratchWriter`)."""
+        :class:`gaz_cli.recording.Recorder`'s, which nobody modifies; not to be modified; once
+        :attr:`dropped`, the arrays given, kept nowhere), or None once the rows go to the
+        scratch file (by its thread: :class:`_ScratchWriter`)."""
         k = len(columns[0])
         if self._chunks is not None and sum(self.rows.values()) + k > MEMORY_ROWS:
-            self._spill()
+            if self.spill:
+                self._spill()
+            else:
+                self._chunks, self.dropped = None, True
         kept = [np.asarray(c) for c in columns]
         if self._chunks is not None:
             self._chunks[table].append(kept)
-        else:
+        elif self._writer is not None:
             self._writer.put(table, kept)
             kept = None
         self.rows[table] += k

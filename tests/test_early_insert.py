@@ -4,6 +4,7 @@ the write lock past the bound gives it back (another writer gets in) and still s
 row; a failure in the thread or an interrupt leaves no row, no lock, no thread, and one error."""
 
 import signal
+from dataclasses import replace
 import sqlite3
 import threading
 import time
@@ -18,7 +19,7 @@ from gaz_cli.engine import driver
 from gaz_cli.errors import Interrupted, StoreError
 from gaz_cli.recording import RunStats
 from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import lookup
+from gaz_cli.species import Species, lookup
 
 
 def forbid(monkeypatch, obj, name):
@@ -295,8 +296,53 @@ def test_a_long_run_starts_its_early_insert_near_its_end(tmp_path, monkeypatch):
                 w.finish(RunStats(end, end, 0, 0.3, initial_state(scene)), 1.0, 2.0)
         return started
 
-    assert run(str(tmp_path / "early.db")) == [False, True]
+    # (existing files: a new one's first run inserts from its first chunk, below)
+    assert run(existing(tmp_path / "early.db")) == [False, True]
     monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0)
-    assert run(str(tmp_path / "staged.db")) == [False, False]
+    assert run(existing(tmp_path / "staged.db")) == [False, False]
     early, staged = content(str(tmp_path / "early.db")), content(str(tmp_path / "staged.db"))
     assert len(early["rebond"]) == end and early == staged
+
+
+@pytest.mark.parametrize("scene", runs(), ids=["mixture, all", "custom species"])
+def test_a_new_files_first_run_goes_in_from_its_first_chunk_and_keeps_no_copy(tmp_path, monkeypatch, scene):
+    """A new database's first run (its private file, nobody else's lock): the early insert from
+    the first chunk, with no bound; past staging.MEMORY_ROWS the stage drops its copy instead of
+    spilling it to a scratch file (no scratch file, no second insert at the commit). The database
+    is the one the staged way gives, row for row."""
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 700)  # 3000 rows in 3 chunks: dropped at the first
+    forbid(monkeypatch, staging, "_ScratchWriter")
+    forbid(monkeypatch, staging, "move_in")
+    with sqlite_writer.open_for_writing(str(tmp_path / "direct.db")) as opened:
+        assert write(opened, scene) == 1
+    monkeypatch.undo()
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 700)
+    monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0)  # the staged way: a scratch file, moved in
+    with sqlite_writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
+        assert write(opened, scene) == 1
+    direct, staged = content(str(tmp_path / "direct.db")), content(str(tmp_path / "staged.db"))
+    assert len(direct["rebond"]) == 3000 and direct == staged
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["direct.db", "staged.db"]
+
+
+def test_two_new_files_first_runs_past_the_memory_bound_both_land(tmp_path, monkeypatch):
+    """Two writers of one new file, each run's copy dropped past MEMORY_ROWS: the second to commit
+    cannot take the name, and copies its run from its private file (a second name of it) into the
+    database the first made, under its own SIMULATION number and its species' PA_NUM there (the
+    custom species is PARTICULE row 20 in its private file, 21 in the database, after the first
+    run's own). Both databases are what the staged way gives."""
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 700)
+    forbid(monkeypatch, staging, "_ScratchWriter")
+    first_scene, second_scene = runs()[1], replace(runs()[1], seed=5, components=((Species("Y", 4e-26, 2e-10), 30),))
+    db = tmp_path / "new.db"
+    first, second = sqlite_writer.open_for_writing(str(db)), sqlite_writer.open_for_writing(str(db))
+    with first:
+        assert write(first, first_scene) == 1
+    with second:
+        assert write(second, second_scene) == 2
+    monkeypatch.undo()
+    with sqlite_writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
+        assert [write(opened, s) for s in (first_scene, second_scene)] == [1, 2]
+    found, expected = content(str(db)), content(str(tmp_path / "staged.db"))
+    assert len(found["rebond"]) == 6000 and found == expected
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new.db", "staged.db"]
