@@ -13,7 +13,8 @@ here all the same, for the commit to take them if it gives up.)
 Up to :data:`MEMORY_ROWS` rows the chunks stay as the engine's arrays (not copied: an engine
 never touches the arrays it hands again, see :class:`gaz_cli.recording.Recorder`):
 the commit inserts them straight into the database, one pass, each row
-bound once (:func:`insert_rows`). Beyond it, everything goes to a scratch
+bound once (:func:`insert_rows`). Beyond it (but for a new database's first run, whose rows
+are in its private file already: :class:`gaz_cli.sqlite_writer.SqliteFile`), everything goes to a scratch
 file: in the database's folder (same file system), named
 ``.NAME.PID.XXXX.staging``, without journal nor fsync (thrown away on any
 failure), a plain table with no index (rows appended in order), written by a thread
