@@ -365,7 +365,8 @@ def _print_diagnostic(values: dict) -> None:
 @click.option("--plot", type=click.Path(file_okay=False), default=None, help="Write PNG figures into DIR.")
 @click.option("--table", "table", default=None, metavar="NAME",
               help="Print only this table (csv: one table, readable by pandas.read_csv). NAME: "
-                   "q34, q35, q36, overview, simulation, pressure, collisions, speed, gravity, cooling, figures.")
+                   "q34, q35, q36, overview, simulation, pressure, collisions, contact, speed, gravity, cooling, "
+                   "figures.")
 @click.option("--vs", "vs", default=None, metavar="KEY",
               help="Across runs: the pressure, Z = PV/(NkT) and collision rate against KEY (packing, "
                    "temperature, n, length, density), averaged over seeds, beside theory (with a sweep). "

@@ -277,6 +277,16 @@ def test_help_teaches():
         assert "Example" in res.stdout or "A first session" in res.stdout
 
 
+def test_analyse_help_names_every_table_that_table_takes():
+    """gaz analyse --help listed the --table names without 'contact', which --table accepts
+    (a mixture's contact values per pair of species): a reader of the help could not find it."""
+    from gaz_cli import analysis
+
+    text = " ".join(invoke(["analyse", "--help"]).stdout.split())
+    listed = text.split("NAME: ", 1)[1].split(".", 1)[0].split(", ")
+    assert listed == list(analysis.TABLES)
+
+
 def test_place_help_does_not_promise_a_recorded_seed():
     """gaz place --help said the default seed is "recorded in the database and the summary":
     gaz place has neither, and a placement without --seed could not be made again."""
