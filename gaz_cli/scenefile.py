@@ -391,11 +391,7 @@ def stored(db: str, si_num: int) -> str:
     from gaz_cli import queries
     from gaz_cli.errors import StoreError
 
-    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])
-    if frame.empty:
-        from gaz_cli.store import shown
-
-        raise StoreError(f"no simulation {si_num} in {shown(db)!r}; gaz analyse --db {shown(db)} lists them")
+    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])  # refuses an si_num not stored
     text = frame.iloc[0, 1]
     if not isinstance(text, str) or not text:
         raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
