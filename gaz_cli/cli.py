@@ -365,7 +365,8 @@ def _print_diagnostic(values: dict) -> None:
 @click.option("--plot", type=click.Path(file_okay=False), default=None, help="Write PNG figures into DIR.")
 @click.option("--table", "table", default=None, metavar="NAME",
               help="Print only this table (csv: one table, readable by pandas.read_csv). NAME: "
-                   "q34, q35, q36, overview, simulation, pressure, collisions, speed, gravity, cooling, figures.")
+                   "q34, q35, q36, overview, simulation, pressure, collisions, contact, speed, gravity, cooling, "
+                   "figures.")
 @click.option("--vs", "vs", default=None, metavar="KEY",
               help="Across runs: the pressure, Z = PV/(NkT) and collision rate against KEY (packing, "
                    "temperature, n, length, density), averaged over seeds, beside theory (with a sweep). "
@@ -561,6 +562,18 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         _default_showwarning(message, category, filename, lineno, file, line)
 
 
+def _usage_command_path(exc: click.UsageError, argv, prog: str) -> str:
+    """The command a usage error belongs to ("gaz simulate"), for its message and the --help it
+    points at. Click leaves ``exc.ctx`` unset for an option's missing or unwanted value
+    ("Option '--db' requires an argument"): the command is then the first word of ``argv``
+    that names one, else ``prog``."""
+    if exc.ctx is not None:
+        return exc.ctx.command_path
+    args = sys.argv[1:] if argv is None else list(argv)
+    name = next((a for a in args if not a.startswith("-")), None)
+    return f"{prog} {name}" if name in cli.commands else prog
+
+
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
@@ -588,7 +601,7 @@ def main(argv=None) -> None:
         click.echo(exc.ctx.get_help() if exc.ctx is not None else exc.format_message())
         sys.exit(0)
     except click.UsageError as exc:
-        cmd = exc.ctx.command_path if exc.ctx is not None else prog
+        cmd = _usage_command_path(exc, argv, prog)
         click.echo(f"{cmd}: error: {exc.format_message()} (see '{cmd} --help')", err=True)
         sys.exit(2)
     except click.ClickException as exc:

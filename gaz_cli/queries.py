@@ -118,7 +118,16 @@ def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: 
     params = parse_parameters(query, pairs)
     with Store(db, create=False) as store:
         _check_columns(query, store)
+        _check_simulation(params, store)
         return query, store.read_sql(query.sql, **params)
+
+
+def _check_simulation(params: dict, store) -> None:
+    """Refuse, in one line, an ``si_num`` the database does not hold: the query would answer
+    with no row and exit 0, a mistyped number looking like a run without bounces."""
+    if "si_num" in params and params["si_num"] not in store.simulation_numbers():
+        raise QueryError(f"no simulation {params['si_num']} in {store.shown!r}; "
+                         f"gaz analyse --db {store.shown} lists them")
 
 
 def _check_columns(query: Query, store) -> None:

@@ -78,6 +78,8 @@ PLANE_KEYS = {"point": "an array of numbers", "normal": "an array of numbers", "
 OUTPUT_KEYS = {"db": STR, "trajectory": STR, "every": REAL, "save_state": STR}
 SEARCH_KEYS = {key: (REAL if key == "skin" else STR) for key in SEARCH}
 TABLES = ("species", "planes", "initial", "search", "output")
+_TABLE_HEADERS = {"species": "[[species]]", "planes": "[[planes]]", "initial": "[initial]",
+                  "search": "[search]", "output": "[output]"}
 STEP_KEYS = ("dt", "drag", "pair_gravity", "softening", "wall_restitution", "print_every")
 
 
@@ -100,13 +102,17 @@ def _shown(value, width: int = 60) -> str:
     return text if len(text) <= width else text[:width - 3] + "..."
 
 
-def _check_keys(table: dict, allowed: dict, where: str) -> None:
+def _check_keys(table: dict, allowed: dict, where: str, tables: tuple = ()) -> None:
+    """SceneError on a key of ``table`` not in ``allowed`` (or of the wrong type); the message
+    suggests the closest of ``allowed`` and of ``tables`` (the tables that may sit beside the
+    keys: a misspelt ``[[specie]]`` is told ``species``) and lists both."""
     for key, value in table.items():
         if key not in allowed:
-            close = difflib.get_close_matches(str(key), list(allowed), n=1)
+            close = difflib.get_close_matches(str(key), [*allowed, *tables], n=1)
             hint = f"did you mean {close[0]!r}? " if close else ""
+            listed = "; tables: " + ", ".join(_TABLE_HEADERS[t] for t in tables) if tables else ""
             raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); {hint}"
-                             f"allowed: {', '.join(allowed)}")
+                             f"allowed: {', '.join(allowed)}{listed}")
         kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
         if not _type_ok(kind, value):
             raise SceneError(f"{where}{key} = {_shown(value)} must be {kind}")
@@ -142,7 +148,7 @@ def parse(text: str, name: str = "scene") -> dict:
 def check(doc: dict, where: str = "") -> None:
     """Unknown keys and wrong types of a scene document (one line naming key and value)."""
     top = {k: v for k, v in doc.items() if k not in TABLES}
-    _check_keys(top, SCALARS, where)
+    _check_keys(top, SCALARS, where, TABLES)
     for key in TABLES:
         if key not in doc:
             continue
@@ -385,11 +391,7 @@ def stored(db: str, si_num: int) -> str:
     from gaz_cli import queries
     from gaz_cli.errors import StoreError
 
-    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])
-    if frame.empty:
-        from gaz_cli.store import shown
-
-        raise StoreError(f"no simulation {si_num} in {shown(db)!r}; gaz analyse --db {shown(db)} lists them")
+    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])  # refuses an si_num not stored
     text = frame.iloc[0, 1]
     if not isinstance(text, str) or not text:
         raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "

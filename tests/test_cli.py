@@ -277,6 +277,31 @@ def test_help_teaches():
         assert "Example" in res.stdout or "A first session" in res.stdout
 
 
+def test_analyse_help_names_every_table_that_table_takes():
+    """gaz analyse --help listed the --table names without 'contact', which --table accepts
+    (a mixture's contact values per pair of species): a reader of the help could not find it."""
+    from gaz_cli import analysis
+
+    text = " ".join(invoke(["analyse", "--help"]).stdout.split())
+    listed = text.split("NAME: ", 1)[1].split(".", 1)[0].split(", ")
+    assert listed == list(analysis.TABLES)
+
+
+@pytest.mark.parametrize("args, command", [
+    (["simulate", "--dim", "3", "--db"], "gaz simulate"),     # --db given no value
+    (["analyse", "--sim"], "gaz analyse"),
+    (["query", "q36", "--param"], "gaz query"),
+    (["simulate", "--no-db=1"], "gaz simulate"),             # a flag given a value
+])
+def test_an_option_missing_its_value_points_at_its_command_s_help(args, command):
+    """'gaz simulate ... --db' said "gaz: error: Option '--db' requires an argument. (see 'gaz
+    --help')": click gives that error no context, and gaz --help lists no --db."""
+    code, out, err = invoke(args)
+    assert code == 2 and out == ""
+    assert err.startswith(f"{command}: error: Option '") and err.strip().endswith(f"(see '{command} --help')"), err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_place_help_does_not_promise_a_recorded_seed():
     """gaz place --help said the default seed is "recorded in the database and the summary":
     gaz place has neither, and a placement without --seed could not be made again."""

@@ -76,6 +76,11 @@ def test_query_csv_is_the_query_result(backend):
     # the last one won, without a word
     (["query", "q36", "--param", "si_num=1", "--param", "si_num=2"],
      "gaz: error: --param si_num is given twice; give it once\n"),
+    # answered "(no rows)", exit 0: a mistyped SI_NUM looked like a run without bounces
+    (["query", "q36", "--param", "si_num=9"],
+     "gaz: error: no simulation 9 in '{db}'; gaz analyse --db {db} lists them\n"),
+    (["query", "scene", "--param", "si_num=2"],
+     "gaz: error: no simulation 2 in '{db}'; gaz analyse --db {db} lists them\n"),
     (["query", "q99"], "gaz: error: no query named 'q99'; the packaged ones are bounce, collision, first, "
                        "lookup, pair, pressure, q34, q35, q36, scene, sweep, wall "
                        "(gaz query --list describes them)\n"),
@@ -84,7 +89,7 @@ def test_query_errors_are_one_line(tmp_path, args, message):
     db = str(tmp_path / "gaz.db")
     assert invoke([*QUICK, "--seed", "1", "--db", db]).exit_code == 0
     res = invoke([*args, "--db", db])
-    assert (res.exit_code, res.stdout, res.stderr) == (1, "", message)
+    assert (res.exit_code, res.stdout, res.stderr) == (1, "", message.replace("{db}", db))
 
 
 def test_every_packaged_parameter_says_what_it_takes():

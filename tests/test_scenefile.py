@@ -156,6 +156,18 @@ def test_a_bad_scene_file_is_one_line_naming_key_value_and_range(tmp_path, line,
     assert_refused_in_one_line(path, f"{line}\n{body}\n[[species]]\nname = \"Ar\"\ncount = 10\n", words)
 
 
+@pytest.mark.parametrize("table, words", [
+    ('[[specie]]\nname = "Ar"\ncount = 10\n', ["unknown key 'specie'", "did you mean 'species'?"]),
+    ('[outptu]\ndb = "x.db"\n[[species]]\nname = "Ar"\ncount = 10\n', ["did you mean 'output'?"]),
+])
+def test_a_misspelt_table_is_told_the_table_s_name(tmp_path, table, words):
+    """A misspelt table header, [[specie]], was told "did you mean 'seed'?" and listed only the
+    top-level keys, so neither the hint nor the list named [[species]] or [output]."""
+    path = tmp_path / "typo.toml"
+    assert_refused_in_one_line(path, "dim = 2\nduration = 1e-10\nlength = 1e-7\n" + table,
+                               [*words, "tables: [[species]], [[planes]], [initial], [search], [output]"])
+
+
 def test_an_unknown_species_in_a_file_names_the_file_and_the_file_s_fix(tmp_path):
     """It said "unknown species 'Zz'; known: ... (or give --radius and --mass)": neither the file
     nor its keys (also in each failed run of a gaz sweep over that file)."""
