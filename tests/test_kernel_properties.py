@@ -176,7 +176,10 @@ def test_touching_pairs_collide_now_if_approaching_and_never_if_receding(dim, si
         t = K._pair_dt(*args, sigma, dim)
         inside = float(np.dot(dr, dr)) <= sigma * sigma
         if b < 0.0 and inside:
-            assert t == 0.0
+            # at contact (depth 0) being inside is the last bit of |dr|^2, which the kernel sums in
+            # its own order (numpy's dot may not): "now" is then within the round-off time of
+            # c = |dr|^2 - sigma^2, a few eps sigma^2 over the closing rate 2 |b|
+            assert t <= (0.0 if depth > 0.0 else 4.0 * np.finfo(float).eps * sigma * sigma / abs(b))
         elif b >= 0.0:
             assert t == math.inf
 
