@@ -69,11 +69,17 @@ from sqlalchemy import exc as sa_exc
 from gaz_cli import __version__, interrupts, sqlite_writer
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
-from gaz_cli.scene import Scene
+from gaz_cli.scene import Scene, check_row_numbers
 from gaz_cli import scenefile
 from gaz_cli.species import BUILTIN, NAME_MAX, Species
 
 metadata = sa.MetaData()
+
+ROW_NUMBER = sa.Integer().with_variant(sa.BigInteger(), "postgresql")
+"""RE_NUM, CH_NUM: a run's rows numbered 1, 2, ...; past 2^31 - 1 in a long run (the README
+example's gas records ~1.8e13 wall bounces a second of simulated time: 2^31 after 1.2e-4 s, minutes
+of engine), so BIGINT on PostgreSQL (schema 6); INTEGER on SQLite, whose integers are 64-bit (and
+the SQLite schema stays as it was)."""
 
 simulation = sa.Table(
     "simulation", metadata,
@@ -96,7 +102,7 @@ particule = sa.Table(
 rebond = sa.Table(
     "rebond", metadata,
     sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("re_num", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("re_num", ROW_NUMBER, primary_key=True, autoincrement=False),
     sa.Column("pa_num", sa.Integer, sa.ForeignKey("particule.pa_num"), nullable=False),
     sa.Column("re_t", sa.Float, nullable=False),
     sa.Column("re_dir", sa.Integer, nullable=False),
@@ -151,7 +157,7 @@ resultat = sa.Table(
 choc = sa.Table(
     "choc", metadata,
     sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("ch_num", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("ch_num", ROW_NUMBER, primary_key=True, autoincrement=False),
     sa.Column("ch_t", sa.Float, nullable=False),
     sa.Column("ch_i", sa.Integer, nullable=False),
     sa.Column("ch_j", sa.Integer, nullable=False),
@@ -179,12 +185,15 @@ BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s (the one
 figure is sqlite_writer's, which its messages quote)."""
 
-POSTGRES_SCHEMA_VERSION = 5
+POSTGRES_SCHEMA_VERSION = 6
 """Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
 RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
 (``rebond_default``) for rows written any other way; same columns, same keys. 5: CHOC
-partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). SQLite has no version 4
-or 5 (nothing changed there)."""
+partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). 6: RE_NUM and CH_NUM
+BIGINT (:data:`ROW_NUMBER`) in a new database; one migrated from 5 keeps its 32-bit
+columns (widening them rewrites every row), and a run whose rows would number past them is
+refused at its start (:meth:`Store.check_row_numbers`), the ALTER TABLE that widens them
+named. SQLite has no version 4 to 6 (nothing changed there)."""
 
 PARTITIONED = ("rebond", "choc")
 """PostgreSQL: the tables of one row per event, partitioned by run (schema 4 and 5)."""
@@ -515,6 +524,16 @@ class Store(RunStore):
         frame.columns = [c.upper() for c in frame.columns]
         return frame
 
+    def check_row_numbers(self, scenes: list[Scene], fix: str = "shorten `duration`") -> None:
+        """Refuse, before they run, the runs of ``scenes`` whose rows would number past this
+        database's 32-bit row numbers (a PostgreSQL database made before schema 6;
+        :func:`gaz_cli.scene.check_row_numbers`); nothing elsewhere (64-bit)."""
+        if self.is_sqlite:
+            return
+        with self._errors(), self.engine.connect() as conn:
+            narrow = narrow_row_numbers(conn)
+        check_row_numbers(scenes, narrow, fix)
+
     def schema_version(self) -> int:
         """The database's schema version (1 for a database written before versions existed)."""
         with self._errors(), self.engine.connect() as conn:
@@ -582,6 +601,10 @@ def _partition(conn, table: sa.Table, since: int) -> None:
     conn.exec_driver_sql(f"ALTER TABLE {name} RENAME TO {old}")
     conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO {old}_pkey')  # index names are the schema's
     table.create(conn)
+    for column, kind in _pg_types(conn, old).items():
+        if kind == "int4" and _pg_types(conn, name)[column] == "int8":
+            # the row number as wide as in the rows it partitions (a partition has its table's columns)
+            conn.exec_driver_sql(f"ALTER TABLE {name} ALTER COLUMN {column} TYPE integer")
     top = conn.exec_driver_sql(
         f"SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM {old}))").scalar()
     conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {old} "
@@ -597,7 +620,12 @@ def _pg_default_partition(conn) -> None:
             conn.exec_driver_sql(f"CREATE TABLE IF NOT EXISTS {name}_default PARTITION OF {name} DEFAULT")
 
 
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}
+def _v5_to_v6(conn) -> None:
+    """5 -> 6, PostgreSQL only: nothing rewritten; the writer reads each row number's width
+    from the database (:func:`_copy_types`)."""
+
+
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
@@ -757,15 +785,27 @@ _COPY_SIGNATURE = b"PGCOPY\n\xff\r\n\0" + bytes(8)  # signature, flags 0, no hea
 _COPY_TRAILER = b"\xff\xff"
 
 
-def _pg_type(column_type) -> str:
-    """PostgreSQL's name of a column's type, for binary COPY (which needs them exact)."""
-    if isinstance(column_type, sa.BigInteger):
-        return "int8"
-    if isinstance(column_type, sa.Integer):
-        return "int4"
-    if isinstance(column_type, sa.Float):
-        return "float8"
-    raise TypeError(f"no COPY type for {column_type!r}")
+def _copy_types(conn, table: sa.Table) -> list[str]:
+    """The PostgreSQL types of ``table``'s columns in the database, in the metadata's order, for
+    binary COPY (which needs them exact): a database migrated from schema 5 keeps 32-bit row
+    numbers where a new one has 64-bit ones (:data:`POSTGRES_SCHEMA_VERSION`)."""
+    found = _pg_types(conn, table.name)
+    return [found[c.name] for c in table.columns]
+
+
+def _pg_types(conn, name: str) -> dict[str, str]:
+    """PostgreSQL: column name -> type name (int4, int8, float8...) of the table ``name``."""
+    return dict(conn.exec_driver_sql(
+        "SELECT a.attname, t.typname FROM pg_attribute a JOIN pg_type t ON t.oid = a.atttypid "
+        f"WHERE a.attrelid = '{name}'::regclass AND a.attnum > 0 AND NOT a.attisdropped").all())
+
+
+def narrow_row_numbers(conn) -> tuple[str, ...]:
+    """PostgreSQL: the tables among REBOND and CHOC whose row number (RE_NUM, CH_NUM) is a 32-bit
+    integer in this database (one made before schema 6); () where they do not exist yet."""
+    tables = {n.lower() for n in sa.inspect(conn).get_table_names()}
+    return tuple(t.upper() for t, c in (("rebond", "re_num"), ("choc", "ch_num"))
+                 if t in tables and _pg_types(conn, t)[c] == "int4")
 
 
 def _copy_block(columns: list, types: list[str]) -> bytes:
@@ -872,6 +912,9 @@ class _DirectRun(_Run):
             self.trans = self.conn.begin()
             if self.conn.dialect.name == "postgresql":
                 _keep_open(self.conn)
+                # before the engine: a run numbering its rows past a 32-bit column failed at that row
+                check_row_numbers([scene], narrow_row_numbers(self.conn))
+            self._types = {}  # table name -> its columns' types in the database (_copy_types)
             self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
             if self._attach:
                 self._si = self._next("simulation", "si_num")
@@ -910,13 +953,16 @@ class _DirectRun(_Run):
         target = self._target(table)
         replica = self._keys_by_hand and target == table.name
         # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
+        if table.name not in self._types:
+            self._types[table.name] = _copy_types(self.conn, table)
+        block = _copy_block(columns, self._types[table.name])
         raw = self.conn.connection.driver_connection
         sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
         with raw.cursor() as cur:
             if replica:
                 cur.execute("SET LOCAL session_replication_role = replica")
             with cur.copy(sql) as copy:
-                copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
+                copy.write(block)
             if replica:
                 cur.execute("SET LOCAL session_replication_role = origin")
 
