@@ -28,7 +28,9 @@ schema version is refused, an older one is migrated forward
 (:data:`MIGRATIONS`), a new one is created. Creation is safe when several
 processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
 ``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
-transaction).
+transaction). A new PostgreSQL database whose store's runs all failed is left as
+it was found, without a table (:meth:`Store._unmake`), unless another store is
+open for writing on it.
 
 A simulation is committed whole or not at all, in one short transaction at
 its end (:meth:`Store.simulation`):
@@ -208,6 +210,7 @@ CONNECT_TIMEOUT_S = 10
 """How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
 
 _PG_SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
+_PG_WRITER_LOCK = 0x67617A57  # 'gazW': held shared by every writing store while open (see Store._unmake)
 
 
 def _pandas():
@@ -319,6 +322,9 @@ class Store(RunStore):
             url = _immutable(url, self.path)
         self.engine = None
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
+        self._made = False  # PostgreSQL: this store created gaz's tables (see _unmake)
+        self._tried = self._stored = False  # a run was begun, committed through this store
+        self._writing = None  # PostgreSQL: the connection holding _PG_WRITER_LOCK while open for writing
         try:
             with self._errors():
                 self.engine = _make_engine(url, self.shown)
@@ -335,11 +341,46 @@ class Store(RunStore):
             raise
 
     def close(self) -> None:
-        """Release every connection; idempotent."""
-        if self._file is not None:
-            self._file.close()
-        if self.engine is not None:
-            self.engine.dispose()
+        """Release every connection; idempotent. A PostgreSQL database this store created, into
+        which it began runs and stored none, is left as it was found (:meth:`_unmake`)."""
+        try:
+            if self._writing is not None:
+                writing, self._writing = self._writing, None
+                with writing, contextlib.suppress(sa_exc.DBAPIError):  # (best effort: the run's error is the one to tell)
+                    if self._made and self._tried and not self._stored:
+                        self._unmake(writing)
+        finally:
+            if self._file is not None:
+                self._file.close()
+            if self.engine is not None:
+                self.engine.dispose()
+
+    def _unmake(self, conn) -> None:
+        """PostgreSQL: drop the tables this store created (a new database) when none of its runs
+        was stored (refused, failed, interrupted): the database is left as it was found.
+
+        Unless another process may use them: another store open for writing (it holds
+        :data:`_PG_WRITER_LOCK` shared from before it looks at the schema until it closes: the
+        try-lock fails), a reader's transaction holding them past a short lock timeout, or
+        a run stored meanwhile (a SIMULATION row). ``conn``: this store's connection holding
+        the lock. Interrupts are held over it (a short transaction)."""
+        with interrupts.held():
+            conn.execute(sa.select(sa.func.pg_advisory_unlock_shared(_PG_WRITER_LOCK)))
+            conn.commit()
+            with conn.begin():
+                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
+                if not conn.execute(sa.select(sa.func.pg_try_advisory_xact_lock(_PG_WRITER_LOCK))).scalar():
+                    return  # another store is open for writing: the tables are its too
+                conn.exec_driver_sql("SET LOCAL lock_timeout = '2s'")
+                names = [t.name for t in metadata.sorted_tables]
+                try:
+                    with conn.begin_nested():
+                        conn.exec_driver_sql(f"LOCK TABLE {', '.join(names)} IN ACCESS EXCLUSIVE MODE")
+                except sa_exc.OperationalError:
+                    return  # a reader's transaction holds them
+                if conn.execute(sa.select(sa.func.count()).select_from(simulation)).scalar():
+                    return
+                conn.exec_driver_sql(f"DROP TABLE {', '.join(names)} CASCADE")
 
     # --- errors -----------------------------------------------------------------
     @contextlib.contextmanager
@@ -381,10 +422,18 @@ class Store(RunStore):
             with _write_transaction(self.engine) as conn:
                 self._create_or_migrate(conn, self._schema_state(conn))
             return
+        if self.engine.dialect.name == "postgresql" and self._writing is None:
+            # before the schema is looked at: while this store is open, a first run failing
+            # elsewhere does not drop the tables (_unmake); released by close()
+            self._writing = self.engine.connect()
+            self._writing.execute(sa.select(sa.func.pg_advisory_lock_shared(_PG_WRITER_LOCK)))
+            self._writing.commit()
         with self.engine.begin() as conn:
             if self.engine.dialect.name == "postgresql":
                 conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
-            self._create_or_migrate(conn, self._schema_state(conn))
+            version = self._schema_state(conn)
+            self._create_or_migrate(conn, version)
+            self._made = self._made or (version == 0 and self.engine.dialect.name == "postgresql")
 
     def _schema_state(self, conn) -> int:
         """The schema version found: 0 for none of gaz's tables (and, in SQLite, no other);
@@ -457,6 +506,7 @@ class Store(RunStore):
         (:mod:`gaz_cli.sqlite_writer`; the schema was created or migrated on opening), a
         server's through COPY (:class:`_DirectRun`)."""
         if self.path is None:
+            self._tried = True
             return _DirectRun(self, scene, started)
         if self._file is None:
             try:
@@ -976,6 +1026,7 @@ class _DirectRun(_Run):
         with interrupts.held():
             self.trans.commit()
             self.si_num = self._si
+            self.store._stored = True
         self.conn.close()
 
     def _attach_rows(self) -> None:

@@ -390,6 +390,7 @@ def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url,
     tag = f"gaz_lost_{rng.integers(1 << 30)}"  # this test's connections, and no one else's
     db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
     admin = sa.create_engine(postgres_url)
+    st.Store(postgres_db).close()  # a gaz database (a new one is left without a table)
     store = st.Store(db)
     try:
         with pytest.raises(StoreError, match="^lost the connection to database '") as err:
@@ -501,6 +502,7 @@ def test_a_signal_stops_a_commit_waiting_for_a_lock(postgres_db, postgres_url, a
             locker.rollback()
 
     helper = threading.Thread(target=interrupt_the_wait, daemon=True)
+    st.Store(postgres_db).close()  # a gaz database (a new one is left without a table)
     store = st.Store(db)
     try:
         with interrupts.catching(), pytest.raises(Interrupted):
