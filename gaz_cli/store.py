@@ -303,6 +303,12 @@ class Store(RunStore):
     Opening checks (and for a writer creates or migrates) the schema; see the
     module docstring. Every failure is a :class:`StoreError`. ``close()``
     releases the connections (SQLite then removes its WAL file).
+
+    A SQLite file that does not exist yet is made under a private name
+    (:class:`gaz_cli.sqlite_writer.SqliteFile`, read there meanwhile) and takes its name
+    when its first run is stored, or at ``close()`` if no run was begun (a store
+    opened to make a database): a first run that fails or is interrupted leaves no
+    file, as ``gaz simulate --db FILE``.
     """
 
     def __init__(self, db: str, create: bool = True, empty_ok: bool = False):
@@ -320,7 +326,10 @@ class Store(RunStore):
                              "give a file path, or --no-db to store nothing")
         if self.is_sqlite and not create and "uri" not in url.query and _unwritable_folder(self.path):
             url = _immutable(url, self.path)
-        self.engine = None
+        self._url = url
+        self._engine = None
+        self._reading = None  # a new SQLite file's private name, where the engine reads it until published
+        self._opened = False
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
         self._made = False  # PostgreSQL: this store created gaz's tables (see _unmake)
         self._tried = self._stored = False  # a run was begun, committed through this store
@@ -328,7 +337,9 @@ class Store(RunStore):
         try:
             with self._errors():
                 self.engine = _make_engine(url, self.shown)
-                if create:
+                if create and self.is_sqlite and not os.path.lexists(self.path):
+                    self._open_new_file()
+                elif create:
                     self._prepare()
                 else:
                     with self.engine.connect() as conn:
@@ -339,11 +350,46 @@ class Store(RunStore):
         except BaseException:
             self.close()
             raise
+        self._opened = True
+
+    @property
+    def engine(self) -> sa.Engine:
+        """The SQLAlchemy engine reading (and, but for SQLite runs, writing) the database; a new
+        SQLite file's is on its private name until the file has its real one."""
+        if self._reading is not None and (self._file is None or self._file.private != self._reading):
+            self._reading = None  # published (or gone): read it under its name
+            self._engine.dispose()
+            self._engine = _make_engine(self._url, self.shown)
+        return self._engine
+
+    @engine.setter
+    def engine(self, engine: sa.Engine) -> None:
+        self._engine = engine
+
+    def _open_new_file(self) -> None:
+        """A new SQLite file: its schema made in a private file (sqlite_writer.SqliteFile), which
+        the engine reads until the file takes its name."""
+        url = self._url
+        self._file = sqlite_writer.SqliteFile(self.db, self.path, self.engine.dialect.create_connect_args(url))
+        private = self._file.private
+        uri = url.query.get("uri") in ("true", "1")
+        self._engine.dispose()
+        self._engine = _make_engine(url.set(database=sqlite_writer.renamed(url.database, private, uri)),
+                                    self.shown)
+        self._reading = private
 
     def close(self) -> None:
         """Release every connection; idempotent. A PostgreSQL database this store created, into
-        which it began runs and stored none, is left as it was found (:meth:`_unmake`)."""
+        which it began runs and stored none, is left as it was found (:meth:`_unmake`); so is a
+        new SQLite file (never named); a new SQLite file into which no run was begun takes its
+        name (the store made a database)."""
         try:
+            if self._opened and not self._tried and self._file is not None and self._file.private is not None:
+                self._opened = False
+                self._engine.dispose()  # (its connections on the private file)
+                with self._errors(), interrupts.held():
+                    sqlite_writer.use_wal(self._file.conn)  # as every database the store opens
+                    self._file.publish()
             if self._writing is not None:
                 writing, self._writing = self._writing, None
                 with writing, contextlib.suppress(sa_exc.DBAPIError):  # (best effort: the run's error is the one to tell)
@@ -352,8 +398,8 @@ class Store(RunStore):
         finally:
             if self._file is not None:
                 self._file.close()
-            if self.engine is not None:
-                self.engine.dispose()
+            if self._engine is not None:
+                self._engine.dispose()
 
     def _unmake(self, conn) -> None:
         """PostgreSQL: drop the tables this store created (a new database) when none of its runs
@@ -505,8 +551,8 @@ class Store(RunStore):
         """The run's writer: a SQLite file's runs go through the one SQLite writer
         (:mod:`gaz_cli.sqlite_writer`; the schema was created or migrated on opening), a
         server's through COPY (:class:`_DirectRun`)."""
+        self._tried = True
         if self.path is None:
-            self._tried = True
             return _DirectRun(self, scene, started)
         if self._file is None:
             try:
@@ -516,7 +562,7 @@ class Store(RunStore):
             except sqlite_writer.ForTheStore:
                 raise StoreError(f"{self.shown!r} is not at this gaz's schema; open it for writing "
                                  "(Store(db), not create=False) to migrate it first") from None
-        return sqlite_writer.StagedRun(self._file, scene, started)
+        return self._file._writer(scene, started)  # (after the file's first run, on its real name)
 
     # --- reading ------------------------------------------------------------
     def read_sql(self, sql: str, **params) -> "pd.DataFrame":

@@ -184,6 +184,7 @@ def test_readers_read_while_a_writer_writes(tmp_path, argon_scene, rng, monkeypa
     store = st.Store(str(db))
     write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng)
     store.close()
+    st.Store(str(db)).close()  # the next writer puts it in WAL (its first run was in the rollback journal)
     writer = sqlite3.connect(db, isolation_level=None)
     writer.execute("PRAGMA cache_size = 1")
     writer.execute("BEGIN IMMEDIATE")
