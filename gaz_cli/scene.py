@@ -1043,25 +1043,30 @@ def check_database_space(scenes: list[Scene], path, fix: str = "shorten `duratio
 
 
 INT4_MAX = 2 ** 31 - 1
-"""The largest number PostgreSQL's ``integer`` holds: a run's REBOND and CHOC rows are numbered
-in such columns there (RE_NUM, CH_NUM; SQLite's integers are 64-bit)."""
+"""The largest number PostgreSQL's ``integer`` holds: a run's REBOND and CHOC rows were numbered
+in such columns (RE_NUM, CH_NUM) in a database made before PostgreSQL schema 6, which has
+``bigint`` (SQLite's integers are 64-bit)."""
 
 
-def check_row_numbers(scenes: list[Scene], fix: str = "shorten `duration`") -> None:
-    """Refuse, before any run, the runs of ``scenes`` into PostgreSQL whose rows of one kind would
-    number past INT4_MAX (:func:`recorded_rows`; runs not estimated, ``force`` among them, are
-    left out): such a run failed at that row, after all its computation."""
+def check_row_numbers(scenes: list[Scene], narrow: tuple[str, ...], fix: str = "shorten `duration`") -> None:
+    """Refuse, before any run, the runs of ``scenes`` whose rows of one kind would number past
+    INT4_MAX in a table of ``narrow`` (those of "REBOND", "CHOC" whose row number is a 32-bit
+    ``integer`` in the PostgreSQL database written: one made before schema 6) (:func:`recorded_rows`;
+    runs not estimated, ``force`` among them, are left out): such a run failed at that row,
+    after all its computation."""
+    kinds = {"REBOND": ("wall bounces", "bounces", "re_num"), "CHOC": ("collisions", "collisions", "ch_num")}
     for scene in scenes:
         counts = recorded_rows(scene)
         if counts is None:
             continue
-        kinds = {"REBOND": ("wall bounces", counts["bounces"]), "CHOC": ("collisions", counts["collisions"])}
-        for table, (what, rows) in kinds.items():
-            if rows > INT4_MAX:
-                raise field_error(f"a run into PostgreSQL numbers its {table} rows with a 32-bit integer "
-                                  f"(at most {INT4_MAX:,} a run); this one would record about {rows:.3g} "
-                                  f"{what}; {fix}, use `record` none, or give --db a SQLite file "
-                                  "(64-bit numbers) (or add `force`)")
+        for table in narrow:
+            what, kind, column = kinds[table]
+            if counts[kind] > INT4_MAX:
+                raise field_error(f"this PostgreSQL database numbers its {table} rows with a 32-bit integer "
+                                  f"(at most {INT4_MAX:,} a run); this run would record about {counts[kind]:.3g} "
+                                  f"{what}; {fix}, use `record` none, widen the column once (ALTER TABLE "
+                                  f"{table.lower()} ALTER COLUMN {column} TYPE bigint), or give --db a new "
+                                  "database (or add `force`)")
 
 
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:

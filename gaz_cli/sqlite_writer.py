@@ -326,11 +326,13 @@ class SqliteFile(RunStore):
         self.conn = None
         self.private: Path | None = None  # the file made under a name of its own, until published
         with self._errors():
-            if connect is None and not os.path.lexists(self.path):
+            if not os.path.lexists(self.path):
                 staging.remove_stale(self.path)
                 self.private = _private_file(self.path, self.shown)
             target = self.private if self.private is not None else file_name(self.path)
             args, kwargs = connect if connect is not None else ((str(target),), {})
+            if connect is not None and self.private is not None:  # the URL's options, on the private file
+                args = (renamed(args[0], self.private, bool(kwargs.get("uri"))), *args[1:])
             try:
                 self._connect(args, kwargs)
             except BaseException:
@@ -432,6 +434,17 @@ NEW_SUFFIX = staging.NEW_SUFFIX
 """The suffix of a new database's private file (:class:`SqliteFile`), named as staging's scratch
 files: one left by a process killed with SIGKILL is removed by the next writer
 (:func:`gaz_cli.staging.remove_stale`)."""
+
+
+def renamed(name: str, path: Path, uri: bool) -> str:
+    """The database argument ``name`` of sqlite3.connect (a file name, or with ``uri`` a
+    ``file:`` URI whose options are kept) naming the file ``path`` instead."""
+    if not uri:
+        return str(path)
+    import urllib.parse
+
+    _, sep, options = name.partition("?")
+    return "file:" + urllib.parse.quote(str(path)) + sep + options
 
 
 def _private_file(path: Path, shown: str) -> Path:

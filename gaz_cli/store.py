@@ -28,7 +28,9 @@ schema version is refused, an older one is migrated forward
 (:data:`MIGRATIONS`), a new one is created. Creation is safe when several
 processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
 ``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
-transaction).
+transaction). A new PostgreSQL database whose store's runs all failed is left as
+it was found, without a table (:meth:`Store._unmake`), unless another store is
+open for writing on it.
 
 A simulation is committed whole or not at all, in one short transaction at
 its end (:meth:`Store.simulation`):
@@ -69,11 +71,17 @@ from sqlalchemy import exc as sa_exc
 from gaz_cli import __version__, interrupts, sqlite_writer
 from gaz_cli.errors import StoreError
 from gaz_cli.recording import RunStats, RunStore, TableRecorder
-from gaz_cli.scene import Scene
+from gaz_cli.scene import Scene, check_row_numbers
 from gaz_cli import scenefile
 from gaz_cli.species import BUILTIN, NAME_MAX, Species
 
 metadata = sa.MetaData()
+
+ROW_NUMBER = sa.Integer().with_variant(sa.BigInteger(), "postgresql")
+"""RE_NUM, CH_NUM: a run's rows numbered 1, 2, ...; past 2^31 - 1 in a long run (the README
+example's gas records ~1.8e13 wall bounces a second of simulated time: 2^31 after 1.2e-4 s, minutes
+of engine), so BIGINT on PostgreSQL (schema 6); INTEGER on SQLite, whose integers are 64-bit (and
+the SQLite schema stays as it was)."""
 
 simulation = sa.Table(
     "simulation", metadata,
@@ -96,7 +104,7 @@ particule = sa.Table(
 rebond = sa.Table(
     "rebond", metadata,
     sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("re_num", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("re_num", ROW_NUMBER, primary_key=True, autoincrement=False),
     sa.Column("pa_num", sa.Integer, sa.ForeignKey("particule.pa_num"), nullable=False),
     sa.Column("re_t", sa.Float, nullable=False),
     sa.Column("re_dir", sa.Integer, nullable=False),
@@ -151,7 +159,7 @@ resultat = sa.Table(
 choc = sa.Table(
     "choc", metadata,
     sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("ch_num", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("ch_num", ROW_NUMBER, primary_key=True, autoincrement=False),
     sa.Column("ch_t", sa.Float, nullable=False),
     sa.Column("ch_i", sa.Integer, nullable=False),
     sa.Column("ch_j", sa.Integer, nullable=False),
@@ -179,12 +187,15 @@ BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s (the one
 figure is sqlite_writer's, which its messages quote)."""
 
-POSTGRES_SCHEMA_VERSION = 5
+POSTGRES_SCHEMA_VERSION = 6
 """Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
 RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
 (``rebond_default``) for rows written any other way; same columns, same keys. 5: CHOC
-partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). SQLite has no version 4
-or 5 (nothing changed there)."""
+partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). 6: RE_NUM and CH_NUM
+BIGINT (:data:`ROW_NUMBER`) in a new database; one migrated from 5 keeps its 32-bit
+columns (widening them rewrites every row), and a run whose rows would number past them is
+refused at its start (:meth:`Store.check_row_numbers`), the ALTER TABLE that widens them
+named. SQLite has no version 4 to 6 (nothing changed there)."""
 
 PARTITIONED = ("rebond", "choc")
 """PostgreSQL: the tables of one row per event, partitioned by run (schema 4 and 5)."""
@@ -199,6 +210,7 @@ CONNECT_TIMEOUT_S = 10
 """How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
 
 _PG_SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
+_PG_WRITER_LOCK = 0x67617A57  # 'gazW': held shared by every writing store while open (see Store._unmake)
 
 
 def _pandas():
@@ -291,6 +303,12 @@ class Store(RunStore):
     Opening checks (and for a writer creates or migrates) the schema; see the
     module docstring. Every failure is a :class:`StoreError`. ``close()``
     releases the connections (SQLite then removes its WAL file).
+
+    A SQLite file that does not exist yet is made under a private name
+    (:class:`gaz_cli.sqlite_writer.SqliteFile`, read there meanwhile) and takes its name
+    when its first run is stored, or at ``close()`` if no run was begun (a store
+    opened to make a database): a first run that fails or is interrupted leaves no
+    file, as ``gaz simulate --db FILE``.
     """
 
     def __init__(self, db: str, create: bool = True, empty_ok: bool = False):
@@ -308,12 +326,20 @@ class Store(RunStore):
                              "give a file path, or --no-db to store nothing")
         if self.is_sqlite and not create and "uri" not in url.query and _unwritable_folder(self.path):
             url = _immutable(url, self.path)
-        self.engine = None
+        self._url = url
+        self._engine = None
+        self._reading = None  # a new SQLite file's private name, where the engine reads it until published
+        self._opened = False
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
+        self._made = False  # PostgreSQL: this store created gaz's tables (see _unmake)
+        self._tried = self._stored = False  # a run was begun, committed through this store
+        self._writing = None  # PostgreSQL: the connection holding _PG_WRITER_LOCK while open for writing
         try:
             with self._errors():
                 self.engine = _make_engine(url, self.shown)
-                if create:
+                if create and self.is_sqlite and not os.path.lexists(self.path):
+                    self._open_new_file()
+                elif create:
                     self._prepare()
                 else:
                     with self.engine.connect() as conn:
@@ -324,13 +350,83 @@ class Store(RunStore):
         except BaseException:
             self.close()
             raise
+        self._opened = True
+
+    @property
+    def engine(self) -> sa.Engine:
+        """The SQLAlchemy engine reading (and, but for SQLite runs, writing) the database; a new
+        SQLite file's is on its private name until the file has its real one."""
+        if self._reading is not None and (self._file is None or self._file.private != self._reading):
+            self._reading = None  # published (or gone): read it under its name
+            self._engine.dispose()
+            self._engine = _make_engine(self._url, self.shown)
+        return self._engine
+
+    @engine.setter
+    def engine(self, engine: sa.Engine) -> None:
+        self._engine = engine
+
+    def _open_new_file(self) -> None:
+        """A new SQLite file: its schema made in a private file (sqlite_writer.SqliteFile), which
+        the engine reads until the file takes its name."""
+        url = self._url
+        self._file = sqlite_writer.SqliteFile(self.db, self.path, self.engine.dialect.create_connect_args(url))
+        private = self._file.private
+        uri = url.query.get("uri") in ("true", "1")
+        self._engine.dispose()
+        self._engine = _make_engine(url.set(database=sqlite_writer.renamed(url.database, private, uri)),
+                                    self.shown)
+        self._reading = private
 
     def close(self) -> None:
-        """Release every connection; idempotent."""
-        if self._file is not None:
-            self._file.close()
-        if self.engine is not None:
-            self.engine.dispose()
+        """Release every connection; idempotent. A PostgreSQL database this store created, into
+        which it began runs and stored none, is left as it was found (:meth:`_unmake`); so is a
+        new SQLite file (never named); a new SQLite file into which no run was begun takes its
+        name (the store made a database)."""
+        try:
+            if self._opened and not self._tried and self._file is not None and self._file.private is not None:
+                self._opened = False
+                self._engine.dispose()  # (its connections on the private file)
+                with self._errors(), interrupts.held():
+                    sqlite_writer.use_wal(self._file.conn)  # as every database the store opens
+                    self._file.publish()
+            if self._writing is not None:
+                writing, self._writing = self._writing, None
+                with writing, contextlib.suppress(sa_exc.DBAPIError):  # (best effort: the run's error is the one to tell)
+                    if self._made and self._tried and not self._stored:
+                        self._unmake(writing)
+        finally:
+            if self._file is not None:
+                self._file.close()
+            if self._engine is not None:
+                self._engine.dispose()
+
+    def _unmake(self, conn) -> None:
+        """PostgreSQL: drop the tables this store created (a new database) when none of its runs
+        was stored (refused, failed, interrupted): the database is left as it was found.
+
+        Unless another process may use them: another store open for writing (it holds
+        :data:`_PG_WRITER_LOCK` shared from before it looks at the schema until it closes: the
+        try-lock fails), a reader's transaction holding them past a short lock timeout, or
+        a run stored meanwhile (a SIMULATION row). ``conn``: this store's connection holding
+        the lock. Interrupts are held over it (a short transaction)."""
+        with interrupts.held():
+            conn.execute(sa.select(sa.func.pg_advisory_unlock_shared(_PG_WRITER_LOCK)))
+            conn.commit()
+            with conn.begin():
+                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
+                if not conn.execute(sa.select(sa.func.pg_try_advisory_xact_lock(_PG_WRITER_LOCK))).scalar():
+                    return  # another store is open for writing: the tables are its too
+                conn.exec_driver_sql("SET LOCAL lock_timeout = '2s'")
+                names = [t.name for t in metadata.sorted_tables]
+                try:
+                    with conn.begin_nested():
+                        conn.exec_driver_sql(f"LOCK TABLE {', '.join(names)} IN ACCESS EXCLUSIVE MODE")
+                except sa_exc.OperationalError:
+                    return  # a reader's transaction holds them
+                if conn.execute(sa.select(sa.func.count()).select_from(simulation)).scalar():
+                    return
+                conn.exec_driver_sql(f"DROP TABLE {', '.join(names)} CASCADE")
 
     # --- errors -----------------------------------------------------------------
     @contextlib.contextmanager
@@ -372,10 +468,18 @@ class Store(RunStore):
             with _write_transaction(self.engine) as conn:
                 self._create_or_migrate(conn, self._schema_state(conn))
             return
+        if self.engine.dialect.name == "postgresql" and self._writing is None:
+            # before the schema is looked at: while this store is open, a first run failing
+            # elsewhere does not drop the tables (_unmake); released by close()
+            self._writing = self.engine.connect()
+            self._writing.execute(sa.select(sa.func.pg_advisory_lock_shared(_PG_WRITER_LOCK)))
+            self._writing.commit()
         with self.engine.begin() as conn:
             if self.engine.dialect.name == "postgresql":
                 conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
-            self._create_or_migrate(conn, self._schema_state(conn))
+            version = self._schema_state(conn)
+            self._create_or_migrate(conn, version)
+            self._made = self._made or (version == 0 and self.engine.dialect.name == "postgresql")
 
     def _schema_state(self, conn) -> int:
         """The schema version found: 0 for none of gaz's tables (and, in SQLite, no other);
@@ -447,6 +551,7 @@ class Store(RunStore):
         """The run's writer: a SQLite file's runs go through the one SQLite writer
         (:mod:`gaz_cli.sqlite_writer`; the schema was created or migrated on opening), a
         server's through COPY (:class:`_DirectRun`)."""
+        self._tried = True
         if self.path is None:
             return _DirectRun(self, scene, started)
         if self._file is None:
@@ -457,7 +562,7 @@ class Store(RunStore):
             except sqlite_writer.ForTheStore:
                 raise StoreError(f"{self.shown!r} is not at this gaz's schema; open it for writing "
                                  "(Store(db), not create=False) to migrate it first") from None
-        return sqlite_writer.StagedRun(self._file, scene, started)
+        return self._file._writer(scene, started)  # (after the file's first run, on its real name)
 
     # --- reading ------------------------------------------------------------
     def read_sql(self, sql: str, **params) -> "pd.DataFrame":
@@ -514,6 +619,16 @@ class Store(RunStore):
             frame = _pandas().read_sql_query(stmt, conn)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
+
+    def check_row_numbers(self, scenes: list[Scene], fix: str = "shorten `duration`") -> None:
+        """Refuse, before they run, the runs of ``scenes`` whose rows would number past this
+        database's 32-bit row numbers (a PostgreSQL database made before schema 6;
+        :func:`gaz_cli.scene.check_row_numbers`); nothing elsewhere (64-bit)."""
+        if self.is_sqlite:
+            return
+        with self._errors(), self.engine.connect() as conn:
+            narrow = narrow_row_numbers(conn)
+        check_row_numbers(scenes, narrow, fix)
 
     def schema_version(self) -> int:
         """The database's schema version (1 for a database written before versions existed)."""
@@ -582,6 +697,10 @@ def _partition(conn, table: sa.Table, since: int) -> None:
     conn.exec_driver_sql(f"ALTER TABLE {name} RENAME TO {old}")
     conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO {old}_pkey')  # index names are the schema's
     table.create(conn)
+    for column, kind in _pg_types(conn, old).items():
+        if kind == "int4" and _pg_types(conn, name)[column] == "int8":
+            # the row number as wide as in the rows it partitions (a partition has its table's columns)
+            conn.exec_driver_sql(f"ALTER TABLE {name} ALTER COLUMN {column} TYPE integer")
     top = conn.exec_driver_sql(
         f"SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM {old}))").scalar()
     conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {old} "
@@ -597,7 +716,12 @@ def _pg_default_partition(conn) -> None:
             conn.exec_driver_sql(f"CREATE TABLE IF NOT EXISTS {name}_default PARTITION OF {name} DEFAULT")
 
 
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5}
+def _v5_to_v6(conn) -> None:
+    """5 -> 6, PostgreSQL only: nothing rewritten; the writer reads each row number's width
+    from the database (:func:`_copy_types`)."""
+
+
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
@@ -757,15 +881,27 @@ _COPY_SIGNATURE = b"PGCOPY\n\xff\r\n\0" + bytes(8)  # signature, flags 0, no hea
 _COPY_TRAILER = b"\xff\xff"
 
 
-def _pg_type(column_type) -> str:
-    """PostgreSQL's name of a column's type, for binary COPY (which needs them exact)."""
-    if isinstance(column_type, sa.BigInteger):
-        return "int8"
-    if isinstance(column_type, sa.Integer):
-        return "int4"
-    if isinstance(column_type, sa.Float):
-        return "float8"
-    raise TypeError(f"no COPY type for {column_type!r}")
+def _copy_types(conn, table: sa.Table) -> list[str]:
+    """The PostgreSQL types of ``table``'s columns in the database, in the metadata's order, for
+    binary COPY (which needs them exact): a database migrated from schema 5 keeps 32-bit row
+    numbers where a new one has 64-bit ones (:data:`POSTGRES_SCHEMA_VERSION`)."""
+    found = _pg_types(conn, table.name)
+    return [found[c.name] for c in table.columns]
+
+
+def _pg_types(conn, name: str) -> dict[str, str]:
+    """PostgreSQL: column name -> type name (int4, int8, float8...) of the table ``name``."""
+    return dict(conn.exec_driver_sql(
+        "SELECT a.attname, t.typname FROM pg_attribute a JOIN pg_type t ON t.oid = a.atttypid "
+        f"WHERE a.attrelid = '{name}'::regclass AND a.attnum > 0 AND NOT a.attisdropped").all())
+
+
+def narrow_row_numbers(conn) -> tuple[str, ...]:
+    """PostgreSQL: the tables among REBOND and CHOC whose row number (RE_NUM, CH_NUM) is a 32-bit
+    integer in this database (one made before schema 6); () where they do not exist yet."""
+    tables = {n.lower() for n in sa.inspect(conn).get_table_names()}
+    return tuple(t.upper() for t, c in (("rebond", "re_num"), ("choc", "ch_num"))
+                 if t in tables and _pg_types(conn, t)[c] == "int4")
 
 
 def _copy_block(columns: list, types: list[str]) -> bytes:
@@ -872,6 +1008,9 @@ class _DirectRun(_Run):
             self.trans = self.conn.begin()
             if self.conn.dialect.name == "postgresql":
                 _keep_open(self.conn)
+                # before the engine: a run numbering its rows past a 32-bit column failed at that row
+                check_row_numbers([scene], narrow_row_numbers(self.conn))
+            self._types = {}  # table name -> its columns' types in the database (_copy_types)
             self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
             if self._attach:
                 self._si = self._next("simulation", "si_num")
@@ -910,13 +1049,16 @@ class _DirectRun(_Run):
         target = self._target(table)
         replica = self._keys_by_hand and target == table.name
         # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
+        if table.name not in self._types:
+            self._types[table.name] = _copy_types(self.conn, table)
+        block = _copy_block(columns, self._types[table.name])
         raw = self.conn.connection.driver_connection
         sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
         with raw.cursor() as cur:
             if replica:
                 cur.execute("SET LOCAL session_replication_role = replica")
             with cur.copy(sql) as copy:
-                copy.write(_copy_block(columns, [_pg_type(c.type) for c in table.columns]))
+                copy.write(block)
             if replica:
                 cur.execute("SET LOCAL session_replication_role = origin")
 
@@ -930,6 +1072,7 @@ class _DirectRun(_Run):
         with interrupts.held():
             self.trans.commit()
             self.si_num = self._si
+            self.store._stored = True
         self.conn.close()
 
     def _attach_rows(self) -> None:

@@ -12,8 +12,9 @@ run, and an interrupt keeps every run already stored.
 Before any cluster starts, a sweep into a SQLite file whose runs would not fit on its
 disk is refused, as ``gaz simulate`` refuses one run
 (:func:`gaz_cli.scene.check_database_space`: every run's rows, and the largest one's
-copy in the WAL file and scratch file), and a sweep into PostgreSQL whose runs would
-number their rows past its 32-bit integers (:func:`gaz_cli.scene.check_row_numbers`).
+copy in the WAL file and scratch file), and a sweep into a PostgreSQL database made before
+schema 6 whose runs would number their rows past its 32-bit integers
+(:meth:`gaz_cli.store.Store.check_row_numbers`).
 Until these checks have passed and the cluster answers, the database is only read (the
 runs it holds already): nothing is created or migrated for a sweep that is refused.
 
@@ -310,7 +311,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     was stored.
     """
     from gaz_cli.runner import prepare, sqlite_file
-    from gaz_cli.scene import check_database_space, check_row_numbers
+    from gaz_cli.scene import check_database_space
     from gaz_cli.store import Store
 
     from gaz_cli.sqlite_writer import database_name, open_for_writing
@@ -327,11 +328,6 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             report.rows.append((point, "failed", None, str(err)))
     _refuse_a_sweep_that_cannot_run(points, report.rows)
     path = sqlite_file(db)
-    try:
-        if path is None and db.startswith("postgres"):  # before any connection, as gaz simulate
-            check_row_numbers([scene for _, scene in built])
-    except SceneError as err:
-        raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
     todo = []
     if path is not None and not os.path.exists(os.path.expanduser(path)):
         done = set()  # a new file: every point runs, and the file is created after the checks
@@ -340,6 +336,10 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         # migrate is written only once the checks below have passed and the cluster answers
         with Store(db, create=False, empty_ok=True) as store:
             done = set(store.scene_files())
+            try:  # a PostgreSQL database made before schema 6 numbers its rows in 32 bits
+                store.check_row_numbers([scene for _, scene in built])
+            except SceneError as err:
+                raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
     for point, scene in built:
         if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))

@@ -184,6 +184,7 @@ def test_readers_read_while_a_writer_writes(tmp_path, argon_scene, rng, monkeypa
     store = st.Store(str(db))
     write_fake(store, argon_scene(dim=2, n=20, length=1e-7), rng)
     store.close()
+    st.Store(str(db)).close()  # the next writer puts it in WAL (its first run was in the rollback journal)
     writer = sqlite3.connect(db, isolation_level=None)
     writer.execute("PRAGMA cache_size = 1")
     writer.execute("BEGIN IMMEDIATE")
@@ -390,6 +391,7 @@ def test_a_connection_lost_mid_run_is_one_store_error(postgres_db, postgres_url,
     tag = f"gaz_lost_{rng.integers(1 << 30)}"  # this test's connections, and no one else's
     db = sa.make_url(postgres_db).update_query_dict({"application_name": tag}).render_as_string(False)
     admin = sa.create_engine(postgres_url)
+    st.Store(postgres_db).close()  # a gaz database (a new one is left without a table)
     store = st.Store(db)
     try:
         with pytest.raises(StoreError, match="^lost the connection to database '") as err:
@@ -501,6 +503,7 @@ def test_a_signal_stops_a_commit_waiting_for_a_lock(postgres_db, postgres_url, a
             locker.rollback()
 
     helper = threading.Thread(target=interrupt_the_wait, daemon=True)
+    st.Store(postgres_db).close()  # a gaz database (a new one is left without a table)
     store = st.Store(db)
     try:
         with interrupts.catching(), pytest.raises(Interrupted):

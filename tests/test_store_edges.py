@@ -3,6 +3,10 @@ and names SQLite would read otherwise than as written."""
 
 import sqlite3
 
+import pytest
+
+from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
+
 from cli_helpers import invoke
 
 # a run of the exam's own engine (no JIT to wait for), a few ms long
@@ -191,3 +195,126 @@ def test_a_new_files_first_run_lands_whole_and_later_writers_use_wal(tmp_path):
         assert [r[0] for r in con.execute("SELECT si_num FROM simulation ORDER BY si_num")] == [1, 2]
     finally:
         con.close()
+
+
+def _pg_tables(url):
+    import sqlalchemy as sa
+
+    engine = sa.create_engine(url)
+    try:
+        with engine.connect() as conn:
+            return sorted(sa.inspect(conn).get_table_names())
+    finally:
+        engine.dispose()
+
+
+def _pg_simulations(url):
+    import sqlalchemy as sa
+
+    engine = sa.create_engine(url)
+    try:
+        with engine.connect() as conn:
+            return conn.exec_driver_sql("SELECT si_num FROM simulation ORDER BY si_num").scalars().all()
+    finally:
+        engine.dispose()
+
+
+@pytest.mark.postgres
+def test_a_failed_first_run_leaves_a_new_postgresql_database_empty(postgres_db, monkeypatch):
+    """A run into a new PostgreSQL database that failed (--save-state on a full disk), was
+    interrupted, or failed through the Python API left gaz's ten tables behind, empty. Now
+    the database is as it was (no table); a database with runs keeps them, and its tables."""
+    from gaz_cli import runner
+    from gaz_cli import store as st
+    from gaz_cli.errors import Interrupted
+    from gaz_cli.scene import Scene
+    from gaz_cli.species import BUILTIN
+
+    res = invoke([*QUICK, "--db", postgres_db, "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert _pg_tables(postgres_db) == []
+
+    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
+        raise Interrupted(2)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(runner, "run_pressure", interrupted)
+        res = invoke([*QUICK, "--db", postgres_db])
+    assert res.exit_code == 130, res.output
+    assert _pg_tables(postgres_db) == []
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    with pytest.raises(RuntimeError, match="finish"):
+        with st.Store(postgres_db) as store, store.simulation(scene):
+            pass  # finish() not called: the run fails
+    assert _pg_tables(postgres_db) == []
+    assert invoke([*QUICK, "--db", postgres_db]).exit_code == 0
+    tables = _pg_tables(postgres_db)
+    assert "simulation" in tables and _pg_simulations(postgres_db) == [1]
+    res = invoke([*QUICK, "--db", postgres_db, "--save-state", "/dev/full"])
+    assert res.exit_code == 1 and _pg_tables(postgres_db) == tables and _pg_simulations(postgres_db) == [1]
+
+
+@pytest.mark.postgres
+def test_two_processes_started_together_into_a_new_postgresql_database_both_land(postgres_db):
+    """gaz simulate into one new PostgreSQL database twice at once, and beside them a third run
+    that fails: the two exit 0, with distinct simulation numbers, both stored; the failed one
+    drops nothing of theirs."""
+    import json
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, "-m", "gaz_cli", *QUICK[:-1], str(seed), "--db", postgres_db,
+                               "--json", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for seed, extra in ((1, []), (2, []), (3, ["--save-state", "/dev/full"]))]
+    outs = [p.communicate(timeout=120) for p in procs]
+    assert [p.returncode for p in procs] == [0, 0, 1], outs
+    stored = sorted(json.loads(out)["si_num"] for out, _ in outs[:2])
+    assert len(set(stored)) == 2 and _pg_simulations(postgres_db) == stored
+
+
+def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_file(tmp_path, monkeypatch):
+    """Store(db) (the Python API) and SQLite URLs with options (sqlite:///x.db?timeout=5, a
+    file: URI with ?uri=true), which go through SQLAlchemy's store, created the file on
+    opening: a first run that failed, or was interrupted, left it (45,056 bytes, an empty gaz
+    database). Now the new file is made under a private name and takes its own with its first
+    run stored: nothing is left by a failed one; a store opened and closed without a run
+    still makes the database; two stores opened on one new file both land."""
+    from gaz_cli import runner
+    from gaz_cli import store as st
+    from gaz_cli.errors import Interrupted
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    monkeypatch.chdir(tmp_path)
+    urls = ["sqlite:///x.db?timeout=5", f"sqlite:///file:{tmp_path / 'x.db'}?mode=rwc&uri=true"]
+    for db in urls:
+        res = invoke([*QUICK, "--db", db, "--save-state", "/dev/full"])  # ENOSPC
+        assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+        assert list(tmp_path.iterdir()) == []
+
+    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
+        raise Interrupted(2)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(runner, "run_pressure", interrupted)
+        res = invoke([*QUICK, "--db", urls[0]])
+    assert res.exit_code == 130 and list(tmp_path.iterdir()) == [], res.output
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    for db in ["api.db", urls[1]]:
+        with pytest.raises(RuntimeError, match="finish"):
+            with st.Store(db) as store, store.simulation(scene):
+                assert store.simulation_numbers() == []  # read meanwhile: an empty gaz database
+    assert list(tmp_path.iterdir()) == []
+    st.Store("made.db").close()
+    assert [p.name for p in tmp_path.iterdir()] == ["made.db"] and simulations("made.db") == []
+
+    first, second = st.Store(urls[0]), st.Store(urls[1])  # one new file, twice
+    for count, store in enumerate((first, second), start=1):
+        with store:
+            with store.simulation(scene) as run:
+                run.add_bounces([1e-11, 2e-11], [0, 1], [1, -2], [300.0, 310.0], [200.0, 100.0])
+                run.finish(RunStats(2, 2, 0, 0.01, initial_state(scene)), 1.0, 1.0)
+            assert store.simulation_numbers() == list(range(1, count + 1))  # read under its name
+    assert simulations("x.db") == [1, 2]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["made.db", "x.db"]

@@ -138,6 +138,8 @@ def _version_3(db: str) -> None:
         table.to_metadata(old)
     for name in st.PARTITIONED:
         old.tables[name].dialect_options["postgresql"]["partition_by"] = None
+    for name, column in (("rebond", "re_num"), ("choc", "ch_num")):
+        old.tables[name].c[column].type = sa.Integer()  # 32-bit until schema 6
     engine = sa.create_engine(st.url_for(db))
     with engine.begin() as conn:
         old.create_all(conn)
@@ -158,7 +160,9 @@ def _version_3(db: str) -> None:
 def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
     _version_3(postgres_db)
     with st.Store(postgres_db) as store:
-        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 5
+        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 6
+        with store.engine.connect() as conn:  # its rows keep their 32-bit numbers (not rewritten)
+            assert st.narrow_row_numbers(conn) == ("REBOND", "CHOC")
         si = write(store, argon_scene(dim=3, n=20), 50, collisions=20)
         with store.engine.connect() as conn:
             assert partitions(conn) == {"rebond_v3", "rebond_default", f"rebond_{si}"}
@@ -226,3 +230,57 @@ def test_a_server_timeout_on_idle_transactions_does_not_end_a_run(postgres_db, a
             time.sleep(1.0)
             w.finish(RunStats(1, 1, 0, 0.1, initial_state(scene)), 1.0, 1.0)
         assert store.simulation_numbers() == [w.si_num] and len(store.table(st.rebond, w.si_num)) == 1
+
+
+def test_row_numbers_past_int32_are_stored(postgres_db, argon_scene):
+    """RE_NUM and CH_NUM count a run's bounces and collisions: the README example's gas passes
+    2^31 - 1 of them after ~1.2e-4 s simulated (minutes of engine). They were INTEGER (int4) on
+    PostgreSQL: such a run failed at that row, after all its computation. Now they are BIGINT
+    in a new database; a writer handed row numbers across 2^31 (the run's counters set just
+    below it: no 2e9 events) stores them, exact."""
+    scene = replace(argon_scene(dim=3, n=20), record="all")
+    with st.Store(postgres_db) as store:
+        with store.simulation(scene) as w:
+            w._n = {"rebond": 2 ** 31 - 2, "choc": 2 ** 32 - 2}  # the rows before, as counted
+            w.add_bounces([1e-12, 2e-12, 3e-12], [0, 1, 2], [1, -2, 3], [300.0, 310.0, 320.0],
+                          [200.0, 100.0, 50.0])
+            w.add_collisions([1e-12, 2e-12], [0, 1], [1, 2], [1e-23, 2e-23])
+            w.finish(RunStats(5, 3, 2, 0.1, initial_state(scene)), 1.0, 1.0)
+        with store.engine.connect() as conn:
+            assert conn.exec_driver_sql("SELECT re_num FROM rebond ORDER BY re_num").scalars().all() == [
+                2 ** 31 - 1, 2 ** 31, 2 ** 31 + 1]
+            assert conn.exec_driver_sql("SELECT ch_num FROM choc ORDER BY ch_num").scalars().all() == [
+                2 ** 32 - 1, 2 ** 32]
+
+
+def test_a_database_with_32_bit_row_numbers_refuses_a_run_past_them_then_widens(postgres_db, argon_scene):
+    """A database made before schema 6 keeps its 32-bit RE_NUM (widening rewrites every row): a
+    run estimated past 2^31 - 1 bounces (the README example's gas for 2e-4 s, ~3.6e9) is
+    refused at its start, one line naming the ALTER TABLE that widens it, nothing written; a
+    short run is stored as before (binary COPY in the database's own int4); once widened as
+    the message says, row numbers past 2^31 are stored."""
+    from gaz_cli.errors import SceneError
+
+    small = argon_scene(dim=3, n=20)
+    with st.Store(postgres_db) as store:
+        write(store, small, 10)
+        with store.engine.begin() as conn:  # as made by gaz before schema 6
+            conn.exec_driver_sql("ALTER TABLE rebond ALTER COLUMN re_num TYPE integer")
+        big = argon_scene(dim=3, n=1000, duration=2e-4)
+        with pytest.raises(SceneError) as refused:
+            with store.simulation(big):
+                raise AssertionError("the run was not refused at its start")
+        message = str(refused.value)
+        assert "\n" not in message and "32-bit" in message and "3.56e+09 wall bounces" in message, message
+        with pytest.raises(SceneError, match="ALTER TABLE rebond ALTER COLUMN re_num TYPE bigint"):
+            store.check_row_numbers([big])  # what a sweep asks before its cluster starts
+        assert write(store, small, 10) == 2
+        with store.engine.begin() as conn:
+            conn.exec_driver_sql("ALTER TABLE rebond ALTER COLUMN re_num TYPE bigint")
+        store.check_row_numbers([big])
+        with store.simulation(small) as w:
+            w._n["rebond"] = 2 ** 31 - 1
+            w.add_bounces([1e-12], [0], [1], [300.0], [200.0])
+            w.finish(RunStats(1, 1, 0, 0.1, initial_state(small)), 1.0, 1.0)
+        assert store.read_sql("SELECT max(re_num) AS m FROM rebond")["M"][0] == 2 ** 31
+        assert store.simulation_numbers() == [1, 2, 3]

@@ -394,12 +394,18 @@ def test_a_sweep_refused_for_its_disk_leaves_an_older_database_unmigrated(tmp_pa
 
 
 @pytest.mark.postgres
-def test_a_sweep_past_postgresqls_row_numbers_creates_no_schema(tmp_path, monkeypatch, postgres_db):
-    """A sweep into PostgreSQL opened the database for writing -- creating gaz's nine tables in a
-    new one -- before refusing its runs whose rows would number past the 32-bit RE_NUM. Now the
-    refusal comes first, one line; the database is left without a table."""
+def test_a_sweep_past_32_bit_row_numbers_is_refused_before_its_cluster(tmp_path, monkeypatch, postgres_db):
+    """A sweep into a PostgreSQL database made before schema 6 (32-bit RE_NUM) whose runs would
+    number their rows past it is refused before any cluster starts, one line; nothing written."""
     import sqlalchemy as sa
     from cli_helpers import invoke
+
+    from gaz_cli import store as st
+
+    st.Store(postgres_db).close()
+    engine = sa.create_engine(postgres_db)
+    with engine.begin() as conn:  # as made by gaz before schema 6
+        conn.exec_driver_sql("ALTER TABLE rebond ALTER COLUMN re_num TYPE integer")
 
     def no_cluster(*args):
         raise AssertionError("a cluster was started")
@@ -410,11 +416,10 @@ def test_a_sweep_past_postgresqls_row_numbers_creates_no_schema(tmp_path, monkey
                      'count = 1000\n')
     res = invoke(["sweep", str(scene), "--vary", "temperature=300,310", "--db", postgres_db, "--quiet"])
     assert res.exit_code == 1 and len(res.stderr.splitlines()) == 1, res.stderr
-    assert "32-bit integer" in res.stderr, res.stderr
-    engine = sa.create_engine(postgres_db)
+    assert "32-bit integer" in res.stderr and "ALTER TABLE rebond" in res.stderr, res.stderr
     try:
         with engine.connect() as conn:
-            assert sa.inspect(conn).get_table_names() == []
+            assert conn.exec_driver_sql("SELECT count(*) FROM simulation").scalar() == 0
     finally:
         engine.dispose()
 
