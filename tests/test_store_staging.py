@@ -21,6 +21,7 @@ def mixture(record="all"):
 def write(db, scene, seen, k=5000, chunks=4):
     """Write k random bounces and collisions in chunks; note whether a scratch file existed."""
     (t, particle, wall, speed, vperp), (i, j, imp) = random_rows(scene, k, 11)
+    st.Store(db).close()  # an existing file: a new one's first run is not staged (0295d95)
     with st.Store(db) as store:
         with store.simulation(scene) as w:
             for part in np.array_split(np.arange(k), chunks):
