@@ -43,24 +43,29 @@ def test_a_file_uri_as_db_is_refused_and_a_dotted_path_is_that_file(tmp_path, mo
     assert res.exit_code == 0, res.output
 
 
-def test_a_run_that_fails_or_is_interrupted_leaves_no_new_database(tmp_path, monkeypatch):
-    """A run into a new --db that failed before its commit (--save-state on a full disk), or was
-    interrupted, left the file behind: an empty gaz database of 45 kB. Now the folder is as it
-    was; the next run creates the file, with simulation 1."""
+def _interrupted_run(monkeypatch, db):
+    """``gaz simulate QUICK --db db`` interrupted by a SIGINT taking effect after the engine,
+    before the commit: its result."""
     from gaz_cli import runner
     from gaz_cli.errors import Interrupted
 
-    db = tmp_path / "new.db"
-    res = invoke([*QUICK, "--db", str(db), "--save-state", "/dev/full"])  # ENOSPC
-    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
-    assert list(tmp_path.iterdir()) == []
-
-    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
+    def interrupted(*args, **kwargs):
         raise Interrupted(2)
 
     with monkeypatch.context() as patch:
         patch.setattr(runner, "run_pressure", interrupted)
-        res = invoke([*QUICK, "--db", str(db)])
+        return invoke([*QUICK, "--db", db])
+
+
+def test_a_run_that_fails_or_is_interrupted_leaves_no_new_database(tmp_path, monkeypatch):
+    """A run into a new --db that failed before its commit (--save-state on a full disk), or was
+    interrupted, left the file behind: an empty gaz database of 45 kB. Now the folder is as it
+    was; the next run creates the file, with simulation 1."""
+    db = tmp_path / "new.db"
+    res = invoke([*QUICK, "--db", str(db), "--save-state", "/dev/full"])  # ENOSPC
+    assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
+    assert list(tmp_path.iterdir()) == []
+    res = _interrupted_run(monkeypatch, str(db))
     assert res.exit_code == 130, res.output
     assert f"nothing was written to '{db}'" in res.stderr, res.stderr
     assert list(tmp_path.iterdir()) == []
@@ -197,26 +202,27 @@ def test_a_new_files_first_run_lands_whole_and_later_writers_use_wal(tmp_path):
         con.close()
 
 
+def _pg_read(url, read):
+    """``read(conn)`` on a fresh connection to the PostgreSQL database at ``url``."""
+    import sqlalchemy as sa
+
+    engine = sa.create_engine(url)
+    try:
+        with engine.connect() as conn:
+            return read(conn)
+    finally:
+        engine.dispose()
+
+
 def _pg_tables(url):
     import sqlalchemy as sa
 
-    engine = sa.create_engine(url)
-    try:
-        with engine.connect() as conn:
-            return sorted(sa.inspect(conn).get_table_names())
-    finally:
-        engine.dispose()
+    return _pg_read(url, lambda conn: sorted(sa.inspect(conn).get_table_names()))
 
 
 def _pg_simulations(url):
-    import sqlalchemy as sa
-
-    engine = sa.create_engine(url)
-    try:
-        with engine.connect() as conn:
-            return conn.exec_driver_sql("SELECT si_num FROM simulation ORDER BY si_num").scalars().all()
-    finally:
-        engine.dispose()
+    return _pg_read(url, lambda conn: conn.exec_driver_sql(
+        "SELECT si_num FROM simulation ORDER BY si_num").scalars().all())
 
 
 @pytest.mark.postgres
@@ -279,9 +285,7 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
     database). Now the new file is made under a private name and takes its own with its first
     run stored: nothing is left by a failed one; a store opened and closed without a run
     still makes the database; two stores opened on one new file both land."""
-    from gaz_cli import runner
     from gaz_cli import store as st
-    from gaz_cli.errors import Interrupted
     from gaz_cli.recording import RunStats
     from gaz_cli.scene import Scene, initial_state
     from gaz_cli.species import BUILTIN
@@ -293,12 +297,7 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
         assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
         assert list(tmp_path.iterdir()) == []
 
-    def interrupted(*args, **kwargs):  # a SIGINT taking effect after the engine, before the commit
-        raise Interrupted(2)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(runner, "run_pressure", interrupted)
-        res = invoke([*QUICK, "--db", urls[0]])
+    res = _interrupted_run(monkeypatch, urls[0])
     assert res.exit_code == 130 and list(tmp_path.iterdir()) == [], res.output
     scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
     for db in ["api.db", urls[1]]:
