@@ -62,6 +62,11 @@ EARLY_CHILD = textwrap.dedent("""
     import os, signal, sys
     from gaz_cli import cli
 
+    # SIGINT as a terminal's Ctrl-C finds it: a process started with SIGINT ignored (a job sent
+    # to the background by a script, as CI may run the suite) keeps it ignored, and Python then
+    # installs no KeyboardInterrupt for it
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
     class SignalOnImport:
         '''Sends the signal to this process when the command first imports module sys.argv[2].'''
 
