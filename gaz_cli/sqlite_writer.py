@@ -588,9 +588,6 @@ class StagedRun(TableRecorder):
         dropped its copy, the run waits while the thread has staging.SCRATCH_QUEUE chunks to go
         (memory stays bounded)."""
         if self._early is None:
-            if self._early_tried:  # (ended: no chunk comes after the commit)
-                raise StoreError(f"database {self.file.shown!r}: a chunk of rows came after the run's end")
-            self._early_tried = True
             self._early = _EarlyInsert(self, [], bound=None)
         self._early.check()  # a failure of its thread stops the run here
         kept = self.stage.add(table, columns)
@@ -819,7 +816,8 @@ class _EarlyInsert:
 
     # --- the thread's side
     def _insert(self, table: str, columns: list) -> None:
-        staging.insert_chunk(self.conn, table, self.names[table], columns, self.si_num, self._pa_nums[table])
+        pa_nums = self.pa_nums if table == "rebond" else None  # (CHOC has no PA_NUM)
+        staging.insert_chunk(self.conn, table, self.names[table], columns, self.si_num, pa_nums)
         if self._flushed is not None and not self._done.is_set():
             # the pages SQLite has written so far go to the disk now, while the engine runs,
             # so that the commit's fsync has only the last ones left (nobody else reads this
@@ -843,7 +841,7 @@ class _EarlyInsert:
                 raise
             deadline = None if self.bound is None else time.monotonic() + self.bound
             self.si_num, nums = _simulation_rows(conn, self.scene, self.started)
-            self.pa_nums, self._pa_nums = nums, {"rebond": nums, "choc": None}
+            self.pa_nums = nums  # species index -> PA_NUM
             while True:
                 if self._done.is_set() or deadline is None:
                     item = self._queue.get()
