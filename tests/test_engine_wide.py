@@ -16,13 +16,13 @@ from test_event_engine import (HORIZON, assert_same_events_as_the_exam, event_se
 
 from gaz_cli import engine
 from gaz_cli.engine import sizing
-from gaz_cli.engine.boundaries import _crossing
 from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _pair_time
-from gaz_cli.engine.layout import CELL, I_WIDTH, PR, PV, SLOT, TCOL, TCOL2
+from gaz_cli.engine.boundaries import _crossing
+from gaz_cli.engine.layout import C0, CELL, I_WIDTH, PR, PT, PV, SLOT, TCOL, TCOL2
 from gaz_cli.engine.neighbours.cells import _assign_cells
 from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
-from gaz_cli.engine.neighbours.wide import _face_time, _mirror_all, _predict_wide
+from gaz_cli.engine.neighbours.wide import _mirror_all, _path_block, _predict_wide
 from gaz_cli.recording import MemoryRecorder, Recorder
 from gaz_cli.scene import initial_state
 
@@ -150,13 +150,13 @@ def test_auto_takes_wide_cells_for_dilute_gases(scene, wide):
 
 # --- the scan: it only filters (module docstring of neighbours.wide) ---
 
-@numba.njit(cache=True)
-def _kept_and_found(P, F, XC, nc, t_mirror, t, L, D, PER):
-    """Particle 0's full scan (its row at t) in wide cells, nc an axis, after the rows were
-    mirrored at t_mirror: which particles the pass kept, which ones the exact float64 root
-    finds in contact by its horizon (its next wall bounce; PER: its next wrap), and its two
-    predictions. F: the rows as the scan sees them (with walls P itself; PER, a periodic box:
-    each partner in the image its cell is scanned through)."""
+@numba.njit  # (not cached: Numba's cache would not see a change of the engine's helpers)
+def _kept_and_found(P, F, XC, nc, t_mirror, t, tw, L, D, PER):
+    """Particle 0's scan (its row at t) of the 3^D cells around it in wide cells, nc an axis,
+    up to the horizon tw, after the rows were mirrored at t_mirror: which particles the pass
+    kept, which ones the exact float64 root finds in contact by tw, and its two predictions.
+    F: the rows as the scan sees them (with walls P itself; PER, a periodic box: each
+    partner in the image its cell is scanned through)."""
     n = P.shape[0]
     I = np.zeros((n, I_WIDTH), np.int32)
     cap = n
@@ -166,14 +166,8 @@ def _kept_and_found(P, F, XC, nc, t_mirror, t, L, D, PER):
     XB[:, 0, :] = 1e10
     _mirror_all(P, I, XB, XC, n, t_mirror, L)
     EV = np.full((n, 4), np.inf)
-    edges = np.arange(nc + 1) * (L / nc)
-    edges[-1] = L
-    if PER:
-        tw = _face_time(P, 0, L, D)
-    else:
-        tw, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, True)
-    _predict_wide(P, I, EV, cells, XB, XC, edges, 0, t, n, nc, L, 0.0, True, -1, 1, -1, 1, -1, 1,
-                  (1.0, 0.0), D, PER)
+    _predict_wide(P, I, EV, cells, XB, XC, 0, t, tw, n, nc, L, 0.0, -1, 1, -1, 1,
+                  -1 if D > 2 else 0, 1 if D > 2 else 0, (1.0, 0.0), D, PER)
     kept = np.zeros(n, np.bool_)
     times = np.full(n, np.inf)
     for m in range(1, n):
@@ -182,7 +176,7 @@ def _kept_and_found(P, F, XC, nc, t_mirror, t, L, D, PER):
                                                     F[0, PV], F[0, PV + 1], F[0, PV + 2],
                                                     0.0, 3, False)
         times[m] = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, F[0, PR], F[m, PR], (1.0, 0.0), 3)
-    return kept, times, tw, EV[0, TCOL], EV[0, TCOL2]
+    return kept, times, EV[0, TCOL], EV[0, TCOL2]
 
 
 @pytest.mark.parametrize("case, dim, L, radius, speed, t, t_mirror, age", [
@@ -205,9 +199,9 @@ def test_the_scan_keeps_every_pair_the_exact_root_finds_before_the_next_bounce(
     x0 = np.full(dim, 0.5 * L)
     horizon = float(np.min((0.5 * L - radius) / np.abs(v0)))  # (its next wall bounce)
     P = adversarial_rows(rng, 3000, dim, L, radius, speed, t, horizon, age, at=(x0, v0))
-    kept, times, tw, t1, t2 = _kept_and_found(P, P, np.zeros(XC_SIZE), 3, t_mirror, t, L, dim,
-                                              False)
-    assert tw == pytest.approx(t + horizon, rel=1e-9)
+    tw = t + horizon
+    kept, times, t1, t2 = _kept_and_found(P, P, np.zeros(XC_SIZE), 3, t_mirror, t, tw, L, dim,
+                                          False)
     found = times <= tw
     assert found.sum() > 1000, found.sum()  # (most partners do touch by the horizon)
     missed = np.flatnonzero(found & ~kept)
@@ -243,11 +237,100 @@ def test_periodic_scan_keeps_every_pair_the_exact_root_finds_through_the_images(
     P[:, :dim] += np.where(P[:, :dim] < 0.0, L, 0.0)  # wrapped: across a face, cell 2
     assert (P[:, :dim] >= 0.0).all() and (P[:, :dim] < L).all()
     assert np.mean(np.any(F[:, :dim] < third, axis=1)) > 0.25  # many through an image
-    kept, times, tw, t1, t2 = _kept_and_found(P, F, np.zeros(XC_SIZE), 3, 0.0, t, L, dim, True)
-    assert tw == pytest.approx(t + horizon, rel=1e-9)
+    tw = t + horizon
+    kept, times, t1, t2 = _kept_and_found(P, F, np.zeros(XC_SIZE), 3, 0.0, t, tw, L, dim, True)
     found = times <= tw
     assert found.sum() > 1000, found.sum()
     missed = np.flatnonzero(found & ~kept)
     assert missed.size == 0, (missed[:5], P[missed[:5]])
     first, second = np.sort(times[found])[:2]
     assert (t1, t2) == (first, second)
+
+
+# --- the cells a scan covers: those a partner can be in when it touches (_path_block) ---
+
+@numba.njit  # (not cached: Numba's cache would not see a change of the engine's helpers)
+def _blocks_and_offsets(P, XC, nc, L, D):
+    """Particle 0's exit time from its cell (its next crossing or bounce, as the loop times
+    it), the block of cells :func:`_path_block` gives for its path until then, and each
+    row's cell offsets from particle 0's cell (per axis)."""
+    n = P.shape[0]
+    I = np.zeros((n, I_WIDTH), np.int32)
+    cells = np.zeros((nc ** D, n + 1), np.int32)
+    _assign_cells(P, I, cells, nc, L / nc, D)
+    XB = np.zeros((nc ** D, 9, 8 * ((n + 7) // 8)), np.float32)
+    XB[:, 0, :] = 1e10
+    _mirror_all(P, I, XB, XC, n, P[0, PT], L)
+    edges = np.arange(nc + 1) * (L / nc)
+    edges[-1] = L
+    tx, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, False, True)
+    block = _path_block(P, I, XC, edges, 0, P[0, PT], tx, D)
+    off = np.zeros((n, 3), np.int64)
+    for m in range(n):
+        for d in range(D):
+            off[m, d] = I[m, C0 + d] - I[0, C0 + d]
+    return tx, block, off
+
+
+def _touching_partners(rng, p0, tx, k, w, L, rmax, dim):
+    """Rows of up to k partners of p0 set up to touch it at a time tc before tx (now for a
+    fifth; at contact, or overlapping by 1e-9 of it) and to stay in their own cell from p0's time stamp to tc:
+    half of the largest radius, half of the contact normals along an axis or the diagonal of
+    two (across a face or an edge at exactly the reach)."""
+    tc = p0[PT] + (tx - p0[PT]) * rng.uniform(0.0, 1.0, k) ** 0.3  # (many late: by the exit)
+    tc[rng.uniform(size=k) < 0.2] = p0[PT]  # (a fifth touching now)
+    r = np.where(rng.uniform(size=k) < 0.5, rmax, rng.uniform(0.05, rmax, k))
+    u = rng.normal(size=(k, dim))
+    kind = rng.uniform(size=k)
+    axis = rng.integers(dim, size=k)
+    u[kind < 0.5] = 0.0
+    u[kind < 0.5, axis[kind < 0.5]] = rng.choice([-1.0, 1.0], size=int((kind < 0.5).sum()))
+    edge = kind < 0.2
+    u[edge, ((axis + 1) % dim)[edge]] = rng.choice([-1.0, 1.0], size=int(edge.sum()))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    contact = (p0[PR] + r) * np.where(rng.uniform(size=k) < 0.2, 1.0 - 1e-9, 1.0)
+    at_tc = p0[:dim] + p0[PV:PV + dim] * (tc - p0[PT])[:, None] + contact[:, None] * u
+    v = rng.normal(size=(k, dim))
+    now = at_tc - v * (tc - p0[PT])[:, None]
+    same = np.all((np.floor(now / w) == np.floor(at_tc / w)) & (now > 0) & (now < L), axis=1)
+    q = np.zeros((int(same.sum()), 8))
+    q[:, :dim], q[:, PV:PV + dim], q[:, PR], q[:, PT] = now[same], v[same], r[same], p0[PT]
+    return q
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("start", ["inside", "near a face, within the reach", "on a face"])
+def test_every_partner_that_touches_before_the_exit_is_in_the_scanned_block(dim, start):
+    """Particle 0 in the centre cell of 3 an axis (anywhere; or with one coordinate just
+    inside the reach of a face, 1e-9 to 0.1 of it; or on a face, as right after a
+    crossing), partners set up to touch it before it leaves its cell and to stay in their
+    own cell until then (so that no crossing of their own rescans them): every such partner
+    is in the block of cells :func:`_path_block` gives, and so in the scan (the invariant of
+    wide cells: the later of the two particles' last events scans the other). Cells a
+    diameter and a bit wide, so that touching across faces, edges and corners is common;
+    200 paths."""
+    rng = np.random.default_rng(100 + dim)
+    nc, L, rmax = 3, 3.0, 0.45
+    w = L / nc
+    across = 0
+    for _ in range(200):
+        p0 = np.zeros(8)
+        p0[:dim] = rng.uniform(w, 2 * w, dim)
+        p0[PV:PV + dim] = rng.normal(size=dim)
+        p0[PT] = 0.7
+        p0[PR] = rng.uniform(0.2, rmax)
+        a, up = rng.integers(dim), rng.uniform() < 0.5
+        if start == "on a face":
+            p0[a] = 2 * w if up else w
+        elif start != "inside":
+            depth = (p0[PR] + rmax) * (1.0 - 10.0 ** rng.uniform(-9, -1))
+            p0[a] = 2 * w - depth if up else w + depth
+        tx, _, _ = _blocks_and_offsets(p0[None, :].copy(), np.zeros(XC_SIZE), nc, L, dim)
+        P = np.vstack([p0[None, :], _touching_partners(rng, p0, tx, 3000, w, L, rmax, dim)])
+        tx2, block, off = _blocks_and_offsets(P, np.zeros(XC_SIZE), nc, L, dim)
+        assert tx2 == tx
+        lo, hi = np.array(block[0::2])[:dim], np.array(block[1::2])[:dim]
+        outside = np.flatnonzero(np.any((off[1:, :dim] < lo) | (off[1:, :dim] > hi), axis=1))
+        assert outside.size == 0, (block, P[0], P[1 + outside[:3]], off[1 + outside[:3]])
+        across += np.count_nonzero(np.abs(off[1:, :dim]).sum(axis=1) >= 2)
+    assert across > 1000  # (partners across edges and corners were tried)

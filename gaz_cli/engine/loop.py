@@ -68,7 +68,7 @@ from gaz_cli.engine.neighbours.dilute import _mirror, _mirror_all, _predict_all
 from gaz_cli.engine.neighbours.lists import _gather_nl, _recentre
 from gaz_cli.engine.neighbours.wide import _mirror as _wmirror
 from gaz_cli.engine.neighbours.wide import _mirror_all as _wmirror_all
-from gaz_cli.engine.neighbours.wide import _moved_out, _predict_wide
+from gaz_cli.engine.neighbours.wide import _moved_out, _path_block, _predict_wide
 from gaz_cli.engine.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engine.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
                                      _prefetch_listed, _prefetch_next_events)
@@ -300,12 +300,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                             xd, xup = d, up
                         else:
                             old, sl, co = I[k, CELL], I[k, SLOT], cells[I[k, CELL], 0]
-                            # (wide cells, periodic: a wrap is k's horizon, a full scan)
-                            full = WIDE and PER and I[k, C0 + d] == (nc - 1 if up else 0)
                             _cross_face(P, I, cells, edges, k, d, up, nc, L, D)
                             if WIDE and I[k, CELL] != old:
                                 _moved_out(XB, cells, old, sl, co)
-                        if not full:
+                        if not WIDE:  # (wide cells scan the cells along k's path anew)
                             lo0, hi0, lo1, hi1, lo2, hi2 = _block_entered(d, up)
 
             if DIL and not predicting:
@@ -362,9 +360,10 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                     n_pairs += _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV)
                     n_scanned += n
                 if WIDE and rescan:
-                    exact, slots = _predict_wide(P, I, EV, cells, XB, XC, edges, p, t, n, nc, L,
-                                                 g, full, lo0, hi0, lo1, hi1, lo2, hi2, PP, D,
-                                                 PER)
+                    tx = EV[p, TX]
+                    wl0, wh0, wl1, wh1, wl2, wh2 = _path_block(P, I, XC, edges, p, t, tx, D)
+                    exact, slots = _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g,
+                                                 wl0, wh0, wl1, wh1, wl2, wh2, PP, D, PER)
                     n_pairs += exact
                     n_scanned += slots
                 if cellscan:
