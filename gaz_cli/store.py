@@ -184,8 +184,8 @@ place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
 indices map to species). A column added in version v carries ``info={"since": v}``."""
 
 BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
-"""How long a SQLite writer waits for another one's commit before giving up, s (the one
-figure is sqlite_writer's, which its messages quote)."""
+"""How long a SQLite writer waits for another one's commit before giving up, s, unless the URL
+says otherwise (``?timeout=30``; the one figure is sqlite_writer's, which its messages quote)."""
 
 POSTGRES_SCHEMA_VERSION = 6
 """Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
@@ -254,10 +254,28 @@ def url_for(db: str) -> sa.URL:
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
     if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
         sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
+    if url.get_backend_name() == "sqlite" and "timeout" in url.query:
+        _timeout(url, db)
     if url.get_backend_name() == "postgresql" and url.get_driver_name() != "psycopg":
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
     return url
+
+
+def _timeout(url: sa.URL, db: str) -> float:
+    """A SQLite URL's busy timeout (``?timeout=S``, seconds, sqlite3.connect's), else
+    :data:`BUSY_TIMEOUT_S`; StoreError for one that is not a number of seconds."""
+    given = url.query.get("timeout")
+    if given is None:
+        return sqlite_writer.BUSY_TIMEOUT_S
+    try:
+        seconds = float(given if isinstance(given, str) else given[-1])
+    except ValueError:
+        seconds = float("nan")
+    if not 0 <= seconds < float("inf"):
+        raise StoreError(f"--db {db!r}: timeout={given} is not a number of seconds; write it as e.g. "
+                         "?timeout=30 (how long to wait for another writer's lock)")
+    return seconds
 
 
 _SECRET_PARAMETERS = ("password", "sslpassword")
@@ -452,7 +470,8 @@ class Store(RunStore):
 
     def _explain(self, err: BaseException) -> str:
         """One line for a driver or OS error, naming the database and the fix."""
-        return sqlite_writer.explain(err, self.db, self.shown)
+        timeout = _timeout(self._url, self.db) if self.is_sqlite else None
+        return sqlite_writer.explain(err, self.db, self.shown, timeout)
 
     # --- schema -----------------------------------------------------------------
     def _prepare(self) -> None:
@@ -754,7 +773,7 @@ def _immutable(url: sa.URL, path: Path) -> sa.URL:
 def _make_engine(url: sa.URL, display: str) -> sa.Engine:
     backend = url.get_backend_name()
     connect_args = {}
-    if backend == "sqlite":
+    if backend == "sqlite" and "timeout" not in url.query:  # (connect_args would override the URL's)
         connect_args["timeout"] = sqlite_writer.BUSY_TIMEOUT_S
     elif backend == "postgresql" and "connect_timeout" not in url.query:
         connect_args["connect_timeout"] = CONNECT_TIMEOUT_S

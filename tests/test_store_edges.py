@@ -317,3 +317,73 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
             assert store.simulation_numbers() == list(range(1, count + 1))  # read under its name
     assert simulations("x.db") == [1, 2]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["made.db", "x.db"]
+
+
+def test_a_urls_busy_timeout_holds_on_every_path_also_after_a_lost_race(tmp_path, monkeypatch):
+    """sqlite:///x.db?timeout=S: how long a writer waits for another one's lock. It was dropped
+    everywhere (the store forced its own 60 s over the URL's), and after a new file's lost race
+    (another process made the file first: the run is committed again into that one) or a store's
+    second run, the file was opened again with none of the URL's options. With the lock held by
+    another writer, each path now gives up after the URL's timeout, in one line that says so,
+    nothing stored; a timeout that is not a number of seconds is refused before the run."""
+    from gaz_cli import sqlite_writer
+    from gaz_cli import store as st
+    from gaz_cli.errors import StoreError
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    monkeypatch.chdir(tmp_path)
+    # the default made short, so that a writer ignoring the URL fails fast, saying 2 s
+    monkeypatch.setattr(sqlite_writer, "BUSY_TIMEOUT_S", 2.0)
+    url = "sqlite:///x.db?timeout=0.3"
+    locked = "'sqlite:///x.db?timeout=0.3' is locked by another process (waited 0.3 s)"
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    state = initial_state(scene)
+
+    def one_run(store):
+        with store.simulation(scene) as run:
+            run.add_bounces([1e-11, 2e-11], [0, 1], [1, -2], [300.0, 310.0], [200.0, 100.0])
+            run.finish(RunStats(2, 2, 0, 0.01, state), 1.0, 1.0)
+        return run.si_num
+
+    def holding_the_lock():
+        holder = sqlite3.connect("x.db", isolation_level=None)
+        holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
+        return holder
+
+    loser = st.Store(url)  # a new file: made under a private name until its first run is stored
+    st.Store("x.db").close()  # another process makes the database meanwhile
+    holder = holding_the_lock()
+    try:
+        with pytest.raises(StoreError) as lost:
+            one_run(loser)  # committed again into x.db, which is locked
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+        loser.close()
+    assert locked in str(lost.value)
+
+    with st.Store(url) as store:  # x.db exists: the store's first run, then a second one
+        assert one_run(store) == 1
+        holder = holding_the_lock()
+        try:
+            with pytest.raises(StoreError) as second:
+                one_run(store)
+        finally:
+            holder.execute("ROLLBACK")
+            holder.close()
+    assert locked in str(second.value)
+
+    holder = holding_the_lock()
+    try:
+        res = invoke([*QUICK, "--db", url])
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    assert res.exit_code == 1 and res.stderr == f"gaz: error: database {locked}; try again when it has finished\n"
+    assert simulations("x.db") == [1] and sorted(p.name for p in tmp_path.iterdir()) == ["x.db"]
+    res = invoke([*QUICK, "--db", "sqlite:///x.db?timeout=soon"])
+    assert res.exit_code == 1 and res.stderr == (
+        "gaz: error: --db 'sqlite:///x.db?timeout=soon': timeout=soon is not a number of seconds; "
+        "write it as e.g. ?timeout=30 (how long to wait for another writer's lock)\n"), res.output
