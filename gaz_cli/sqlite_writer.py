@@ -55,7 +55,15 @@ from gaz_cli.scene import Scene
 from gaz_cli.species import BUILTIN, Species
 
 BUSY_TIMEOUT_S = 60.0
-"""How long a SQLite writer waits for another one's commit before giving up, s."""
+"""How long a SQLite writer waits for another one's commit before giving up, s, unless a URL
+says otherwise (``sqlite:///x.db?timeout=30``, sqlite3.connect's ``timeout``: :func:`busy_timeout`)."""
+
+
+def busy_timeout(conn: sqlite3.Connection) -> float:
+    """How long ``conn`` waits for another writer's lock, s: the ``timeout`` it was opened with
+    (a URL's ``?timeout=``, else :data:`BUSY_TIMEOUT_S`), as SQLite holds it."""
+    return conn.execute("PRAGMA busy_timeout").fetchone()[0] / 1000
+
 
 SCHEMA_FILE = "schema/sqlite.sql"
 """The packaged DDL of a SQLite gaz database (in gaz_cli.sql; a folder of its own, so that
@@ -118,7 +126,7 @@ _NEW, _CURRENT = "new", "current"
 
 def use_wal(conn: sqlite3.Connection) -> None:
     """Put the file of ``conn`` (outside any transaction) in WAL mode, waiting for other
-    processes as long as the busy timeout.
+    processes as long as its busy timeout.
 
     When several processes open one new file at the same instant, SQLite can answer
     ``PRAGMA journal_mode = WAL`` with "database is locked" at once, without its busy
@@ -127,7 +135,7 @@ def use_wal(conn: sqlite3.Connection) -> None:
     rounds of 30; none in 70 rounds with this loop. It polls with a growing pause and stops
     as soon as the switch succeeds or another process has made it.
     """
-    deadline = time.monotonic() + BUSY_TIMEOUT_S
+    deadline = time.monotonic() + busy_timeout(conn)
     pause = 0.001
     while conn.execute("PRAGMA journal_mode").fetchone()[0] != "wal":
         try:
@@ -163,9 +171,10 @@ class ForTheStore(Exception):
 
 
 # --- errors -----------------------------------------------------------------------
-def explain(err: BaseException, db: str, shown: str) -> str:
+def explain(err: BaseException, db: str, shown: str, timeout: float | None = None) -> str:
     """One line for a driver or OS error on database ``db`` (printed as ``shown``), naming it
-    and the fix (used by :class:`gaz_cli.store.Store` too)."""
+    and the fix (used by :class:`gaz_cli.store.Store` too). ``timeout``: how long a SQLite
+    writer waited for the lock, s (default :data:`BUSY_TIMEOUT_S`)."""
     diag = getattr(err, "diag", None)  # a PostgreSQL server's error (psycopg): its parts apart
     if isinstance(err, OSError) and not isinstance(err, sqlite3.Error):
         text = err.strerror or str(err)
@@ -188,7 +197,8 @@ def explain(err: BaseException, db: str, shown: str) -> str:
                 or "terminating connection" in low):
             return f"lost the connection to {where} ({text}); check that the server runs and try again"
     if "locked" in low:
-        return (f"{where} is locked by another process (waited {BUSY_TIMEOUT_S:g} s); "
+        waited = BUSY_TIMEOUT_S if timeout is None else timeout
+        return (f"{where} is locked by another process (waited {waited:g} s); "
                 "try again when it has finished")
     if "readonly" in low or "read-only" in low:
         return f"{where} is read-only ({text}); make it and its folder writable, or choose another --db"
@@ -325,6 +335,9 @@ class SqliteFile(RunStore):
         refuse_a_folder(self.path, self.shown)
         self.conn = None
         self.private: Path | None = None  # the file made under a name of its own, until published
+        self._url = connect  # (the URL's, on the real name: for _reconnect)
+        self.timeout = float(connect[1].get("timeout", BUSY_TIMEOUT_S)) if connect else BUSY_TIMEOUT_S
+        """How long this file's writer waits for another one's lock, s: the URL's ``?timeout=``, if given."""
         with self._errors():
             if not os.path.lexists(self.path):
                 staging.remove_stale(self.path)
@@ -342,7 +355,7 @@ class SqliteFile(RunStore):
     def _connect(self, args, kwargs) -> None:
         # check_same_thread: a run's early insert (_EarlyInsert) uses it from its thread,
         # the one user of the connection until it is joined
-        self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": BUSY_TIMEOUT_S,
+        self.conn = sqlite3.connect(*args, **{**kwargs, "timeout": self.timeout,
                                               "isolation_level": None, "check_same_thread": False})
         self._prepare()
 
@@ -398,8 +411,10 @@ class SqliteFile(RunStore):
         return False
 
     def _reconnect(self) -> None:
+        """The connection on the real name: after a publish, or a lost race (:meth:`publish`), with
+        the URL's options (its busy timeout, a URI's parameters) as on opening."""
         try:
-            self._connect((file_name(self.path),), {})
+            self._connect(*(self._url or ((file_name(self.path),), {})))
         except ForTheStore:
             raise StoreError(f"database {self.shown!r} was created by another process meanwhile, not "
                              "as a gaz database of this version; nothing was stored in it") from None
@@ -422,7 +437,7 @@ class SqliteFile(RunStore):
         try:
             yield
         except (sqlite3.Error, OSError) as err:
-            raise StoreError(explain(err, self.db, self.shown)) from None
+            raise StoreError(explain(err, self.db, self.shown, self.timeout)) from None
 
     def _writer(self, scene: Scene, started: _dt.datetime) -> "StagedRun":
         if self.conn is None:  # published by the run before
@@ -490,15 +505,17 @@ LOCK_POLL_S = 0.1
 
 
 def begin_immediate(conn: sqlite3.Connection) -> None:
-    """BEGIN IMMEDIATE: take the write lock, waiting for another writer up to BUSY_TIMEOUT_S.
+    """BEGIN IMMEDIATE: take the write lock, waiting for another writer up to the connection's
+    busy timeout (:func:`busy_timeout`).
 
     SQLite waits inside its own C call, where Python's signal handlers do not run: a Ctrl-C or
     SIGTERM to a run waiting for another writer's lock took effect only when the lock came
     free, up to a minute later. So the wait is made of slices of :data:`LOCK_POLL_S`, between
     which a signal stops it at once, also inside :func:`gaz_cli.interrupts.held` (a commit
     that has not got the lock has written nothing)."""
-    deadline = time.monotonic() + BUSY_TIMEOUT_S
-    conn.execute(f"PRAGMA busy_timeout = {int(LOCK_POLL_S * 1000)}")
+    timeout = busy_timeout(conn)
+    deadline = time.monotonic() + timeout
+    conn.execute(f"PRAGMA busy_timeout = {round(min(LOCK_POLL_S, timeout) * 1000)}")
     try:
         while True:
             try:
@@ -511,7 +528,7 @@ def begin_immediate(conn: sqlite3.Connection) -> None:
             if signum is not None:
                 raise Interrupted(signum)
     finally:
-        conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+        conn.execute(f"PRAGMA busy_timeout = {round(timeout * 1000)}")
 
 
 @contextlib.contextmanager
@@ -828,10 +845,11 @@ class _EarlyInsert:
             getattr(os, "fdatasync", os.fsync)(self._fd)  # (macOS has fsync only)
 
     def _main(self) -> None:
-        conn = self.conn
+        conn, timeout = self.conn, None
         try:
             conn.execute("PRAGMA foreign_keys = OFF")  # as the staged commit (outside a transaction)
-            conn.execute(f"PRAGMA busy_timeout = {int(TRY_LOCK_S * 1000)}")
+            timeout = busy_timeout(conn)  # (the connection's own, given back at the end)
+            conn.execute(f"PRAGMA busy_timeout = {round(TRY_LOCK_S * 1000)}")
             try:
                 conn.execute("BEGIN IMMEDIATE")
             except sqlite3.OperationalError as err:
@@ -872,7 +890,8 @@ class _EarlyInsert:
             if self._fd is not None:
                 os.close(self._fd)
             with contextlib.suppress(sqlite3.Error):
-                conn.execute(f"PRAGMA busy_timeout = {int(BUSY_TIMEOUT_S * 1000)}")
+                if timeout is not None:
+                    conn.execute(f"PRAGMA busy_timeout = {round(timeout * 1000)}")
                 if self.outcome != _HOLDING:
                     conn.execute("PRAGMA foreign_keys = ON")
 

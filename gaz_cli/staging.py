@@ -58,6 +58,22 @@ the thread after each chunk (the COMMIT ~4 ms shorter), a smaller page cache (no
 Since 2026-11-24 a new database's first run goes into a private file in SQLite's rollback
 journal (sqlite_writer.SqliteFile): its pages are written once, into the file, and there the
 thread's flush after each chunk does pay (the commit 13-15 ms against 31-54 ms in WAL).
+
+A spilled run into an existing file (the README scene run ten times longer, 1.78 million
+rows; benchmarks/recording.py --in-process --longer 10 --existing: the user waits 108-152 %
+of the engine) waits, measured statement by statement (2026-11-25, 3 alternating rounds a
+variant, 2 cores at load 2-4): at the commit ~1.7-2.0 s, of which the ``INSERT ... SELECT``
+1.0-1.5 s (reading the scratch file alone 0.29-0.35 s, the same rows into a plain table
+without key 0.48-0.79 s: the rest is REBOND's key), the COMMIT 0.25-0.57 s (another writer
+has the lock after 0.11-0.16 s, the WAL's fsync; the rest is the checkpoint of the 82 MB WAL
+into the file, outside the lock, which with ``wal_autocheckpoint = 0`` the close does
+instead, 0.22-0.34 s), the scratch thread's last chunks 0.03-0.22 s, the close 0.03 s; and,
+while the engine runs, 0.5-0.7 s for room in the scratch thread's queue (no core free).
+Measured and left: a 200 MB page cache; the scratch file's columns typed, RE_NUM its rowid
+(70 MB instead of 126 MB: the move no faster, the thread's inserts 0.90-0.93 s CPU against
+0.71-0.73 s); PA_NUM without the CASE: nothing beyond the noise. What would cut the wait is
+policy: the write lock held while the engine runs (as a new file's first run), or the move
+begun before the engine's end under a longer bound on the lock (LOCK_BOUND_S).
 """
 
 from __future__ import annotations

@@ -23,14 +23,17 @@ written in upper case as in the exam, run unchanged on SQLite and on
 PostgreSQL (which folds unquoted names to lower case).
 
 Opening a database for writing checks it before writing anything: tables
-with gaz's names but other columns are refused (a foreign database), a newer
-schema version is refused, an older one is migrated forward
+with gaz's names but other columns are refused (a foreign database), so is a gaz
+database without one of its tables (dropped by hand), a newer schema version is refused, an older one is migrated forward
 (:data:`MIGRATIONS`), a new one is created. Creation is safe when several
 processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
 ``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
 transaction). A new PostgreSQL database whose store's runs all failed is left as
 it was found, without a table (:meth:`Store._unmake`), unless another store is
-open for writing on it.
+open for writing on it. A process killed (SIGKILL) cannot do that: it leaves the
+whole schema, created in one transaction at opening, which the next run uses. (Not
+the schema created in the first run's own transaction instead: any other first run
+would wait for that one's end to see or create a table, as long as the run lasts.)
 
 A simulation is committed whole or not at all, in one short transaction at
 its end (:meth:`Store.simulation`):
@@ -184,8 +187,8 @@ place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
 indices map to species). A column added in version v carries ``info={"since": v}``."""
 
 BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
-"""How long a SQLite writer waits for another one's commit before giving up, s (the one
-figure is sqlite_writer's, which its messages quote)."""
+"""How long a SQLite writer waits for another one's commit before giving up, s, unless the URL
+says otherwise (``?timeout=30``; the one figure is sqlite_writer's, which its messages quote)."""
 
 POSTGRES_SCHEMA_VERSION = 6
 """Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
@@ -254,10 +257,28 @@ def url_for(db: str) -> sa.URL:
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
     if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
         sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
+    if url.get_backend_name() == "sqlite" and "timeout" in url.query:
+        _timeout(url, db)
     if url.get_backend_name() == "postgresql" and url.get_driver_name() != "psycopg":
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
     return url
+
+
+def _timeout(url: sa.URL, db: str) -> float:
+    """A SQLite URL's busy timeout (``?timeout=S``, seconds, sqlite3.connect's), else
+    :data:`BUSY_TIMEOUT_S`; StoreError for one that is not a number of seconds."""
+    given = url.query.get("timeout")
+    if given is None:
+        return sqlite_writer.BUSY_TIMEOUT_S
+    try:
+        seconds = float(given if isinstance(given, str) else given[-1])
+    except ValueError:
+        seconds = float("nan")
+    if not 0 <= seconds < float("inf"):
+        raise StoreError(f"--db {db!r}: timeout={given} is not a number of seconds; write it as e.g. "
+                         "?timeout=30 (how long to wait for another writer's lock)")
+    return seconds
 
 
 _SECRET_PARAMETERS = ("password", "sslpassword")
@@ -441,6 +462,9 @@ class Store(RunStore):
                              "use a file path or a postgresql:// URL") from None
         except sa_exc.ArgumentError as err:
             raise StoreError(f"--db {self.shown!r} is not a valid path or SQLAlchemy URL ({err})") from None
+        except sa_exc.NoSuchTableError as err:  # (a reader's: a writer refuses such a database on opening)
+            raise StoreError(f"{self.shown!r} is a gaz database without its table {str(err).upper()}; restore it "
+                             "from a backup, or point --db at another gaz database") from None
         except sa_exc.DBAPIError as err:
             raise StoreError(self._explain(err.orig if err.orig is not None else err)) from None
         except (sqlite3.Error, OSError) as err:
@@ -452,21 +476,22 @@ class Store(RunStore):
 
     def _explain(self, err: BaseException) -> str:
         """One line for a driver or OS error, naming the database and the fix."""
-        return sqlite_writer.explain(err, self.db, self.shown)
+        timeout = _timeout(self._url, self.db) if self.is_sqlite else None
+        return sqlite_writer.explain(err, self.db, self.shown, timeout)
 
     # --- schema -----------------------------------------------------------------
     def _prepare(self) -> None:
         """Check the schema; create or migrate it; nothing is written to a refused database."""
         if self.is_sqlite:
             with self.engine.connect() as conn:
-                self._schema_state(conn)  # read only: refusals leave the file as it was
+                self._writable_state(conn)  # read only: refusals leave the file as it was
                 conn.rollback()
                 # outside any transaction, on the driver's connection
                 sqlite_writer.use_wal(conn.connection.driver_connection)
             # also when there is nothing to create: a read-only or locked file fails here,
             # before the run, not at its commit
             with _write_transaction(self.engine) as conn:
-                self._create_or_migrate(conn, self._schema_state(conn))
+                self._create_or_migrate(conn, self._writable_state(conn))
             return
         if self.engine.dialect.name == "postgresql" and self._writing is None:
             # before the schema is looked at: while this store is open, a first run failing
@@ -477,7 +502,7 @@ class Store(RunStore):
         with self.engine.begin() as conn:
             if self.engine.dialect.name == "postgresql":
                 conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
-            version = self._schema_state(conn)
+            version = self._writable_state(conn)
             self._create_or_migrate(conn, version)
             self._made = self._made or (version == 0 and self.engine.dialect.name == "postgresql")
 
@@ -527,6 +552,28 @@ class Store(RunStore):
             raise StoreError(f"{self.shown!r} has schema version {version}, newer than this gaz "
                              f"({__version__}, schema {latest}) knows; upgrade gaz to use it")
         return int(version)
+
+    def _writable_state(self, conn) -> int:
+        """:meth:`_schema_state` for a writer, which also refuses a gaz database of version 2 or
+        later (it has SCHEMA_VERSION) lacking one of gaz's tables: every such database has had
+        all of them since it was made (in one transaction: PostgreSQL's DDL is transactional,
+        SQLite's in ``BEGIN IMMEDIATE``), so one was dropped by hand or by another tool. A run
+        into it failed at its commit, after its engine (PostgreSQL: 'relation "resultat" does
+        not exist'), or was refused with words about migrating (SQLite)."""
+        version = self._schema_state(conn)
+        if version < 2:
+            return version  # (none, or version 1: the migration makes what is missing)
+        names = {n.lower() for n in sa.inspect(conn).get_table_names()}
+        missing = [t.name.upper() for t in metadata.sorted_tables if t.name not in names]
+        if not missing:
+            return version
+        runs = conn.execute(sa.select(sa.func.count()).select_from(simulation)).scalar()
+        them = "them" if len(missing) > 1 else "it"
+        fix = ("it holds no run: give --db a new database, or drop gaz's tables from it and run again"
+               if not runs else f"it holds {runs} run(s): restore {them} from a backup, or give --db "
+               "a new database")
+        raise StoreError(f"{self.shown!r} is a gaz database without its table{'s' * (len(missing) > 1)} "
+                         f"{', '.join(missing)}; nothing was written; {fix}")
 
     def _create_or_migrate(self, conn, version: int) -> None:
         latest = latest_version(conn.dialect.name)
@@ -754,7 +801,7 @@ def _immutable(url: sa.URL, path: Path) -> sa.URL:
 def _make_engine(url: sa.URL, display: str) -> sa.Engine:
     backend = url.get_backend_name()
     connect_args = {}
-    if backend == "sqlite":
+    if backend == "sqlite" and "timeout" not in url.query:  # (connect_args would override the URL's)
         connect_args["timeout"] = sqlite_writer.BUSY_TIMEOUT_S
     elif backend == "postgresql" and "connect_timeout" not in url.query:
         connect_args["connect_timeout"] = CONNECT_TIMEOUT_S

@@ -317,3 +317,163 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
             assert store.simulation_numbers() == list(range(1, count + 1))  # read under its name
     assert simulations("x.db") == [1, 2]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["made.db", "x.db"]
+
+
+def test_a_urls_busy_timeout_holds_on_every_path_also_after_a_lost_race(tmp_path, monkeypatch):
+    """sqlite:///x.db?timeout=S: how long a writer waits for another one's lock. It was dropped
+    everywhere (the store forced its own 60 s over the URL's), and after a new file's lost race
+    (another process made the file first: the run is committed again into that one) or a store's
+    second run, the file was opened again with none of the URL's options. With the lock held by
+    another writer, each path now gives up after the URL's timeout, in one line that says so,
+    nothing stored; a timeout that is not a number of seconds is refused before the run."""
+    from gaz_cli import sqlite_writer
+    from gaz_cli import store as st
+    from gaz_cli.errors import StoreError
+    from gaz_cli.recording import RunStats
+    from gaz_cli.scene import Scene, initial_state
+    from gaz_cli.species import BUILTIN
+
+    monkeypatch.chdir(tmp_path)
+    # the default made short, so that a writer ignoring the URL fails fast, saying 2 s
+    monkeypatch.setattr(sqlite_writer, "BUSY_TIMEOUT_S", 2.0)
+    url = "sqlite:///x.db?timeout=0.3"
+    locked = "'sqlite:///x.db?timeout=0.3' is locked by another process (waited 0.3 s)"
+    scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
+    state = initial_state(scene)
+
+    def one_run(store):
+        with store.simulation(scene) as run:
+            run.add_bounces([1e-11, 2e-11], [0, 1], [1, -2], [300.0, 310.0], [200.0, 100.0])
+            run.finish(RunStats(2, 2, 0, 0.01, state), 1.0, 1.0)
+        return run.si_num
+
+    def holding_the_lock():
+        holder = sqlite3.connect("x.db", isolation_level=None)
+        holder.execute("BEGIN IMMEDIATE")  # another writer in the middle of its commit
+        return holder
+
+    loser = st.Store(url)  # a new file: made under a private name until its first run is stored
+    st.Store("x.db").close()  # another process makes the database meanwhile
+    holder = holding_the_lock()
+    try:
+        with pytest.raises(StoreError) as lost:
+            one_run(loser)  # committed again into x.db, which is locked
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+        loser.close()
+    assert locked in str(lost.value)
+
+    with st.Store(url) as store:  # x.db exists: the store's first run, then a second one
+        assert one_run(store) == 1
+        holder = holding_the_lock()
+        try:
+            with pytest.raises(StoreError) as second:
+                one_run(store)
+        finally:
+            holder.execute("ROLLBACK")
+            holder.close()
+    assert locked in str(second.value)
+
+    holder = holding_the_lock()
+    try:
+        res = invoke([*QUICK, "--db", url])
+    finally:
+        holder.execute("ROLLBACK")
+        holder.close()
+    assert res.exit_code == 1 and res.stderr == f"gaz: error: database {locked}; try again when it has finished\n"
+    assert simulations("x.db") == [1] and sorted(p.name for p in tmp_path.iterdir()) == ["x.db"]
+    res = invoke([*QUICK, "--db", "sqlite:///x.db?timeout=soon"])
+    assert res.exit_code == 1 and res.stderr == (
+        "gaz: error: --db 'sqlite:///x.db?timeout=soon': timeout=soon is not a number of seconds; "
+        "write it as e.g. ?timeout=30 (how long to wait for another writer's lock)\n"), res.output
+
+
+def _missing_table_refusal(db, tables, runs):
+    """The one line refusing a gaz database without ``tables`` that holds ``runs`` runs."""
+    them = "them" if len(tables) > 1 else "it"
+    fix = ("it holds no run: give --db a new database, or drop gaz's tables from it and run again" if not runs
+           else f"it holds {runs} run(s): restore {them} from a backup, or give --db a new database")
+    return (f"gaz: error: {db!r} is a gaz database without its table{'s' * (len(tables) > 1)} "
+            f"{', '.join(tables)}; nothing was written; {fix}\n")
+
+
+def test_a_gaz_sqlite_file_without_one_of_its_tables_is_refused_before_the_run(tmp_path):
+    """A gaz database (schema version 2 or later: it has SCHEMA_VERSION) lacking one of gaz's
+    tables, dropped by hand or by another tool, was refused with words for the Python API
+    ("open it for writing (Store(db), not create=False) to migrate it first"), which does not
+    help: no migration makes a table of the current version. Now one line names the table and
+    the fix, before the run (no trajectory file), the database untouched; gaz analyse, which said
+    'internal error: NoSuchTableError', one line too."""
+    db, traj = tmp_path / "a.db", tmp_path / "run.h5"
+    assert invoke([*QUICK, "--db", str(db)]).exit_code == 0
+    empty = tmp_path / "empty.db"
+    from gaz_cli import store as st
+
+    st.Store(str(empty)).close()  # a database made by the API, no run yet
+    for path, table in ((db, "resultat"), (empty, "choc")):
+        con = sqlite3.connect(path)
+        con.execute(f"DROP TABLE {table}")
+        con.commit()
+        con.close()
+    for path, tables, runs in ((db, ["RESULTAT"], 1), (empty, ["CHOC"], 0)):
+        res = invoke(["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "2e-10",
+                      "--seed", "2", "--db", str(path), "--trajectory", str(traj), "--every", "1e-11"])
+        assert res.exit_code == 1 and res.stderr == _missing_table_refusal(str(path), tables, runs), res.output
+        assert not traj.exists()  # refused before the run
+    assert simulations(db) == [1] and simulations(empty) == []
+    res = invoke(["analyse", "--db", str(db)])  # a reader: one line too (it said 'internal error: NoSuchTableError')
+    assert res.exit_code == 1 and res.stderr == (
+        f"gaz: error: {str(db)!r} is a gaz database without its table RESULTAT; restore it from a backup, "
+        "or point --db at another gaz database\n"), res.output
+
+
+@pytest.mark.postgres
+def test_a_first_run_killed_mid_run_leaves_a_whole_schema_that_the_next_run_uses(postgres_db):
+    """SIGKILL leaves no time for the cleanup of a failed first run (Store._unmake): a first run
+    into a new PostgreSQL database killed mid-run leaves gaz's tables. All of them (created in one
+    transaction at opening, with the version row and PARTICULE's rows; the run's own rows and
+    partition in its transaction, rolled back by the server): the next run uses them and is
+    stored, also with the version row deleted by hand (read as schema 1 and migrated). Tables dropped by hand from such a database were found only at the commit, after the
+    engine ('relation "resultat" does not exist'); now refused before the run, in one line."""
+    import json
+    import signal
+    import subprocess
+    import sys
+
+    from gaz_cli import store as st
+
+    # the time-stepped engine: its diagnostics on stderr say the run is under way
+    child = subprocess.Popen([sys.executable, "-m", "gaz_cli", "simulate", "--engine", "step", "--dt", "1e-12",
+                              "--print-every", "200", "--dim", "2", "--n", "100", "--length", "1e-7",
+                              "--duration", "1e-6", "--seed", "2", "--db", postgres_db],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        diagnostics = 0
+        while diagnostics < 3:
+            line = child.stderr.readline()
+            assert line, child.communicate()  # (the run ended or failed instead)
+            diagnostics += line.startswith("time=")
+        child.send_signal(signal.SIGKILL)
+        child.wait(timeout=60)
+    finally:
+        child.kill()
+    assert child.returncode == -signal.SIGKILL
+    left = _pg_tables(postgres_db)
+    assert {t.name for t in st.metadata.sorted_tables} <= set(left) and _pg_simulations(postgres_db) == []
+
+    def version(conn):
+        return conn.exec_driver_sql("SELECT sv_version FROM schema_version").scalars().all()
+
+    assert _pg_read(postgres_db, version) == [st.POSTGRES_SCHEMA_VERSION]
+    # its version row lost too (by hand): read as schema 1, whose migration finds every table there
+    _pg_read(postgres_db, lambda conn: (conn.exec_driver_sql("DELETE FROM schema_version"), conn.commit()))
+    res = invoke([*QUICK, "--db", postgres_db, "--json"])
+    assert res.exit_code == 0, res.output
+    assert _pg_simulations(postgres_db) == [json.loads(res.stdout)["si_num"]]
+    assert _pg_read(postgres_db, version) == [st.POSTGRES_SCHEMA_VERSION]
+
+    _pg_read(postgres_db, lambda conn: (conn.exec_driver_sql("DROP TABLE resultat"), conn.commit()))
+    res = invoke([*QUICK, "--db", postgres_db, "--save-state", "/dev/full"])  # (a run would fail anyway)
+    assert res.exit_code == 1 and res.stderr == _missing_table_refusal(st.shown(postgres_db), ["RESULTAT"], 1), res.output
+    assert len(_pg_simulations(postgres_db)) == 1
