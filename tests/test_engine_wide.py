@@ -250,10 +250,10 @@ def test_periodic_scan_keeps_every_pair_the_exact_root_finds_through_the_images(
 # --- the cells a scan covers: those a partner can be in when it touches (_path_block) ---
 
 @numba.njit  # (not cached: Numba's cache would not see a change of the engine's helpers)
-def _blocks_and_offsets(P, XC, nc, L, D):
+def _covered(P, XC, nc, L, D):
     """Particle 0's exit time from its cell (its next crossing or bounce, as the loop times
-    it), the block of cells :func:`_path_block` gives for its path until then, and each
-    row's cell offsets from particle 0's cell (per axis)."""
+    it), and for each row whether its cell is in the block of cells :func:`_path_block`
+    gives for particle 0's path until then (those its scan covers)."""
     n = P.shape[0]
     I = np.zeros((n, I_WIDTH), np.int32)
     cells = np.zeros((nc ** D, n + 1), np.int32)
@@ -264,19 +264,22 @@ def _blocks_and_offsets(P, XC, nc, L, D):
     edges = np.arange(nc + 1) * (L / nc)
     edges[-1] = L
     tx, _ = _crossing(P, I, edges, 0, nc, n, L, 0.0, D, False, False, True, False, True)
-    block = _path_block(P, I, XC, edges, 0, P[0, PT], tx, D)
-    off = np.zeros((n, 3), np.int64)
+    lo0, hi0, lo1, hi1, lo2, hi2 = _path_block(P, I, XC, edges, 0, P[0, PT], tx, D)
+    lo = (lo0, lo1, lo2)
+    hi = (hi0, hi1, hi2)
+    covered = np.ones(n, np.bool_)
     for m in range(n):
         for d in range(D):
-            off[m, d] = I[m, C0 + d] - I[0, C0 + d]
-    return tx, block, off
+            o = I[m, C0 + d] - I[0, C0 + d]
+            covered[m] = covered[m] and lo[d] <= o <= hi[d]
+    return tx, covered
 
 
 def _touching_partners(rng, p0, tx, k, w, L, rmax, dim):
     """Rows of up to k partners of p0 set up to touch it at a time tc before tx (now for a
-    fifth; at contact, or overlapping by 1e-9 of it) and to stay in their own cell from p0's time stamp to tc:
-    half of the largest radius, half of the contact normals along an axis or the diagonal of
-    two (across a face or an edge at exactly the reach)."""
+    fifth; at contact, or overlapping by 1e-9 of it) and to stay in their own cell from p0's
+    time stamp to tc: half of the largest radius, half of the contact normals along an axis
+    or the diagonal of two (across a face or an edge at exactly the reach)."""
     tc = p0[PT] + (tx - p0[PT]) * rng.uniform(0.0, 1.0, k) ** 0.3  # (many late: by the exit)
     tc[rng.uniform(size=k) < 0.2] = p0[PT]  # (a fifth touching now)
     r = np.where(rng.uniform(size=k) < 0.5, rmax, rng.uniform(0.05, rmax, k))
@@ -299,16 +302,16 @@ def _touching_partners(rng, p0, tx, k, w, L, rmax, dim):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("start", ["inside", "near a face, within the reach", "on a face"])
-def test_every_partner_that_touches_before_the_exit_is_in_the_scanned_block(dim, start):
-    """Particle 0 in the centre cell of 3 an axis (anywhere; or with one coordinate just
-    inside the reach of a face, 1e-9 to 0.1 of it; or on a face, as right after a
-    crossing), partners set up to touch it before it leaves its cell and to stay in their
-    own cell until then (so that no crossing of their own rescans them): every such partner
-    is in the block of cells :func:`_path_block` gives, and so in the scan (the invariant of
-    wide cells: the later of the two particles' last events scans the other). Cells a
-    diameter and a bit wide, so that touching across faces, edges and corners is common;
-    200 paths."""
+@pytest.mark.parametrize("start", ["inside", "near a face, within the reach",
+                                   "near an edge, within the reach", "on a face"])
+def test_every_partner_that_touches_before_the_exit_is_in_a_scanned_cell(dim, start):
+    """Particle 0 in the centre cell of 3 an axis (anywhere; or just inside the reach of a
+    face, or of an edge, 1e-9 to 0.1 of it; or on a face, as right after a crossing),
+    partners set up to touch it before it leaves its cell and to stay in their own cell
+    until then (so that no crossing of their own rescans them): every such partner is in a
+    cell its scan covers (the invariant of wide cells: the later of the two particles'
+    last events scans the other). Cells a diameter and a bit wide, so that touching across
+    faces, edges and corners is common; 200 paths."""
     rng = np.random.default_rng(100 + dim)
     nc, L, rmax = 3, 3.0, 0.45
     w = L / nc
@@ -320,17 +323,23 @@ def test_every_partner_that_touches_before_the_exit_is_in_the_scanned_block(dim,
         p0[PT] = 0.7
         p0[PR] = rng.uniform(0.2, rmax)
         a, up = rng.integers(dim), rng.uniform() < 0.5
+        b, up_b = (a + 1) % dim, rng.uniform() < 0.5
+        depth = (p0[PR] + rmax) * (1.0 - 10.0 ** rng.uniform(-9, -1))
         if start == "on a face":
             p0[a] = 2 * w if up else w
-        elif start != "inside":
-            depth = (p0[PR] + rmax) * (1.0 - 10.0 ** rng.uniform(-9, -1))
+        elif start == "near a face, within the reach":
             p0[a] = 2 * w - depth if up else w + depth
-        tx, _, _ = _blocks_and_offsets(p0[None, :].copy(), np.zeros(XC_SIZE), nc, L, dim)
+        elif start != "inside":
+            angle = rng.uniform(0.1, 0.5 * np.pi - 0.1)
+            da, db = depth * np.cos(angle), depth * np.sin(angle)
+            p0[a] = 2 * w - da if up else w + da
+            p0[b] = 2 * w - db if up_b else w + db
+        tx, _ = _covered(p0[None, :].copy(), np.zeros(XC_SIZE), nc, L, dim)
         P = np.vstack([p0[None, :], _touching_partners(rng, p0, tx, 3000, w, L, rmax, dim)])
-        tx2, block, off = _blocks_and_offsets(P, np.zeros(XC_SIZE), nc, L, dim)
+        tx2, covered = _covered(P, np.zeros(XC_SIZE), nc, L, dim)
         assert tx2 == tx
-        lo, hi = np.array(block[0::2])[:dim], np.array(block[1::2])[:dim]
-        outside = np.flatnonzero(np.any((off[1:, :dim] < lo) | (off[1:, :dim] > hi), axis=1))
-        assert outside.size == 0, (block, P[0], P[1 + outside[:3]], off[1 + outside[:3]])
-        across += np.count_nonzero(np.abs(off[1:, :dim]).sum(axis=1) >= 2)
+        missed = np.flatnonzero(~covered[1:])
+        assert missed.size == 0, (P[0], P[1 + missed[:3]])
+        cells = np.floor(P[1:, :dim] / w) - np.floor(P[0, :dim] / w)
+        across += np.count_nonzero(np.abs(cells).sum(axis=1) >= 2)
     assert across > 1000  # (partners across edges and corners were tried)
