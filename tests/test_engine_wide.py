@@ -128,14 +128,16 @@ def test_collisions_and_bounces_agree_with_cells():
     # 2000 atoms: the dilute scan is cheaper than cells, wide cells cheaper still (1.56x
     # the dilute scan's events a second, which 'auto' took when it weighed it against cells)
     (scene_b(n=2000), True),
-    # packing 0.04: cells (sizing.WIDE_BELOW), 1.2-1.7x faster than wide cells, which the
-    # model rates cheaper
-    (scene_b(n=2000, packing=0.04), False),
+    # packing 0.04: wide cells (1.24x the events a second of cells at 0.05, N = 2000); 0.15:
+    # cells (sizing.WIDE_BELOW; wide cells 0.83-0.91x as fast from 0.12 on)
+    (scene_b(n=2000, packing=0.04), True),
+    (scene_b(n=2000, packing=0.15), False),
     (readme_scene(), False),  # the dilute scan (no cells at all)
-    # periodic: cells at packing 0.01 (wide cells 0.88x as fast there), wide cells in argon
-    # at 1 atm (packing 0.0005: 1.7x)
-    (scene_b(boundary="periodic"), False),
+    # periodic: wide cells at packing 0.01 (1.91x) and in argon at 1 atm (packing 0.0005);
+    # cells at 0.15
+    (scene_b(boundary="periodic"), True),
     (scene_b(boundary="periodic", packing=0.0005), True),
+    (scene_b(boundary="periodic", packing=0.15), False),
     (scene_b(gravity=9.81), False),  # no gravity
     (unit_scene(3, 2000, (0.3 / (2000 * 4 / 3 * math.pi)) ** (1 / 3), duration=1e-4), False),
     (scene_b(extras={"neighbours": "cells"}), False),  # forced

@@ -175,7 +175,10 @@ def costs(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int) ->
     return {s: sum(COST[s][k] * v for k, v in w[s].items()) for s in w}
 
 
-def cheapest(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int) -> str:
-    """The search of least cost: 'classes', 'wide' or 'dilute' (:func:`costs`)."""
+def cheapest(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int,
+             wide: bool = True) -> str:
+    """The search of least cost: 'classes', 'wide' (if ``wide``) or 'dilute' (:func:`costs`)."""
     c = costs(D, L, counts, masses, radii, reach, plan, wide_nc)
+    if not wide:
+        del c["wide"]
     return min(c, key=c.get)

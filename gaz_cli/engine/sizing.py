@@ -61,25 +61,17 @@ DILUTE_BELOW = 0.05
 """'auto' considers the dilute scan below this packing fraction only (gases: denser scenes
 keep their cells, and their events, whatever the cost model says)."""
 
-WIDE_BELOW = 0.02
-"""'auto' considers wide cells below this packing fraction only. Their cost model
-(:data:`WIDE_COST`, fitted on scene (b), packing 0.01) rates them cheaper than cells up to
-DILUTE_BELOW, but cells ran faster from packing 0.02-0.03 on (argon, walls, CPU, 2 runs
-each, 2026-11-23; the best wide cells forced against the best cells: 3D N = 2000 / 10^4,
-packing 0.01: wide 1.22 / 1.15x faster; 0.02: 1.01x faster / 1.04x slower; 0.03: 1.10 /
-1.14x slower; 0.05: 1.18 / 1.38x slower; 2D N = 2000 / 10^4, 0.005: wide 1.35 / 1.33x
-faster; 0.02: 1.02x faster / 1.13x slower). No refit of the model's two constants on
-those 16 scenes did better than this threshold (least squares in log of the measured
-ratios: it lost 15-37 % on the dilute ones)."""
-
-
-WIDE_BELOW_PERIODIC = {2: 0.01, 3: 0.004}
-"""In a periodic box, 'auto' considers wide cells below this packing fraction only (by
-dimension): cells a diameter wide run cheaper there than the model says (argon, periodic,
-CPU per collision, cells / wide both forced, 2 rounds each, 2026-11-24: 3D N = 10^4, packing
-0.0005 / 0.001 / 0.002 / 0.003 / 0.005 / 0.01 / 0.02: 1.7, 1.4, 1.32, 1.11, 1.04, 0.88,
-0.70; N = 2000, 0.0005 / 0.002 / 0.005: 1.15, 1.03, 0.88; 2D N = 10^4, 0.002 / 0.005 / 0.01
-/ 0.02: 1.55, 1.48, 1.02, 0.82; N = 2000, 0.002 / 0.005: 1.25, 1.34)."""
+WIDE_BELOW = {2: 0.05, 3: 0.08}
+"""'auto' considers wide cells below this packing fraction only (by dimension; walls or
+periodic). Since the scans follow the particles' paths (:mod:`.neighbours.wide`), wide cells
+run faster than cells up to packing 0.05-0.1 (argon, N = 10^4 unless said, CPU a physical
+event, cells / wide both forced, 2 alternating runs each, 2026-11-25, /tmp/s34/wc.py): 3D
+walls, packing 0.01 / 0.02 / 0.03 / 0.05 / 0.08 / 0.12 / 0.2: 1.87, 1.72, 1.52, 1.30, 1.12,
+0.91, 0.83; N = 2000, 0.01 / 0.05: 1.69, 1.24; 3D periodic, 0.004 / 0.01 / 0.02 / 0.05 /
+0.1: 2.29, 1.91, 1.75, 1.38, 1.09; 2D walls, 0.01 / 0.02 / 0.05 / 0.1: 1.72, 1.39, 1.06,
+0.86; 2D periodic, 0.02 / 0.05: 1.38, 1.05. Below these the models (:data:`WIDE_COST`,
+:data:`DILUTE_COST`) decide; they rate wide cells too cheap in 2D (the model's ratio 1.30
+at 2D packing 0.1, measured 0.86), hence the thresholds."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
@@ -189,7 +181,7 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
     has them).
 
     ``choice`` 'wide' forces it where it applies (elsewhere the other searches stay); 'auto'
-    takes it below WIDE_BELOW (periodic: WIDE_BELOW_PERIODIC) when the model of
+    takes it below WIDE_BELOW (by dimension, walls or periodic) when the model of
     :func:`wide_cells_per_axis` costs less than that of cells (:func:`dilute_scan_pays`)."""
     if not (pairs and D > 1 and not gravity and not use_nl and not dilute and not classes):
         return False
@@ -197,7 +189,7 @@ def use_wide_cells(choice: str, D: int, n: int, L: float, periodic: bool, gravit
         return False
     if choice == "wide":
         return True
-    if choice != "auto" or packing >= (WIDE_BELOW_PERIODIC[D] if periodic else WIDE_BELOW):
+    if choice != "auto" or packing >= WIDE_BELOW[D]:
         return False
     path = _path(D, n, L, packing)
     return (_wide_auto_cost(D, n, L, path, sigma, packing, periodic)
@@ -209,25 +201,50 @@ def _most_wide_cells(L: float, sigma: float) -> int:
     return max(1, min(64, int(math.floor(L / (sigma * (1.0 + 1e-9))))))
 
 
-WIDE_COST = {"event": 1.46, "slot": 0.00145}
-"""Relative CPU cost, with wide cells, of a queue event (the event, its blocks' set-up) and
-of a slot of a block in the float32 pass, in the units of DILUTE_COST. Fitted on scene (b)
-of benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls; CPU time, shared host)
-with 5 to 18 cells an axis forced: 1.11 us a queue event, 1.10 ns a slot (the model within
-3 % of the six runs); cells on the same scene, 7 to 28 cells an axis: 0.76 us a queue
-event, 14.6 ns a pair test (the event of DILUTE_COST)."""
+WIDE_COST = {"event": 1.43, "slot": 0.0043}
+"""Relative CPU cost, with wide cells, of a queue event (the event, its scan's set-up) and of
+a slot of a block in the float32 pass, in the units of DILUTE_COST. Fitted on scene (b) of
+benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls; CPU time, 2 runs each) with 5
+to 11 cells an axis forced (2026-11-25, /tmp/s34/nc.py and fit.py): 202 ns a queue event,
+0.61 ns a slot, the model within 5 % of the seven runs (1000-1080 ns a physical event from
+5 to 10 cells an axis, 1200 at 11); then scaled to DILUTE_COST's units by the one factor
+(141 ns a unit) that best fits the measured cost ratios cells / wide of :data:`WIDE_BELOW`'s
+20 scenes (least squares in log; rms error 0.24 in log, the 2D ratios overrated)."""
+
+PATH_BLOCKS = {
+    2: ((0.0, 0.01, 0.03, 0.1, 0.2, 0.4, 0.7, 1.0),
+        (1.96, 2.06, 2.19, 2.65, 3.33, 4.72, 6.91, 9.0),
+        (3.63, 3.77, 3.85, 4.17, 4.62, 5.51, 6.96, 9.0)),
+    3: ((0.0, 0.01, 0.03, 0.1, 0.2, 0.4, 0.7, 1.0),
+        (1.97, 2.11, 2.35, 3.27, 4.86, 9.03, 17.48, 27.0),
+        (3.81, 4.02, 4.29, 5.28, 6.82, 10.32, 16.81, 27.0)),
+}
+"""The mean number of wide cells a scan covers (:func:`.neighbours.wide._path_block`), by
+dimension, against the reach over the cell's width (first tuple): after a course change (a
+path from a uniform point in the cell to its exit, isotropic), and at a crossing (from a
+uniform point of the face it enters by). Monte Carlo, 2 10^5 paths each
+(benchmarks/wide_blocks.py); linear in between."""
 
 
-def _wide_cost(D: int, n: int, L: float, path: float, nc: int) -> float:
+def _path_blocks(D: int, rho: float) -> tuple[float, float]:
+    """(cells a scan covers after a course change, at a crossing) for wide cells whose width
+    is 1/rho reaches (:data:`PATH_BLOCKS`)."""
+    x, course, cross = PATH_BLOCKS[D]
+    rho = min(max(rho, 0.0), 1.0)
+    return float(np.interp(rho, x, course)), float(np.interp(rho, x, cross))
+
+
+def _wide_cost(D: int, n: int, L: float, path: float, nc: int, sigma: float) -> float:
     """The cost of a particle's event with wide cells (nc an axis), in DILUTE_COST's units:
-    the event, k_D l / w crossings (each a queue event and a scan of the 3^(D-1) blocks that
-    come into view) and a scan of the 3^D blocks around (l the path between two events of a
-    particle, k_D as in :func:`dilute_scan_pays`); a block holds n / nc^D particles, its scan
-    covers them rounded up to WIDE_LANES (the pass's vector step)."""
+    the event, k_D l / w crossings (each a queue event and a scan) and its own scan (l the
+    path between two events of a particle, k_D as in :func:`dilute_scan_pays`); each scan
+    covers the cells of :func:`_path_blocks` for a reach ``sigma``; a cell holds n / nc^D
+    particles, its scan covers them rounded up to WIDE_LANES (the pass's vector step)."""
     per_cell = n / nc ** D
     slots = WIDE_LANES * math.ceil(per_cell / WIDE_LANES)
     cross = (4.0 / math.pi if D == 2 else 1.5) * path * nc / L
-    blocks = min(3 ** D, nc ** D) + min(3 ** (D - 1), nc ** (D - 1)) * cross
+    course, at_crossing = _path_blocks(D, sigma * nc / L)
+    blocks = min(course, nc ** D) + min(at_crossing, nc ** D) * cross
     c = WIDE_COST
     return c["event"] * (1.0 + cross) + c["slot"] * slots * blocks
 
@@ -236,21 +253,22 @@ def _wide_auto_cost(D: int, n: int, L: float, path: float, sigma: float,
                     packing: float, periodic: bool = False) -> float:
     """The cost of wide cells as 'auto' weighs them (:func:`_wide_cost` at
     :func:`wide_cells_per_axis`): infinite at WIDE_BELOW and above."""
-    if packing >= WIDE_BELOW:
+    if packing >= WIDE_BELOW[D]:
         return math.inf
-    return _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma, packing, periodic))
+    return _wide_cost(D, n, L, path, wide_cells_per_axis(D, n, L, sigma, packing, periodic),
+                      sigma)
 
 
 def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float,
                         periodic: bool = False) -> int:
     """Cells along each axis for wide cells: the count, among those at least a pair's reach
     (sigma) wide (at most 64; in a periodic box at least PERIODIC_WIDE_CELLS), that costs
-    least by the model of :func:`_wide_cost` (the same model both ways: a periodic box's
-    wraps are full scans, as a box's wall bounces are)."""
+    least by the model of :func:`_wide_cost` (the same model with walls or periodic: a wrap
+    is a crossing)."""
     path = _path(D, n, L, packing)
     least = PERIODIC_WIDE_CELLS if periodic else 1
     most = max(least, _most_wide_cells(L, sigma))
-    return min(range(least, most + 1), key=lambda nc: _wide_cost(D, n, L, path, nc))
+    return min(range(least, most + 1), key=lambda nc: _wide_cost(D, n, L, path, nc, sigma))
 
 
 def cells_per_axis(D: int, n: int, L: float, pairs: bool, periodic: bool, sigma: float,
