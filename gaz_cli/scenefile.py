@@ -102,16 +102,26 @@ def _shown(value, width: int = 60) -> str:
     return text if len(text) <= width else text[:width - 3] + "..."
 
 
+def unknown_name(name, known, noun: str = "key", value=...) -> str:
+    """"unknown key 'lenght' (= 1e-08; did you mean 'length'?)": the words for a ``name`` not
+    among ``known`` (``value``: what the file gave it, when there is one), with the closest of
+    ``known`` (:func:`difflib.get_close_matches`). The one place that tells a misspelt name its
+    fix: a scene file's keys and tables, ``gaz sweep --vary``'s keys."""
+    close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
+    said = [f"= {_shown(value)}"] if value is not ... else []
+    if close:
+        said.append(f"did you mean {close[0]!r}?")
+    return f"unknown {noun} {_shown(name)}" + (f" ({'; '.join(said)})" if said else "")
+
+
 def _check_keys(table: dict, allowed: dict, where: str, tables: tuple = ()) -> None:
     """SceneError on a key of ``table`` not in ``allowed`` (or of the wrong type); the message
     suggests the closest of ``allowed`` and of ``tables`` (the tables that may sit beside the
     keys: a misspelt ``[[specie]]`` is told ``species``) and lists both."""
     for key, value in table.items():
         if key not in allowed:
-            close = difflib.get_close_matches(str(key), [*allowed, *tables], n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
             listed = "; tables: " + ", ".join(_TABLE_HEADERS[t] for t in tables) if tables else ""
-            raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); {hint}"
+            raise SceneError(f"{where}{unknown_name(key, [*allowed, *tables], 'key', value)}; "
                              f"allowed: {', '.join(allowed)}{listed}")
         kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
         if not _type_ok(kind, value):

@@ -191,12 +191,35 @@ def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = Non
 
 
 # --- a scene file's points -----------------------------------------------------
-def varied_keys() -> list[str]:
-    """What ``--vary`` may name: a top-level key of a scene file but ``seed`` (``--seeds``), or
-    ``count`` / ``count.NAME``."""
+def varied_keys(species: list[str]) -> list[str]:
+    """What ``--vary`` may name in a sweep of a file whose species are named ``species``: a
+    top-level key of a scene file but ``seed`` (``--seeds``), and the count of a species:
+    ``count`` (a file of one species) and ``count.NAME`` for each species."""
     from gaz_cli import scenefile
 
-    return [k for k in scenefile.SCALARS if k != "seed"] + ["count", "count.NAME"]
+    scalars = [k for k in scenefile.SCALARS if k != "seed"]
+    return scalars + (["count"] if len(species) == 1 else []) + [f"count.{name}" for name in species]
+
+
+def check_varied_key(key: str, species: list[str], where: str = "") -> None:
+    """Raise SceneError, one line, unless a sweep of a file whose species are named ``species``
+    can vary ``key`` (:func:`varied_keys`; ``seed`` passes: :func:`plan` tells it to use
+    --seeds). The closest allowed name is suggested (:func:`gaz_cli.scenefile.unknown_name`),
+    and the allowed ones listed."""
+    from gaz_cli import scenefile
+
+    allowed = varied_keys(species)
+    if key in allowed or key == "seed":
+        return
+    name = key.partition(".")[2]
+    counts = [k for k in allowed if k == "count" or k.startswith("count.")]
+    if key.startswith("count.") and name:
+        raise SceneError(f"{where}--vary {key}: {scenefile.unknown_name(name, species, 'species')}; the file's "
+                         f"species: {', '.join(species) or 'none'} (vary {' or '.join(counts) or 'no count'})")
+    if key == "count":  # several species: which count?
+        raise SceneError(f"{where}--vary count needs one species; with several, vary one of {', '.join(counts)}")
+    raise SceneError(f"--vary {key}: {scenefile.unknown_name(key, allowed, 'parameter')}; "
+                     f"a sweep can vary {', '.join(allowed)}")
 
 
 def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, dict]:
@@ -207,19 +230,17 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     ``length``, ``duration``, ``seed``...), or ``count`` -- the count of the file's one
     species (several species: ``count.NAME``). Each scene goes through the same door as
     ``gaz simulate FILE`` (:func:`gaz_cli.scenefile.build`). ``keys``: the keys the sweep
-    varies, refused here, before any run, unless :func:`varied_keys` allows them (and a
-    count names a species of the file).
+    varies, refused here, before any run, unless the file's sweep can vary them
+    (:func:`check_varied_key`).
     """
     from gaz_cli import scenefile
 
     doc = scenefile.read(path)
     where = f"{path}: "
-    allowed = varied_keys()
+    scenefile.check(doc, where)  # the file's own unknown keys and types first, once
+    species = [str(t.get("name")) for t in doc.get("species", []) if isinstance(t, dict)]
     for key in keys:
-        if key == "count" or key.startswith("count."):
-            _set_count([dict(t) for t in doc.get("species", []) if isinstance(t, dict)], key, 0, where)
-        elif key not in allowed and key != "seed":  # seed: plan() says to use --seeds
-            raise SceneError(f"--vary {key}: not a key a sweep can vary; vary one of {', '.join(allowed)}")
+        check_varied_key(key, species, where)
 
     def scene_of(overrides: dict):
         point = {k: v for k, v in doc.items() if k != "output"}
@@ -253,14 +274,10 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
 
 
 def _set_count(species: list, key: str, value, where: str) -> None:
+    """Set the count of ``key`` (``count``, ``count.NAME``: checked by :func:`check_varied_key`)."""
     name = key.partition(".")[2]
-    chosen = [t for t in species if not name or t.get("name") == name]
-    if not name and len(species) != 1:
-        raise SceneError(f"{where}--vary count needs one species; with several, vary count.NAME "
-                         f"({', '.join(str(t.get('name')) for t in species)})")
-    if not chosen:
-        raise SceneError(f"{where}--vary {key}: no species named {name!r} in the file")
-    chosen[0]["count"] = value
+    check_varied_key(key, [str(t.get("name")) for t in species], where)
+    next(t for t in species if not name or str(t.get("name")) == name)["count"] = value
 
 
 def key_of(scene) -> str:

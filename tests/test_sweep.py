@@ -275,14 +275,19 @@ def test_gaz_sweep_reports_an_impossible_point_and_exits_1(tmp_path, cluster):
 
 
 @pytest.mark.parametrize("vary, fragment", [
-    ("colour=1,2", "--vary colour: not a key a sweep can vary; vary one of dim, length, packing"),
-    ("species=1,2", "--vary species: not a key a sweep can vary"),
-    ("count.Ne=10,20", "--vary count.Ne: no species named 'Ne'"),
+    ("colour=1,2", "--vary colour: unknown parameter 'colour'; a sweep can vary dim, length, packing"),
+    ("pakcing=0.1,0.2", "--vary pakcing: unknown parameter 'pakcing' (did you mean 'packing'?); a sweep can "
+                        "vary dim, length, packing,"),
+    ("cuont=10,20", "unknown parameter 'cuont' (did you mean 'count'?)"),
+    ("species=1,2", "--vary species: unknown parameter 'species'"),
+    ("count.Ne=10,20", "--vary count.Ne: unknown species 'Ne'; the file's species: Ar (vary count or count.Ar)"),
+    ("count.Arr=10,20", "--vary count.Arr: unknown species 'Arr' (did you mean 'Ar'?); the file's species: Ar"),
 ])
 def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, fragment):
     """--vary colour=1,2 started the sweep, opened (created) the database and failed every run
     with the scene file's 'unknown key', exit 1; now one line at the door listing the keys, no
-    database, no cluster."""
+    database, no cluster. A typo (pakcing) was told no closer name; now the closest allowed one
+    (the scene file's own resolver, scenefile.unknown_name)."""
     from cli_helpers import invoke
 
     scene = tmp_path / "rods.toml"
@@ -291,7 +296,7 @@ def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, f
     res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
     lines = res.stderr.splitlines()
     assert res.exit_code == 1 and len(lines) == 1 and fragment in lines[0], res.stderr
-    assert "count.NAME" in lines[0] or "count." in vary
+    assert "count.Ar" in lines[0]  # the file's own count keys, not a placeholder
     assert res.stdout == "" and not db.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rods.toml"]
 
 
