@@ -20,7 +20,10 @@ runs it holds already): nothing is created or migrated for a sweep that is refus
 
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
-interrupted one. A run that fails is reported and the others go on.
+interrupted one. Every point goes through the scene's door (:func:`gaz_cli.scene.validate`)
+before anything is read or run: one refused is the whole sweep refused, in one line
+(:func:`_refuse_points_that_cannot_run`). A run that fails on its worker (a placement that
+gives up) is reported and the others go on.
 
 The seeds of a sweep are ``base, base + 1, ..., base + K - 1`` where ``base``
 is the scene's own seed (1 if it has none): the same command gives the same
@@ -337,13 +340,13 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     db = database_name(db)  # a pathlib.Path as its text
     key = key or key_of
     report = Report(db=db)
-    built = []
-    for point in points:  # every scene built (cheap) before the database is opened or a cluster started
+    built, refused = [], {}
+    for point in points:  # every scene built and validated (cheap) before the database or a cluster
         try:
             built.append((point, prepare(scene_of(point.overrides()))))
         except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
-            report.rows.append((point, "failed", None, str(err)))
-    _refuse_a_sweep_that_cannot_run(points, report.rows)
+            refused[point] = str(err)
+    _refuse_points_that_cannot_run(points, refused)
     path = sqlite_file(db)
     todo = []
     if path is not None and not os.path.exists(os.path.expanduser(path)):
@@ -388,19 +391,36 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     return report
 
 
-def _refuse_a_sweep_that_cannot_run(points: list[Point], failed: list) -> None:
-    """Raise SceneError, in one line, when no point of the sweep can run with its first seed
-    (the scene's own): an error of the file itself, such as ``restitution = 2`` or
-    ``seed = -1``, fails them all alike; said once, before any database or cluster.
-    ``failed``: the report's rows of the points whose scene did not build."""
-    why = {point: text for point, _, _, text in failed}
-    firsts = list({p.values: p for p in reversed(points)}.values())  # each set of values, its first seed
-    if not firsts or any(p not in why for p in firsts):
+def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
+    """Raise SceneError, in one line, when a point of the sweep cannot run: the scene door
+    (:func:`gaz_cli.scene.validate`, through ``scene_of``) refused it. ``refused``: each such
+    point and the door's message. Said before any database or cluster, so that a sweep either
+    runs every point or none (a packing beyond the densest at its third value ran and stored
+    the first two).
+
+    An error of the file itself (``restitution = 2``, ``seed = -1``) refuses every point alike:
+    its message alone. Otherwise the first point refused, named by its values (the ones every
+    point sharing them fails with: the value to drop; else the whole point, seed included),
+    its message, and how many runs were refused."""
+    if not refused:
         return
-    messages = list(dict.fromkeys(why[p] for p in reversed(firsts)))
-    if len(messages) == 1:
-        raise SceneError(messages[0])
-    raise SceneError(f"no point of the sweep can run; the first, {firsts[-1].label}: {messages[0]}")
+    messages = set(refused.values())
+    firsts = list({p.values: p for p in reversed(points)}.values())  # each set of values, its first seed
+    if len(messages) == 1 and all(p in refused for p in firsts):
+        raise SceneError(next(iter(messages)))
+    point = next(p for p in points if p in refused)
+    if len(refused) == len(points):
+        raise SceneError(f"no point of the sweep can run; the first, {point.label}: {refused[point]}")
+    blamed = [(k, v) for k, v in point.values
+              if all(q in refused for q in points if dict(q.values)[k] == v)]
+    if blamed:
+        what = " ".join(f"{k}={v}" for k, v in blamed)
+        fix = "drop " + " and ".join(f"{v} from --vary {k}" for k, v in blamed)
+    else:  # this combination only, or this seed: no one value is wrong everywhere
+        what = point.label
+        fix = "change the values or the seeds so that every combination can run"
+    raise SceneError(f"--vary {what}: {refused[point]}; {fix} ({len(refused)} of {len(points)} runs refused, "
+                     "none started)")
 
 
 def _run_all(client, store, todo, report, bar) -> None:
