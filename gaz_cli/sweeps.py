@@ -83,8 +83,11 @@ def check_workers(workers, scheduler: str | None = None) -> None:
 def parse_vary(text: str) -> tuple[str, list]:
     """``KEY=V1,V2,...`` or ``KEY=START:STOP:COUNT`` (COUNT values, both ends included).
 
-    Values are ints where every one reads as an int, else floats where every
-    one reads as a float, else strings. Raises SceneError naming the problem.
+    Values are read as the key takes them (:data:`gaz_cli.scenefile.SCALARS`; ``count`` and
+    ``count.NAME`` whole numbers): a whole number written ``1e2`` or reached by a range is an
+    int, ``true``/``false`` a boolean. A key of no known type (refused later, with its closest
+    name): ints where every value reads as an int, else floats, else strings. Raises
+    SceneError naming the problem.
     """
     key, sep, values = text.partition("=")
     key = key.strip()
@@ -103,43 +106,66 @@ def parse_vary(text: str) -> tuple[str, list]:
         if count > MAX_POINTS:
             raise SceneError(f"--vary {text!r}: COUNT {count} makes more than {MAX_POINTS} runs; "
                              "vary fewer values")
-        if count == 1:
-            return key, [start]
-        step = (stop - start) / (count - 1)
-        return key, _once(text, [_tidy(start + k * step) for k in range(count)])
+        if count == 1 and stop != start:
+            raise SceneError(f"--vary {text!r}: COUNT 1 is START alone, {parts[1].strip()} left out; give "
+                             f"{key}={parts[0].strip()}, or COUNT 2 or more to reach STOP")
+        step = (stop - start) / (count - 1) if count > 1 else 0.0
+        return key, _once(text, _typed(text, key, [_tidy(start + k * step) for k in range(count)], ranged=True))
     items = [v.strip() for v in values.split(",")]
     if any(not v for v in items):
         raise SceneError(f"--vary {text!r}: an empty value between commas")
-    for kind in (int, float):
-        try:
-            parsed = [kind(v) for v in items]
-            break
-        except ValueError:
-            continue
-    else:
-        if _numeric(key):  # name the value that is not a number, not the first of the list
-            wrong = next(v for v in items if not _reads_as_number(v))
-            raise SceneError(f"--vary {text!r}: {wrong!r} is not a number; {key} takes numbers")
-        parsed = items
-    return key, _once(text, parsed)
+    return key, _once(text, _typed(text, key, items))
 
 
-def _numeric(key: str) -> bool:
-    """Whether the scene key ``key`` takes a number (``count``, ``count.NAME``: a whole one)."""
+def _kind(key: str) -> str | None:
+    """The type a scene key takes (:data:`gaz_cli.scenefile.SCALARS`; ``count`` and ``count.NAME``
+    a whole number); None for a key of no known type."""
     from gaz_cli import scenefile
 
     if key == "count" or key.startswith("count."):
-        return True
-    kind = scenefile.SCALARS.get(key, (None,))[0]
-    return kind in (scenefile.REAL, scenefile.INT)
+        return scenefile.INT
+    return scenefile.SCALARS.get(key, (None,))[0]
 
 
-def _reads_as_number(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
+def _typed(text: str, key: str, values: list, ranged: bool = False) -> list:
+    """``values`` (strings as typed, or a range's floats) read as ``key`` takes them; SceneError
+    naming the first one that is not of its type."""
+    from gaz_cli import scenefile
+
+    kind = _kind(key)
+    if kind == scenefile.BOOL:
+        truth = {"true": True, "false": False}
+        wrong = next((v for v in values if str(v).lower() not in truth), None)
+        if wrong is not None:
+            raise SceneError(f"--vary {text!r}: {wrong!r} is not true or false; {key} takes true or false")
+        return [truth[str(v).lower()] for v in values]
+    if kind == scenefile.STR:
+        return values
+    numbers = [_number(v) for v in values]
+    if kind in (scenefile.REAL, scenefile.INT) and None in numbers:  # the value that is not a number
+        raise SceneError(f"--vary {text!r}: {values[numbers.index(None)]!r} is not a number; {key} takes numbers")
+    if kind == scenefile.INT:
+        wrong = next((v for v in numbers if not float(v).is_integer()), None)
+        if wrong is not None:
+            fix = " (choose COUNT so that the step (STOP - START)/(COUNT - 1) is whole)" if ranged else ""
+            raise SceneError(f"--vary {text!r}: {wrong!r} is not a whole number; {key} takes whole numbers{fix}")
+        return [int(v) for v in numbers]
+    if None in numbers:  # no known type: strings (the key is refused later, by its name)
+        return values
+    return numbers if all(isinstance(v, int) for v in numbers) else [float(v) for v in numbers]
+
+
+def _number(value):
+    """``value`` (a string as typed, or a number) as an int when it reads as one, else a float;
+    None when it is no number."""
+    if not isinstance(value, str):
+        return value
+    for kind in (int, float):
+        try:
+            return kind(value)
+        except ValueError:
+            continue
+    return None
 
 
 def _once(text: str, values: list) -> list:

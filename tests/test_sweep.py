@@ -55,11 +55,28 @@ def test_vary_reads_lists_and_ranges():
 
 
 @pytest.mark.parametrize("text", ["packing", "packing=", "=1,2", "n=1,,2", "packing=0.1:0.6",
-                                  "packing=0.1:0.6:0", "packing=a:b:3", "packing=0.1:0.6:2.5"])
+                                  "packing=0.1:0.6:0", "packing=a:b:3", "packing=0.1:0.6:2.5",
+                                  "packing=0.1:0.6:1", "count=10:20:4", "count=10.5,20", "force=yes,no"])
 def test_vary_refuses_malformed_text_in_one_line(text):
     with pytest.raises(SceneError) as err:
         sweep.parse_vary(text)
     assert "\n" not in str(err.value) and "--vary" in str(err.value)
+
+
+def test_vary_reads_values_as_the_key_takes_them():
+    """--vary count=10:40:4 made floats, 10.0 to 40.0, and every point was refused ("count = 10.0
+    must be a whole number"): a range of counts, dims or print_every could never run, nor
+    count=1e2,2e2; force=true,false were strings ("force = 'true' must be true or false").
+    Now a whole-number key reads whole floats as ints, a true-or-false key reads true/false;
+    a range whose step is not whole is refused naming the value (test above)."""
+    assert sweep.parse_vary("count=10:40:4") == ("count", [10, 20, 30, 40])
+    assert sweep.parse_vary("count.He=1e2,2e2") == ("count.He", [100, 200])
+    assert sweep.parse_vary("dim=1:3:3") == ("dim", [1, 2, 3])
+    assert sweep.parse_vary("force=true,False") == ("force", [True, False])
+    assert sweep.parse_vary("boundary=walls,periodic") == ("boundary", ["walls", "periodic"])
+    assert all(type(v) is int for v in sweep.parse_vary("print_every=10:30:3")[1])
+    with pytest.raises(SceneError, match=r"13.3333333333 is not a whole number; count takes whole numbers"):
+        sweep.parse_vary("count=10:20:4")
 
 
 @pytest.mark.parametrize("text, twice", [("temperature=100,100", "100"), ("temperature=100,1e2", "100.0"),
@@ -126,6 +143,19 @@ def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
         alone = simulate(scene_of(point.overrides()), db=str(tmp_path / "alone.db"))
         rows = _rows(db, si_num)
         assert len(rows) > 0 and np.array_equal(rows, _rows(str(tmp_path / "alone.db"), alone["si_num"]))
+
+
+def test_a_range_of_counts_runs_each_count(tmp_path, cluster):
+    """gaz sweep FILE --vary count=10:20:2 refused both points (count = 10.0 must be a whole
+    number); now it stores a run of 10 rods and one of 20."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    res = invoke(["sweep", str(scene), "--vary", "count=10:20:2", "--scheduler", cluster, "--db", str(db), "--quiet"])
+    assert res.exit_code == 0, res.output
+    with Store(str(db), create=False) as store:
+        assert sorted(store.read_sql("SELECT SI_N FROM SIMULATION").SI_N) == [10, 20]
 
 
 def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
