@@ -341,11 +341,19 @@ class Report:
     def failed(self) -> int:
         return self.count("failed")
 
+    def in_order(self, points: list) -> "Report":
+        """This report, its rows sorted in the order of ``points`` (the plan's)."""
+        rank = {point: k for k, point in enumerate(points)}
+        self.rows.sort(key=lambda row: rank[row[0]])
+        return self
+
 
 def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any], str] | None,
         db: str, workers: int | None = None, scheduler: str | None = None,
         progress: bool | None = None) -> Report:
-    """Run every point not already in ``db``; store each as it finishes; return the report.
+    """Run every point not already in ``db``; store each as it finishes; return the report,
+    its rows in the order of ``points`` (the same sweep, the same table; not the order the runs
+    finished in).
 
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
     ``key(scene)`` is the text by which a run already stored is recognised among
@@ -392,7 +400,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         else:
             todo.append((point, scene))
     if not todo:
-        return report
+        return report.in_order(points)
     try:
         if path is not None:  # the runs to do, one after the other, on the database's disk
             check_database_space([scene for _, scene in todo], path,
@@ -414,7 +422,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             raise Interrupted(signum, f"{report.count('stored')} runs of the sweep were stored in "
                                       f"{store.shown!r}, {left} were not; run the same sweep again to "
                                       "finish it (stored runs are skipped)") from None
-    return report
+    return report.in_order(points)
 
 
 def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:

@@ -158,6 +158,19 @@ def test_a_range_of_counts_runs_each_count(tmp_path, cluster):
         assert sorted(store.read_sql("SELECT SI_N FROM SIMULATION").SI_N) == [10, 20]
 
 
+def test_the_report_lists_the_points_in_the_plans_order(tmp_path, cluster):
+    """The table listed the runs as they came: skipped ones first, then each as it finished
+    (gaz sweep rods.toml --vary packing=0.6:0.1:6 printed 0.6, 0.5, 0.2, 0.1, 0.4, 0.3 on 2
+    workers). Now in the plan's order, whatever finished first: here the second point is
+    stored already (skipped at once), the first runs."""
+    db = str(tmp_path / "s.db")
+    simulate(scene_of({"n": 20, "seed": 1}), db=db)
+    report = sweep.run(sweep.plan([("n", [10, 20])], seeds=1), scene_of, None, db, scheduler=cluster,
+                       progress=False)
+    assert [(p.label, status) for p, status, _, _ in report.rows] == [("n=10 seed=1", "stored"),
+                                                                      ("n=20 seed=1", "skipped")]
+
+
 def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
     """A run that raises inside the worker fails alone: random placement asked for beyond
     its jamming density (2D, packing 0.6 > 0.547) passes validation and gives up on the worker."""
