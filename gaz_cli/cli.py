@@ -457,7 +457,7 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
     Examples:
       gaz sweep examples/isotherm_2d.toml --vary packing=0.1:0.6:6 --seeds 3 --db iso.db
       gaz analyse --db iso.db --vs packing --plot figs
-      gaz sweep scene.toml --vary temperature=100,300,1000 --vary count=100,400 --db t.db
+      gaz sweep examples/exam.toml --vary temperature=100,300,1000 --vary count=100,400 --db t.db
     """
     import pandas as pd
 

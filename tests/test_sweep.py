@@ -686,3 +686,41 @@ def sa_url_with_password(url: str, password: str) -> str:
     import sqlalchemy as sa
 
     return sa.make_url(url).set(password=password).render_as_string(hide_password=False)
+
+
+def _help_examples() -> list[list[str]]:
+    """The ``gaz sweep`` lines of ``gaz sweep --help``'s examples, as argument lists."""
+    import shlex
+
+    from cli_helpers import invoke
+
+    text = invoke(["sweep", "--help"]).stdout
+    return [shlex.split(line)[1:] for line in text.splitlines() if line.strip().startswith("gaz sweep ")]
+
+
+def test_the_help_examples_run_as_written(tmp_path, monkeypatch):
+    """gaz sweep --help showed 'gaz sweep scene.toml --vary temperature=100,300,1000 --vary
+    count=100,400 --db t.db': no scene.toml anywhere ("Path 'scene.toml' does not exist", exit 2).
+    Now each example names a file of examples/ (run from the repository, as the README's) and
+    every point of it passes the scene's checks; the fast one (6 runs of the exam's gas of 100
+    and 400 atoms, about 3 s) runs to the end, every run stored."""
+    from pathlib import Path
+
+    from cli_helpers import invoke
+
+    from gaz_cli.runner import prepare
+
+    examples = _help_examples()
+    assert len(examples) >= 2, examples
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").symlink_to(root / "examples")
+    for args in examples:
+        file, varies = args[1], [args[k + 1] for k, a in enumerate(args) if a == "--vary"]
+        assert (root / file).is_file(), file
+        scene_of, seed, _ = sweep.scenes_of_file(file, [sweep.parse_vary(v)[0] for v in varies])
+        for point in sweep.plan([sweep.parse_vary(v) for v in varies], 1, seed):
+            prepare(scene_of(point.overrides()))
+    fast = next(args for args in examples if "examples/exam.toml" in args)
+    res = invoke([*fast, "--workers", "1", "--quiet"])
+    assert res.exit_code == 0 and "6 stored" in res.stderr, res.output
