@@ -550,9 +550,10 @@ class _client:
         workers = self.workers or cores()
         # the cluster's own logs stay off stderr up to ERROR (a worker's heartbeat failing as an
         # interrupted sweep closes the scheduler printed a traceback): gaz says every run's failure
+        # preload: each worker process runs dask_setup below as it starts (its SIGINT ignored)
         self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
                                     processes=True, dashboard_address=":0",
-                                    silence_logs=logging.CRITICAL)
+                                    silence_logs=logging.CRITICAL, preload=[__name__])
         self.client = Client(self.cluster)
         return self.client
 
@@ -561,6 +562,18 @@ class _client:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def dask_setup(worker=None) -> None:
+    """Run in each worker process of the local cluster as it starts (Dask's preload, given
+    this module's name): SIGINT ignored there. A Ctrl-C at a terminal reaches the whole
+    process group; each worker then printed a KeyboardInterrupt traceback of 33 lines before
+    gaz's own one line. The client alone answers it (it stops the cluster, :func:`run`)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 class _Bar:

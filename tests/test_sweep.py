@@ -724,3 +724,41 @@ def test_the_help_examples_run_as_written(tmp_path, monkeypatch):
     fast = next(args for args in examples if "examples/exam.toml" in args)
     res = invoke([*fast, "--workers", "1", "--quiet"])
     assert res.exit_code == 0 and "6 stored" in res.stderr, res.output
+
+
+def test_ctrl_c_at_a_terminal_is_one_line_not_a_traceback_per_worker(tmp_path):
+    """Ctrl-C at a terminal sends SIGINT to the whole process group: gaz and every worker of its
+    local cluster. Each worker printed a KeyboardInterrupt traceback of 33 lines ("Process Dask
+    Worker process (from Nanny): ... CancelledError ... KeyboardInterrupt"), 66 lines on 2
+    workers before gaz's own line. Now the workers ignore SIGINT (sweeps.dask_setup, their
+    preload) and gaz alone answers: one line, exit 130, the stored runs kept. The command runs
+    in a session of its own with SIGINT's default action, as a shell in a terminal starts it,
+    and the signal goes to the group once the first run is stored (the others running)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scene, db = tmp_path / "disks.toml", tmp_path / "i.db"
+    scene.write_text('dim = 2\npacking = 0.3\nduration = 1e-8\nseed = 1\nrecord = "none"\n'
+                     '[[species]]\nname = "Ar"\ncount = 400\n')   # about 1.5 s a run
+    env = {**os.environ, "NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR", str(tmp_path / "nc"))}
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "sweep", str(scene), "--vary",
+                             "temperature=100:600:6", "--workers", str(min(2, sweep.cores())), "--db", str(db),
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 90
+        while not db.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert db.exists() and proc.poll() is None, "the sweep stored no run, or ended, before the signal"
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and out == "", (proc.returncode, err)
+    assert len(err.splitlines()) == 1 and err.startswith("gaz: interrupted by SIGINT; "), err
+    assert "run the same sweep again to finish it" in err, err
