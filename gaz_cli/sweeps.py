@@ -457,12 +457,33 @@ def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
                      "none started)")
 
 
+IN_FLIGHT_PER_THREAD = 4
+"""Runs handed to the cluster at once, per worker thread: enough to keep every worker busy
+while the client stores what came back, few enough that the client is never busy submitting."""
+
+
 def _run_all(client, store, todo, report, bar) -> None:
+    """Run ``todo`` on ``client``'s cluster, at most :data:`IN_FLIGHT_PER_THREAD` per worker thread
+    at a time, each storing as it finishes. All submitted at once, a plan of 100,000 points kept the
+    client submitting for minutes: its connection to the scheduler closed ("Closed comm ...") and the
+    sweep waited for good on futures that were gone, nothing stored after 14 minutes."""
     from dask.distributed import wait
 
-    futures = {client.submit(simulate_in_memory, scene, pure=False, key=f"gaz-run-{k}-{os.getpid()}"): point
-               for k, (point, scene) in enumerate(todo)}
-    pending = set(futures)
+    try:
+        threads = sum(client.nthreads().values())
+    except Exception:  # the scheduler did not answer in time: as for one worker
+        threads = 1
+    window = IN_FLIGHT_PER_THREAD * max(1, threads)
+    queue = iter(enumerate(todo))
+    futures, pending = {}, set()
+
+    def submit_more() -> None:
+        for k, (point, scene) in itertools.islice(queue, max(0, window - len(pending))):
+            fut = client.submit(simulate_in_memory, scene, pure=False, key=f"gaz-run-{k}-{os.getpid()}")
+            futures[fut] = point
+            pending.add(fut)
+
+    submit_more()
     stored = failed = 0
     while pending:
         try:
@@ -471,7 +492,7 @@ def _run_all(client, store, todo, report, bar) -> None:
             finished = ()
         interrupts.check()
         for fut in finished:
-            point = futures[fut]
+            point = futures.pop(fut)
             if fut.status == "finished":
                 si_num = _store(store, fut.result())
                 report.rows.append((point, "stored", si_num, ""))
@@ -480,6 +501,7 @@ def _run_all(client, store, todo, report, bar) -> None:
                 report.rows.append((point, "failed", None, _why(fut.exception())))
                 failed += 1
             fut.release()
+        submit_more()
         bar.update(done=stored, failed=failed, running=_running(client, pending))
 
 

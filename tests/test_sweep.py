@@ -171,6 +171,36 @@ def test_the_report_lists_the_points_in_the_plans_order(tmp_path, cluster):
                                                                       ("n=20 seed=1", "skipped")]
 
 
+def test_the_cluster_is_handed_a_few_runs_per_worker_at_a_time(tmp_path, cluster, monkeypatch):
+    """Every run was submitted at once: a plan of 100,000 points (temperature=100:1000:1000
+    --seeds 100, 20 rods) kept the client submitting until its connection to the scheduler
+    closed, and the sweep waited for good: 0 runs stored after 14 minutes. Now at most
+    IN_FLIGHT_PER_THREAD runs per worker thread are out at once, the next submitted as one comes
+    back (the same plan stores about 115 runs a second on 2 workers). Counted here on the
+    client: runs submitted minus runs stored, at each submission, on a cluster of one thread."""
+    from distributed import Client
+
+    counts = {"submitted": 0, "stored": 0, "peak": 0}
+    submit, store = Client.submit, sweep._store
+
+    def counting_submit(self, *args, **kw):
+        counts["submitted"] += 1
+        counts["peak"] = max(counts["peak"], counts["submitted"] - counts["stored"])
+        return submit(self, *args, **kw)
+
+    def counting_store(*args):
+        counts["stored"] += 1
+        return store(*args)
+
+    monkeypatch.setattr(Client, "submit", counting_submit)
+    monkeypatch.setattr(sweep, "_store", counting_store)
+    monkeypatch.setattr(sweep, "IN_FLIGHT_PER_THREAD", 2)
+    report = sweep.run(sweep.plan([("n", [10, 11, 12, 13, 14, 15])], seeds=1), scene_of, key_of,
+                       str(tmp_path / "s.db"), scheduler=cluster, progress=False)
+    assert report.count("stored") == 6 == counts["submitted"] == counts["stored"]
+    assert counts["peak"] == 2, counts
+
+
 def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
     """A run that raises inside the worker fails alone: random placement asked for beyond
     its jamming density (2D, packing 0.6 > 0.547) passes validation and gives up on the worker."""
