@@ -249,6 +249,26 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
     return scene, dict(doc.get("output", {}))
 
 
+FIXED_BY_INITIAL = ("dim", "length", "packing", "species", "radius", "mass", "temperature", "placement")
+"""What a scene with an explicit or preset initial state fixes: its state depends on them, or
+ignores them (temperature, placement: the state's velocities and positions come from it)."""
+
+
+def fixed_by_initial(doc: dict, fields) -> list[str]:
+    """Those of ``fields`` (scene fields; ``n`` the count of particles) that the scene document
+    ``doc``'s ``[initial]`` state fixes (:data:`FIXED_BY_INITIAL`; ``n`` too for an explicit
+    state, whose arrays hold one row per particle), in that order: given another value, the run
+    would ignore it or refuse it. Empty without ``[initial]``. ``gaz simulate``'s flags and
+    ``gaz sweep``'s ``--vary`` keys are refused by this one rule."""
+    initial = doc.get("initial")
+    if not initial:
+        return []
+    fixed = [k for k in FIXED_BY_INITIAL if k in fields]
+    if "n" in fields and isinstance(initial, dict) and initial.get("kind") == "explicit":
+        fixed.insert(0, "n")
+    return fixed
+
+
 FIELD_KEYS = {"n": "[[species]] count"}
 """Scene fields that are no key of a scene file -> what a scene file calls them."""
 

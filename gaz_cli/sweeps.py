@@ -270,6 +270,13 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     species = [str(t.get("name")) for t in doc.get("species", []) if isinstance(t, dict)]
     for key in keys:
         check_varied_key(key, species, where)
+    fields = {("n" if key == "count" or key.startswith("count.") else key): key for key in keys}
+    fixed = [fields[k] for k in scenefile.fixed_by_initial(doc, fields)]
+    if fixed:  # the sweep's runs would differ in their labels only (gaz simulate refuses these flags too)
+        kind = doc["initial"].get("kind", "explicit") if isinstance(doc["initial"], dict) else "explicit"
+        raise SceneError(f"{where}its initial state ([initial] kind = {kind!r}) fixes {', '.join(fixed)}: every "
+                         f"point would run the same state, whatever its {', '.join(fixed)}; vary another key, or "
+                         "describe the scene without its initial state")
 
     def scene_of(overrides: dict):
         point = {k: v for k, v in doc.items() if k != "output"}

@@ -792,3 +792,29 @@ def test_ctrl_c_at_a_terminal_is_one_line_not_a_traceback_per_worker(tmp_path):
     assert proc.returncode == 130 and out == "", (proc.returncode, err)
     assert len(err.splitlines()) == 1 and err.startswith("gaz: interrupted by SIGINT; "), err
     assert "run the same sweep again to finish it" in err, err
+
+
+@pytest.mark.parametrize("example, vary, fixed", [
+    ("comet.toml", "temperature=100,300", "[initial] kind = 'explicit') fixes temperature: every point would run "
+                                          "the same state, whatever its temperature;"),
+    ("comet.toml", "count.comet=1,2", "fixes count.comet:"),
+    ("marbles.toml", "temperature=100,300", "[initial] kind = 'upper-half') fixes temperature:"),
+])
+def test_a_key_the_files_initial_state_fixes_is_refused_before_any_run(tmp_path, monkeypatch, example, vary, fixed):
+    """gaz sweep examples/comet.toml --vary temperature=100,300 stored two runs of the same
+    explicit state (its velocities are given: the temperature is ignored), told apart by their
+    temperature only, which gaz analyse --vs temperature would then tabulate; gaz simulate
+    refuses --temperature on that file. Now the sweep is refused by the same rule
+    (scenefile.fixed_by_initial), one line, no database."""
+    from pathlib import Path
+
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene = Path(__file__).resolve().parent.parent / "examples" / example
+    db = tmp_path / "c.db"
+    res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and fixed in lines[0], res.stderr
+    assert lines[0].endswith("vary another key, or describe the scene without its initial state"), lines[0]
+    assert res.stdout == "" and not db.exists()
