@@ -270,6 +270,9 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     species = [str(t.get("name")) for t in doc.get("species", []) if isinstance(t, dict)]
     for key in keys:
         check_varied_key(key, species, where)
+    if "packing" in keys and "length" in keys:  # each replaces the other (scene_of): one would be ignored
+        raise SceneError("--vary packing and --vary length both set the box side; vary one of them "
+                         "(with packing, the box follows from it and the counts)")
     fields = {("n" if key == "count" or key.startswith("count.") else key): key for key in keys}
     fixed = [fields[k] for k in scenefile.fixed_by_initial(doc, fields)]
     if fixed:  # the sweep's runs would differ in their labels only (gaz simulate refuses these flags too)
@@ -401,6 +404,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
                 store.check_row_numbers([scene for _, scene in built])
             except SceneError as err:
                 raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+    _refuse_points_that_are_one_run(built, key)
     for point, scene in built:
         if key(scene) in done:
             report.rows.append((point, "skipped", None, "already in the database"))
@@ -462,6 +466,19 @@ def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
         fix = "change the values or the seeds so that every combination can run"
     raise SceneError(f"--vary {what}: {refused[point]}; {fix} ({len(refused)} of {len(points)} runs refused, "
                      "none started)")
+
+
+def _refuse_points_that_are_one_run(built: list, key: Callable[[Any], str]) -> None:
+    """Raise SceneError, one line, when two points build the same run (``key`` of their scenes
+    equal: the same scene file, seed included), which would be run and stored twice and counted
+    twice in a mean over the runs: e.g. ``--vary engine=auto,event`` where auto takes the event
+    engine. ``built``: (point, scene) pairs."""
+    seen = {}
+    for point, scene in built:
+        first = seen.setdefault(key(scene), point)
+        if first is not point:
+            raise SceneError(f"--vary: {first.label} and {point.label} are the same run (the same scene, seed "
+                             "included): it would be stored twice; drop one of the values that make them")
 
 
 IN_FLIGHT_PER_THREAD = 4

@@ -818,3 +818,25 @@ def test_a_key_the_files_initial_state_fixes_is_refused_before_any_run(tmp_path,
     assert res.exit_code == 1 and len(lines) == 1 and fixed in lines[0], res.stderr
     assert lines[0].endswith("vary another key, or describe the scene without its initial state"), lines[0]
     assert res.stdout == "" and not db.exists()
+
+
+@pytest.mark.parametrize("varies, line", [
+    (["packing=0.1,0.2", "length=1e-7,2e-7"], "gaz: error: --vary packing and --vary length both set the box side; "
+                                              "vary one of them (with packing, the box follows from it and the counts)"),
+    (["engine=auto,reference"], "gaz: error: --vary: engine=auto seed=5 and engine=reference seed=5 are the same run "
+                                "(the same scene, seed included): it would be stored twice; drop one of the values "
+                                "that make them"),
+])
+def test_points_that_make_one_run_are_refused_before_any_run(tmp_path, monkeypatch, varies, line):
+    """--vary packing=0.1,0.2 --vary length=1e-7,2e-7 stored 4 runs of 2 scenes: the length given
+    last replaced the packing (SI_L 1e-7, 2e-7, 1e-7, 2e-7), each scene stored twice under two
+    packings. --vary engine=auto,reference (auto takes the reference engine for 20 disks) stored
+    the same run twice. Now one line each, no database, no cluster."""
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene, db = tmp_path / "disks.toml", tmp_path / "d.db"
+    scene.write_text(RODS.replace("dim = 1", "dim = 2"))
+    res = invoke(["sweep", str(scene), *(a for v in varies for a in ("--vary", v)), "--db", str(db), "--quiet"])
+    assert (res.exit_code, res.stdout, res.stderr) == (1, "", line + "\n")
+    assert not db.exists()
