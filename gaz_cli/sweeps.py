@@ -394,12 +394,12 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     path = sqlite_file(db)
     todo = []
     if path is not None and not os.path.exists(os.path.expanduser(path)):
-        done = set()  # a new file: every point runs, and the file is created after the checks
+        done = {}  # a new file: every point runs, and the file is created after the checks
     else:
         # read only: a database refused (foreign, newer) is refused here, and one to create or
         # migrate is written only once the checks below have passed and the cluster answers
         with Store(db, create=False, empty_ok=True) as store:
-            done = set(store.scene_files())
+            done = store.scene_files()  # SC_FILE -> SI_NUM
             try:  # a PostgreSQL database made before schema 6 numbers its rows in 32 bits
                 store.check_row_numbers([scene for _, scene in built])
             except SceneError as err:
@@ -407,7 +407,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     _refuse_points_that_are_one_run(built, key)
     for point, scene in built:
         if key(scene) in done:
-            report.rows.append((point, "skipped", None, "already in the database"))
+            report.rows.append((point, "skipped", done[key(scene)], "already in the database"))
         else:
             todo.append((point, scene))
     if not todo:

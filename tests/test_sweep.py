@@ -303,7 +303,8 @@ count = 20
 
 def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     """gaz sweep over a scene file: every run stored once with the file's seeds; the same
-    command again stores nothing (each run recognised by its scene file); analyse --vs reads it."""
+    command again stores nothing (each run recognised by its scene file) and names each run's
+    SI_NUM, which it left empty; analyse --vs reads it."""
     from click.testing import CliRunner
 
     from gaz_cli.cli import cli
@@ -327,6 +328,8 @@ def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     assert seeds == [5, 5, 6, 6]
     again = CliRunner().invoke(cli, args)
     assert again.exit_code == 0 and again.output.count(",skipped,") == 4
+    # a skipped run is named by its SI_NUM in the database (it was left empty): the same as stored
+    assert list(pd.read_csv(io.StringIO(again.stdout)).SI_NUM) == list(runs.SI_NUM)
     with Store(db, create=False) as store:
         assert len(store.simulation_numbers()) == 4
     table = CliRunner().invoke(cli, ["analyse", "--db", db, "--vs", "packing", "--format", "csv"])
