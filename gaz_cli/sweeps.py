@@ -446,7 +446,7 @@ def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
     An error of the file itself (``restitution = 2``, ``seed = -1``) refuses every point alike:
     its message alone. Otherwise the first point refused, named by its values (the ones every
     point sharing them fails with: the value to drop; else the whole point, seed included),
-    its message, and how many runs were refused."""
+    its message, and how many runs were refused; a seed that every point fails with, likewise."""
     if not refused:
         return
     messages = set(refused.values())
@@ -459,12 +459,15 @@ def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
     blamed = [(k, v) for k, v in point.values
               if all(q in refused for q in points if dict(q.values)[k] == v)]
     if blamed:
-        what = " ".join(f"{k}={v}" for k, v in blamed)
+        what = "--vary " + " ".join(f"{k}={v}" for k, v in blamed)
         fix = "drop " + " and ".join(f"{v} from --vary {k}" for k, v in blamed)
+    elif all(q in refused for q in points if q.seed == point.seed):  # --seeds K went past what a seed may be
+        what = f"--seeds: seed {point.seed}"
+        fix = "lower --seeds or the file's seed"
     else:  # this combination only, or this seed: no one value is wrong everywhere
-        what = point.label
+        what = f"--vary {point.label}"
         fix = "change the values or the seeds so that every combination can run"
-    raise SceneError(f"--vary {what}: {refused[point]}; {fix} ({len(refused)} of {len(points)} runs refused, "
+    raise SceneError(f"{what}: {refused[point]}; {fix} ({len(refused)} of {len(points)} runs refused, "
                      "none started)")
 
 

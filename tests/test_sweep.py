@@ -843,3 +843,20 @@ def test_points_that_make_one_run_are_refused_before_any_run(tmp_path, monkeypat
     res = invoke(["sweep", str(scene), *(a for v in varies for a in ("--vary", v)), "--db", str(db), "--quiet"])
     assert (res.exit_code, res.stdout, res.stderr) == (1, "", line + "\n")
     assert not db.exists()
+
+
+def test_a_seed_past_the_largest_is_blamed_on_the_seeds(tmp_path, monkeypatch):
+    """seed = 2^63 - 1 in the file with --seeds 2: the second seed, 2^63, is refused at every
+    value; the line named one point ("--vary temperature=100 seed=9223372036854775808") and told
+    to "change the values or the seeds", a --vary of the seed. Now it names the seed and the fix,
+    --seeds or the file's."""
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene, db = tmp_path / "big.toml", tmp_path / "b.db"
+    scene.write_text(RODS.replace("seed = 5", "seed = 9223372036854775807"))
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--seeds", "2", "--db", str(db), "--quiet"])
+    assert (res.exit_code, res.stdout) == (1, "") and res.stderr == (
+        f"gaz: error: --seeds: seed 9223372036854775808: {scene}: seed 9223372036854775808 must be between 0 and "
+        "2^63 - 1; lower --seeds or the file's seed (2 of 4 runs refused, none started)\n"), res.stderr
+    assert not db.exists()
