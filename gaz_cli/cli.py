@@ -449,14 +449,15 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
     --scheduler's); workers send their results back and this process alone
     writes them, so a SQLite file works. A run already stored (same scene,
     same seed) is skipped: the same command finishes an interrupted sweep. A
-    failing run is reported and the others go on (exit 1 if any failed). A
-    progress bar on a terminal shows runs done, running, failed and the time left.
+    point the scene's checks refuse (a packing beyond the densest...) stops the
+    sweep before any run; a run failing on its worker is reported and the
+    others go on (exit 1 if any failed). A progress bar on a terminal shows runs done, running, failed and the time left.
 
     \b
     Examples:
       gaz sweep examples/isotherm_2d.toml --vary packing=0.1:0.6:6 --seeds 3 --db iso.db
       gaz analyse --db iso.db --vs packing --plot figs
-      gaz sweep scene.toml --vary temperature=100,300,1000 --vary count=100,400 --db t.db
+      gaz sweep examples/exam.toml --vary temperature=100,300,1000 --vary count=100,400 --db t.db
     """
     import pandas as pd
 

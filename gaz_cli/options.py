@@ -34,9 +34,6 @@ SCALAR_FLAGS = ("dim", "length", "packing", "duration", "temperature", "seed", "
                 "wall_restitution", "print_every")
 """Flags that set the scene key of the same name."""
 
-FIXED_BY_INITIAL = ("dim", "length", "packing", "species", "radius", "mass", "temperature", "placement")
-"""What a scene with an explicit or preset initial state fixes: its state depends on them, or
-ignores them (temperature, placement: the state's velocities and positions come from it)."""
 
 
 def message(err: BaseException, given=None) -> str:
@@ -122,10 +119,8 @@ def document(*, scene_file=None, preset=None, n=None, species=None, radius=None,
     else:
         base, where, given = {}, "", None
     scenefile.check(base, where)
-    if base.get("initial") and given:
-        fixed = [FLAGS[k] for k in FIXED_BY_INITIAL if k in given]
-        if "n" in given and base["initial"].get("kind") == "explicit":
-            fixed.insert(0, "--n")
+    if given:
+        fixed = [FLAGS[k] for k in scenefile.fixed_by_initial(base, given)]
         if fixed:
             what = f"--preset {preset}" if preset else f"scene file {scene_file}"
             raise SceneError(f"{what} sets {', '.join(fixed)} itself (its initial state depends on "

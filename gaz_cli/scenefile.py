@@ -102,16 +102,26 @@ def _shown(value, width: int = 60) -> str:
     return text if len(text) <= width else text[:width - 3] + "..."
 
 
+def unknown_name(name, known, noun: str = "key", value=...) -> str:
+    """"unknown key 'lenght' (= 1e-08; did you mean 'length'?)": the words for a ``name`` not
+    among ``known`` (``value``: what the file gave it, when there is one), with the closest of
+    ``known`` (:func:`difflib.get_close_matches`). The one place that tells a misspelt name its
+    fix: a scene file's keys and tables, ``gaz sweep --vary``'s keys."""
+    close = difflib.get_close_matches(str(name), [str(k) for k in known], n=1)
+    said = [f"= {_shown(value)}"] if value is not ... else []
+    if close:
+        said.append(f"did you mean {close[0]!r}?")
+    return f"unknown {noun} {_shown(name)}" + (f" ({'; '.join(said)})" if said else "")
+
+
 def _check_keys(table: dict, allowed: dict, where: str, tables: tuple = ()) -> None:
     """SceneError on a key of ``table`` not in ``allowed`` (or of the wrong type); the message
     suggests the closest of ``allowed`` and of ``tables`` (the tables that may sit beside the
     keys: a misspelt ``[[specie]]`` is told ``species``) and lists both."""
     for key, value in table.items():
         if key not in allowed:
-            close = difflib.get_close_matches(str(key), [*allowed, *tables], n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
             listed = "; tables: " + ", ".join(_TABLE_HEADERS[t] for t in tables) if tables else ""
-            raise SceneError(f"{where}unknown key {_shown(key)} (= {_shown(value)}); {hint}"
+            raise SceneError(f"{where}{unknown_name(key, [*allowed, *tables], 'key', value)}; "
                              f"allowed: {', '.join(allowed)}{listed}")
         kind = allowed[key][0] if isinstance(allowed[key], tuple) else allowed[key]
         if not _type_ok(kind, value):
@@ -237,6 +247,26 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
     except SceneError as err:
         raise in_file_terms(err, where) from None
     return scene, dict(doc.get("output", {}))
+
+
+FIXED_BY_INITIAL = ("dim", "length", "packing", "species", "radius", "mass", "temperature", "placement")
+"""What a scene with an explicit or preset initial state fixes: its state depends on them, or
+ignores them (temperature, placement: the state's velocities and positions come from it)."""
+
+
+def fixed_by_initial(doc: dict, fields) -> list[str]:
+    """Those of ``fields`` (scene fields; ``n`` the count of particles) that the scene document
+    ``doc``'s ``[initial]`` state fixes (:data:`FIXED_BY_INITIAL`; ``n`` too for an explicit
+    state, whose arrays hold one row per particle), in that order: given another value, the run
+    would ignore it or refuse it. Empty without ``[initial]``. ``gaz simulate``'s flags and
+    ``gaz sweep``'s ``--vary`` keys are refused by this one rule."""
+    initial = doc.get("initial")
+    if not initial:
+        return []
+    fixed = [k for k in FIXED_BY_INITIAL if k in fields]
+    if "n" in fields and isinstance(initial, dict) and initial.get("kind") == "explicit":
+        fixed.insert(0, "n")
+    return fixed
 
 
 FIELD_KEYS = {"n": "[[species]] count"}

@@ -637,16 +637,18 @@ class Store(RunStore):
 
             yield run
 
-    def scene_files(self) -> list[str]:
-        """The scene file text of every stored simulation that has one (SCENE.SC_FILE); none in
-        a database without it (schema 1 and 2, read without migrating; an empty one)."""
+    def scene_files(self) -> dict[str, int]:
+        """The scene file text of every stored simulation that has one (SCENE.SC_FILE) -> its
+        SI_NUM (the first, if the same text was stored twice); none in a database without it
+        (schema 1 and 2, read without migrating; an empty one)."""
         with self._errors(), self.engine.connect() as conn:
             insp = sa.inspect(conn)
             if not (insp.has_table(scene_table.name) and scene_table.c.sc_file.name in
                     {c["name"].lower() for c in insp.get_columns(scene_table.name)}):
-                return []
-            return [r[0] for r in conn.execute(sa.select(scene_table.c.sc_file)
-                                               .where(scene_table.c.sc_file.is_not(None)))]
+                return {}
+            rows = conn.execute(sa.select(scene_table.c.sc_file, scene_table.c.si_num)
+                                .where(scene_table.c.sc_file.is_not(None)).order_by(scene_table.c.si_num.desc()))
+            return {text: int(si_num) for text, si_num in rows}
 
     def simulation_numbers(self) -> list[int]:
         with self._errors(), self.engine.connect() as conn:

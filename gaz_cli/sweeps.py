@@ -20,7 +20,10 @@ runs it holds already): nothing is created or migrated for a sweep that is refus
 
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
-interrupted one. A run that fails is reported and the others go on.
+interrupted one. Every point goes through the scene's door (:func:`gaz_cli.scene.validate`)
+before anything is read or run: one refused is the whole sweep refused, in one line
+(:func:`_refuse_points_that_cannot_run`). A run that fails on its worker (a placement that
+gives up) is reported and the others go on.
 
 The seeds of a sweep are ``base, base + 1, ..., base + K - 1`` where ``base``
 is the scene's own seed (1 if it has none): the same command gives the same
@@ -80,8 +83,11 @@ def check_workers(workers, scheduler: str | None = None) -> None:
 def parse_vary(text: str) -> tuple[str, list]:
     """``KEY=V1,V2,...`` or ``KEY=START:STOP:COUNT`` (COUNT values, both ends included).
 
-    Values are ints where every one reads as an int, else floats where every
-    one reads as a float, else strings. Raises SceneError naming the problem.
+    Values are read as the key takes them (:data:`gaz_cli.scenefile.SCALARS`; ``count`` and
+    ``count.NAME`` whole numbers): a whole number written ``1e2`` or reached by a range is an
+    int, ``true``/``false`` a boolean. A key of no known type (refused later, with its closest
+    name): ints where every value reads as an int, else floats, else strings. Raises
+    SceneError naming the problem.
     """
     key, sep, values = text.partition("=")
     key = key.strip()
@@ -100,43 +106,66 @@ def parse_vary(text: str) -> tuple[str, list]:
         if count > MAX_POINTS:
             raise SceneError(f"--vary {text!r}: COUNT {count} makes more than {MAX_POINTS} runs; "
                              "vary fewer values")
-        if count == 1:
-            return key, [start]
-        step = (stop - start) / (count - 1)
-        return key, _once(text, [_tidy(start + k * step) for k in range(count)])
+        if count == 1 and stop != start:
+            raise SceneError(f"--vary {text!r}: COUNT 1 is START alone, {parts[1].strip()} left out; give "
+                             f"{key}={parts[0].strip()}, or COUNT 2 or more to reach STOP")
+        step = (stop - start) / (count - 1) if count > 1 else 0.0
+        return key, _once(text, _typed(text, key, [_tidy(start + k * step) for k in range(count)], ranged=True))
     items = [v.strip() for v in values.split(",")]
     if any(not v for v in items):
         raise SceneError(f"--vary {text!r}: an empty value between commas")
-    for kind in (int, float):
-        try:
-            parsed = [kind(v) for v in items]
-            break
-        except ValueError:
-            continue
-    else:
-        if _numeric(key):  # name the value that is not a number, not the first of the list
-            wrong = next(v for v in items if not _reads_as_number(v))
-            raise SceneError(f"--vary {text!r}: {wrong!r} is not a number; {key} takes numbers")
-        parsed = items
-    return key, _once(text, parsed)
+    return key, _once(text, _typed(text, key, items))
 
 
-def _numeric(key: str) -> bool:
-    """Whether the scene key ``key`` takes a number (``count``, ``count.NAME``: a whole one)."""
+def _kind(key: str) -> str | None:
+    """The type a scene key takes (:data:`gaz_cli.scenefile.SCALARS`; ``count`` and ``count.NAME``
+    a whole number); None for a key of no known type."""
     from gaz_cli import scenefile
 
     if key == "count" or key.startswith("count."):
-        return True
-    kind = scenefile.SCALARS.get(key, (None,))[0]
-    return kind in (scenefile.REAL, scenefile.INT)
+        return scenefile.INT
+    return scenefile.SCALARS.get(key, (None,))[0]
 
 
-def _reads_as_number(text: str) -> bool:
-    try:
-        float(text)
-        return True
-    except ValueError:
-        return False
+def _typed(text: str, key: str, values: list, ranged: bool = False) -> list:
+    """``values`` (strings as typed, or a range's floats) read as ``key`` takes them; SceneError
+    naming the first one that is not of its type."""
+    from gaz_cli import scenefile
+
+    kind = _kind(key)
+    if kind == scenefile.BOOL:
+        truth = {"true": True, "false": False}
+        wrong = next((v for v in values if str(v).lower() not in truth), None)
+        if wrong is not None:
+            raise SceneError(f"--vary {text!r}: {wrong!r} is not true or false; {key} takes true or false")
+        return [truth[str(v).lower()] for v in values]
+    if kind == scenefile.STR:
+        return values
+    numbers = [_number(v) for v in values]
+    if kind in (scenefile.REAL, scenefile.INT) and None in numbers:  # the value that is not a number
+        raise SceneError(f"--vary {text!r}: {values[numbers.index(None)]!r} is not a number; {key} takes numbers")
+    if kind == scenefile.INT:
+        wrong = next((v for v in numbers if not float(v).is_integer()), None)
+        if wrong is not None:
+            fix = " (choose COUNT so that the step (STOP - START)/(COUNT - 1) is whole)" if ranged else ""
+            raise SceneError(f"--vary {text!r}: {wrong!r} is not a whole number; {key} takes whole numbers{fix}")
+        return [int(v) for v in numbers]
+    if None in numbers:  # no known type: strings (the key is refused later, by its name)
+        return values
+    return numbers if all(isinstance(v, int) for v in numbers) else [float(v) for v in numbers]
+
+
+def _number(value):
+    """``value`` (a string as typed, or a number) as an int when it reads as one, else a float;
+    None when it is no number."""
+    if not isinstance(value, str):
+        return value
+    for kind in (int, float):
+        try:
+            return kind(value)
+        except ValueError:
+            continue
+    return None
 
 
 def _once(text: str, values: list) -> list:
@@ -191,12 +220,35 @@ def plan(varies: list[tuple[str, list]], seeds: int, base_seed: int | None = Non
 
 
 # --- a scene file's points -----------------------------------------------------
-def varied_keys() -> list[str]:
-    """What ``--vary`` may name: a top-level key of a scene file but ``seed`` (``--seeds``), or
-    ``count`` / ``count.NAME``."""
+def varied_keys(species: list[str]) -> list[str]:
+    """What ``--vary`` may name in a sweep of a file whose species are named ``species``: a
+    top-level key of a scene file but ``seed`` (``--seeds``), and the count of a species:
+    ``count`` (a file of one species) and ``count.NAME`` for each species."""
     from gaz_cli import scenefile
 
-    return [k for k in scenefile.SCALARS if k != "seed"] + ["count", "count.NAME"]
+    scalars = [k for k in scenefile.SCALARS if k != "seed"]
+    return scalars + (["count"] if len(species) == 1 else []) + [f"count.{name}" for name in species]
+
+
+def check_varied_key(key: str, species: list[str], where: str = "") -> None:
+    """Raise SceneError, one line, unless a sweep of a file whose species are named ``species``
+    can vary ``key`` (:func:`varied_keys`; ``seed`` passes: :func:`plan` tells it to use
+    --seeds). The closest allowed name is suggested (:func:`gaz_cli.scenefile.unknown_name`),
+    and the allowed ones listed."""
+    from gaz_cli import scenefile
+
+    allowed = varied_keys(species)
+    if key in allowed or key == "seed":
+        return
+    name = key.partition(".")[2]
+    counts = [k for k in allowed if k == "count" or k.startswith("count.")]
+    if key.startswith("count.") and name:
+        raise SceneError(f"{where}--vary {key}: {scenefile.unknown_name(name, species, 'species')}; the file's "
+                         f"species: {', '.join(species) or 'none'} (vary {' or '.join(counts) or 'no count'})")
+    if key == "count":  # several species: which count?
+        raise SceneError(f"{where}--vary count needs one species; with several, vary one of {', '.join(counts)}")
+    raise SceneError(f"--vary {key}: {scenefile.unknown_name(key, allowed, 'parameter')}; "
+                     f"a sweep can vary {', '.join(allowed)}")
 
 
 def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, dict]:
@@ -207,19 +259,27 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
     ``length``, ``duration``, ``seed``...), or ``count`` -- the count of the file's one
     species (several species: ``count.NAME``). Each scene goes through the same door as
     ``gaz simulate FILE`` (:func:`gaz_cli.scenefile.build`). ``keys``: the keys the sweep
-    varies, refused here, before any run, unless :func:`varied_keys` allows them (and a
-    count names a species of the file).
+    varies, refused here, before any run, unless the file's sweep can vary them
+    (:func:`check_varied_key`).
     """
     from gaz_cli import scenefile
 
     doc = scenefile.read(path)
     where = f"{path}: "
-    allowed = varied_keys()
+    scenefile.check(doc, where)  # the file's own unknown keys and types first, once
+    species = [str(t.get("name")) for t in doc.get("species", []) if isinstance(t, dict)]
     for key in keys:
-        if key == "count" or key.startswith("count."):
-            _set_count([dict(t) for t in doc.get("species", []) if isinstance(t, dict)], key, 0, where)
-        elif key not in allowed and key != "seed":  # seed: plan() says to use --seeds
-            raise SceneError(f"--vary {key}: not a key a sweep can vary; vary one of {', '.join(allowed)}")
+        check_varied_key(key, species, where)
+    if "packing" in keys and "length" in keys:  # each replaces the other (scene_of): one would be ignored
+        raise SceneError("--vary packing and --vary length both set the box side; vary one of them "
+                         "(with packing, the box follows from it and the counts)")
+    fields = {("n" if key == "count" or key.startswith("count.") else key): key for key in keys}
+    fixed = [fields[k] for k in scenefile.fixed_by_initial(doc, fields)]
+    if fixed:  # the sweep's runs would differ in their labels only (gaz simulate refuses these flags too)
+        kind = doc["initial"].get("kind", "explicit") if isinstance(doc["initial"], dict) else "explicit"
+        raise SceneError(f"{where}its initial state ([initial] kind = {kind!r}) fixes {', '.join(fixed)}: every "
+                         f"point would run the same state, whatever its {', '.join(fixed)}; vary another key, or "
+                         "describe the scene without its initial state")
 
     def scene_of(overrides: dict):
         point = {k: v for k, v in doc.items() if k != "output"}
@@ -253,14 +313,10 @@ def scenes_of_file(path, keys=()) -> tuple[Callable[[dict], Any], int | None, di
 
 
 def _set_count(species: list, key: str, value, where: str) -> None:
+    """Set the count of ``key`` (``count``, ``count.NAME``: checked by :func:`check_varied_key`)."""
     name = key.partition(".")[2]
-    chosen = [t for t in species if not name or t.get("name") == name]
-    if not name and len(species) != 1:
-        raise SceneError(f"{where}--vary count needs one species; with several, vary count.NAME "
-                         f"({', '.join(str(t.get('name')) for t in species)})")
-    if not chosen:
-        raise SceneError(f"{where}--vary {key}: no species named {name!r} in the file")
-    chosen[0]["count"] = value
+    check_varied_key(key, [str(t.get("name")) for t in species], where)
+    next(t for t in species if not name or str(t.get("name")) == name)["count"] = value
 
 
 def key_of(scene) -> str:
@@ -295,11 +351,19 @@ class Report:
     def failed(self) -> int:
         return self.count("failed")
 
+    def in_order(self, points: list) -> "Report":
+        """This report, its rows sorted in the order of ``points`` (the plan's)."""
+        rank = {point: k for k, point in enumerate(points)}
+        self.rows.sort(key=lambda row: rank[row[0]])
+        return self
+
 
 def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any], str] | None,
         db: str, workers: int | None = None, scheduler: str | None = None,
         progress: bool | None = None) -> Report:
-    """Run every point not already in ``db``; store each as it finishes; return the report.
+    """Run every point not already in ``db``; store each as it finishes; return the report,
+    its rows in the order of ``points`` (the same sweep, the same table; not the order the runs
+    finished in).
 
     ``scene_of(overrides)`` builds (and validates) the scene of a point;
     ``key(scene)`` is the text by which a run already stored is recognised among
@@ -320,33 +384,34 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     db = database_name(db)  # a pathlib.Path as its text
     key = key or key_of
     report = Report(db=db)
-    built = []
-    for point in points:  # every scene built (cheap) before the database is opened or a cluster started
+    built, refused = [], {}
+    for point in points:  # every scene built and validated (cheap) before the database or a cluster
         try:
             built.append((point, prepare(scene_of(point.overrides()))))
         except GazError as err:  # an impossible point (e.g. a packing beyond the densest)
-            report.rows.append((point, "failed", None, str(err)))
-    _refuse_a_sweep_that_cannot_run(points, report.rows)
+            refused[point] = str(err)
+    _refuse_points_that_cannot_run(points, refused)
     path = sqlite_file(db)
     todo = []
     if path is not None and not os.path.exists(os.path.expanduser(path)):
-        done = set()  # a new file: every point runs, and the file is created after the checks
+        done = {}  # a new file: every point runs, and the file is created after the checks
     else:
         # read only: a database refused (foreign, newer) is refused here, and one to create or
         # migrate is written only once the checks below have passed and the cluster answers
         with Store(db, create=False, empty_ok=True) as store:
-            done = set(store.scene_files())
+            done = store.scene_files()  # SC_FILE -> SI_NUM
             try:  # a PostgreSQL database made before schema 6 numbers its rows in 32 bits
                 store.check_row_numbers([scene for _, scene in built])
             except SceneError as err:
                 raise SceneError(str(err)) from None  # the scene file's key names, not gaz simulate's flags
+    _refuse_points_that_are_one_run(built, key)
     for point, scene in built:
         if key(scene) in done:
-            report.rows.append((point, "skipped", None, "already in the database"))
+            report.rows.append((point, "skipped", done[key(scene)], "already in the database"))
         else:
             todo.append((point, scene))
     if not todo:
-        return report
+        return report.in_order(points)
     try:
         if path is not None:  # the runs to do, one after the other, on the database's disk
             check_database_space([scene for _, scene in todo], path,
@@ -368,30 +433,84 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             raise Interrupted(signum, f"{report.count('stored')} runs of the sweep were stored in "
                                       f"{store.shown!r}, {left} were not; run the same sweep again to "
                                       "finish it (stored runs are skipped)") from None
-    return report
+    return report.in_order(points)
 
 
-def _refuse_a_sweep_that_cannot_run(points: list[Point], failed: list) -> None:
-    """Raise SceneError, in one line, when no point of the sweep can run with its first seed
-    (the scene's own): an error of the file itself, such as ``restitution = 2`` or
-    ``seed = -1``, fails them all alike; said once, before any database or cluster.
-    ``failed``: the report's rows of the points whose scene did not build."""
-    why = {point: text for point, _, _, text in failed}
-    firsts = list({p.values: p for p in reversed(points)}.values())  # each set of values, its first seed
-    if not firsts or any(p not in why for p in firsts):
+def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
+    """Raise SceneError, in one line, when a point of the sweep cannot run: the scene door
+    (:func:`gaz_cli.scene.validate`, through ``scene_of``) refused it. ``refused``: each such
+    point and the door's message. Said before any database or cluster, so that a sweep either
+    runs every point or none (a packing beyond the densest at its third value ran and stored
+    the first two).
+
+    An error of the file itself (``restitution = 2``, ``seed = -1``) refuses every point alike:
+    its message alone. Otherwise the first point refused, named by its values (the ones every
+    point sharing them fails with: the value to drop; else the whole point, seed included),
+    its message, and how many runs were refused; a seed that every point fails with, likewise."""
+    if not refused:
         return
-    messages = list(dict.fromkeys(why[p] for p in reversed(firsts)))
-    if len(messages) == 1:
-        raise SceneError(messages[0])
-    raise SceneError(f"no point of the sweep can run; the first, {firsts[-1].label}: {messages[0]}")
+    messages = set(refused.values())
+    firsts = list({p.values: p for p in reversed(points)}.values())  # each set of values, its first seed
+    if len(messages) == 1 and all(p in refused for p in firsts):
+        raise SceneError(next(iter(messages)))
+    point = next(p for p in points if p in refused)
+    if len(refused) == len(points):
+        raise SceneError(f"no point of the sweep can run; the first, {point.label}: {refused[point]}")
+    blamed = [(k, v) for k, v in point.values
+              if all(q in refused for q in points if dict(q.values)[k] == v)]
+    if blamed:
+        what = "--vary " + " ".join(f"{k}={v}" for k, v in blamed)
+        fix = "drop " + " and ".join(f"{v} from --vary {k}" for k, v in blamed)
+    elif all(q in refused for q in points if q.seed == point.seed):  # --seeds K went past what a seed may be
+        what = f"--seeds: seed {point.seed}"
+        fix = "lower --seeds or the file's seed"
+    else:  # this combination only, or this seed: no one value is wrong everywhere
+        what = f"--vary {point.label}"
+        fix = "change the values or the seeds so that every combination can run"
+    raise SceneError(f"{what}: {refused[point]}; {fix} ({len(refused)} of {len(points)} runs refused, "
+                     "none started)")
+
+
+def _refuse_points_that_are_one_run(built: list, key: Callable[[Any], str]) -> None:
+    """Raise SceneError, one line, when two points build the same run (``key`` of their scenes
+    equal: the same scene file, seed included), which would be run and stored twice and counted
+    twice in a mean over the runs: e.g. ``--vary engine=auto,event`` where auto takes the event
+    engine. ``built``: (point, scene) pairs."""
+    seen = {}
+    for point, scene in built:
+        first = seen.setdefault(key(scene), point)
+        if first is not point:
+            raise SceneError(f"--vary: {first.label} and {point.label} are the same run (the same scene, seed "
+                             "included): it would be stored twice; drop one of the values that make them")
+
+
+IN_FLIGHT_PER_THREAD = 4
+"""Runs handed to the cluster at once, per worker thread: enough to keep every worker busy
+while the client stores what came back, few enough that the client is never busy submitting."""
 
 
 def _run_all(client, store, todo, report, bar) -> None:
+    """Run ``todo`` on ``client``'s cluster, at most :data:`IN_FLIGHT_PER_THREAD` per worker thread
+    at a time, each storing as it finishes. All submitted at once, a plan of 100,000 points kept the
+    client submitting for minutes: its connection to the scheduler closed ("Closed comm ...") and the
+    sweep waited for good on futures that were gone, nothing stored after 14 minutes."""
     from dask.distributed import wait
 
-    futures = {client.submit(simulate_in_memory, scene, pure=False, key=f"gaz-run-{k}-{os.getpid()}"): point
-               for k, (point, scene) in enumerate(todo)}
-    pending = set(futures)
+    try:
+        threads = sum(client.nthreads().values())
+    except Exception:  # the scheduler did not answer in time: as for one worker
+        threads = 1
+    window = IN_FLIGHT_PER_THREAD * max(1, threads)
+    queue = iter(enumerate(todo))
+    futures, pending = {}, set()
+
+    def submit_more() -> None:
+        for k, (point, scene) in itertools.islice(queue, max(0, window - len(pending))):
+            fut = client.submit(simulate_in_memory, scene, pure=False, key=f"gaz-run-{k}-{os.getpid()}")
+            futures[fut] = point
+            pending.add(fut)
+
+    submit_more()
     stored = failed = 0
     while pending:
         try:
@@ -400,7 +519,7 @@ def _run_all(client, store, todo, report, bar) -> None:
             finished = ()
         interrupts.check()
         for fut in finished:
-            point = futures[fut]
+            point = futures.pop(fut)
             if fut.status == "finished":
                 si_num = _store(store, fut.result())
                 report.rows.append((point, "stored", si_num, ""))
@@ -409,6 +528,7 @@ def _run_all(client, store, todo, report, bar) -> None:
                 report.rows.append((point, "failed", None, _why(fut.exception())))
                 failed += 1
             fut.release()
+        submit_more()
         bar.update(done=stored, failed=failed, running=_running(client, pending))
 
 
@@ -479,9 +599,10 @@ class _client:
         workers = self.workers or cores()
         # the cluster's own logs stay off stderr up to ERROR (a worker's heartbeat failing as an
         # interrupted sweep closes the scheduler printed a traceback): gaz says every run's failure
+        # preload: each worker process runs dask_setup below as it starts (its SIGINT ignored)
         self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
                                     processes=True, dashboard_address=":0",
-                                    silence_logs=logging.CRITICAL)
+                                    silence_logs=logging.CRITICAL, preload=[__name__])
         self.client = Client(self.cluster)
         return self.client
 
@@ -490,6 +611,18 @@ class _client:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def dask_setup(worker=None) -> None:
+    """Run in each worker process of the local cluster as it starts (Dask's preload, given
+    this module's name): SIGINT ignored there. A Ctrl-C at a terminal reaches the whole
+    process group; each worker then printed a KeyboardInterrupt traceback of 33 lines before
+    gaz's own one line. The client alone answers it (it stops the cluster, :func:`run`)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 class _Bar:

@@ -79,7 +79,7 @@ CASES = [
      ["simulate", "--dim", "1", "--n", "1", "--length", "3.6e-10", "--duration", "1e-2", "--seed", "1",
       "--record", "none"], 1, "9.97e+11 events"),
     ("sweep: --vary an unknown key", ["sweep", "{tmp}/range.toml", "--vary", "colour=1,2", "--db", "{tmp}/gaz.db"],
-     1, "not a key a sweep can vary"),
+     1, "unknown parameter 'colour'"),
     ("analyse: --db ''", ["analyse", "--db", ""], 2, "names no database"),
     ("analyse: --db a folder", ["analyse", "--db", "{tmp}"], 1, "is a folder, not a database file"),
     ("dimension 4", [*SIM, "--dim", "4", "--n", "10", "--length", "1e-7"], 1, "1, 2 or 3"),

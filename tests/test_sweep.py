@@ -55,11 +55,28 @@ def test_vary_reads_lists_and_ranges():
 
 
 @pytest.mark.parametrize("text", ["packing", "packing=", "=1,2", "n=1,,2", "packing=0.1:0.6",
-                                  "packing=0.1:0.6:0", "packing=a:b:3", "packing=0.1:0.6:2.5"])
+                                  "packing=0.1:0.6:0", "packing=a:b:3", "packing=0.1:0.6:2.5",
+                                  "packing=0.1:0.6:1", "count=10:20:4", "count=10.5,20", "force=yes,no"])
 def test_vary_refuses_malformed_text_in_one_line(text):
     with pytest.raises(SceneError) as err:
         sweep.parse_vary(text)
     assert "\n" not in str(err.value) and "--vary" in str(err.value)
+
+
+def test_vary_reads_values_as_the_key_takes_them():
+    """--vary count=10:40:4 made floats, 10.0 to 40.0, and every point was refused ("count = 10.0
+    must be a whole number"): a range of counts, dims or print_every could never run, nor
+    count=1e2,2e2; force=true,false were strings ("force = 'true' must be true or false").
+    Now a whole-number key reads whole floats as ints, a true-or-false key reads true/false;
+    a range whose step is not whole is refused naming the value (test above)."""
+    assert sweep.parse_vary("count=10:40:4") == ("count", [10, 20, 30, 40])
+    assert sweep.parse_vary("count.He=1e2,2e2") == ("count.He", [100, 200])
+    assert sweep.parse_vary("dim=1:3:3") == ("dim", [1, 2, 3])
+    assert sweep.parse_vary("force=true,False") == ("force", [True, False])
+    assert sweep.parse_vary("boundary=walls,periodic") == ("boundary", ["walls", "periodic"])
+    assert all(type(v) is int for v in sweep.parse_vary("print_every=10:30:3")[1])
+    with pytest.raises(SceneError, match=r"13.3333333333 is not a whole number; count takes whole numbers"):
+        sweep.parse_vary("count=10:20:4")
 
 
 @pytest.mark.parametrize("text, twice", [("temperature=100,100", "100"), ("temperature=100,1e2", "100.0"),
@@ -113,20 +130,75 @@ def _rows(db: str, si_num: int) -> np.ndarray:
 
 
 def test_a_sweep_stores_each_run_as_a_single_run_would(tmp_path):
-    """Two worker processes, a failing point among good ones: each good point is stored
-    once, with exactly the rows of the same scene run alone (same seed, same rows)."""
+    """Two worker processes: each point is stored once, with exactly the rows of the same
+    scene run alone (same seed, same rows). (A run failing on a worker while the others go on:
+    test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on.)"""
     db = str(tmp_path / "sweep.db")
-    points = sweep.plan([("n", [10, 5000, 20])], seeds=2, base_seed=BASE.seed)
+    points = sweep.plan([("n", [10, 20])], seeds=2, base_seed=BASE.seed)
     report = sweep.run(points, scene_of, key_of, db, workers=min(2, sweep.cores()), progress=False)  # at most the cores
     stored = [r for r in report.rows if r[1] == "stored"]
-    failed = [r for r in report.rows if r[1] == "failed"]
-    assert len(stored) == 4 and len(failed) == 2
-    assert all("too many" in r[3] for r in failed)
+    assert len(stored) == 4 == len(report.rows)
     assert len({r[2] for r in stored}) == 4  # distinct SI_NUM
     for point, _, si_num, _ in stored:
         alone = simulate(scene_of(point.overrides()), db=str(tmp_path / "alone.db"))
         rows = _rows(db, si_num)
         assert len(rows) > 0 and np.array_equal(rows, _rows(str(tmp_path / "alone.db"), alone["si_num"]))
+
+
+def test_a_range_of_counts_runs_each_count(tmp_path, cluster):
+    """gaz sweep FILE --vary count=10:20:2 refused both points (count = 10.0 must be a whole
+    number); now it stores a run of 10 rods and one of 20."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "rods.toml", tmp_path / "r.db"
+    scene.write_text(RODS)
+    res = invoke(["sweep", str(scene), "--vary", "count=10:20:2", "--scheduler", cluster, "--db", str(db), "--quiet"])
+    assert res.exit_code == 0, res.output
+    with Store(str(db), create=False) as store:
+        assert sorted(store.read_sql("SELECT SI_N FROM SIMULATION").SI_N) == [10, 20]
+
+
+def test_the_report_lists_the_points_in_the_plans_order(tmp_path, cluster):
+    """The table listed the runs as they came: skipped ones first, then each as it finished
+    (gaz sweep rods.toml --vary packing=0.6:0.1:6 printed 0.6, 0.5, 0.2, 0.1, 0.4, 0.3 on 2
+    workers). Now in the plan's order, whatever finished first: here the second point is
+    stored already (skipped at once), the first runs."""
+    db = str(tmp_path / "s.db")
+    simulate(scene_of({"n": 20, "seed": 1}), db=db)
+    report = sweep.run(sweep.plan([("n", [10, 20])], seeds=1), scene_of, None, db, scheduler=cluster,
+                       progress=False)
+    assert [(p.label, status) for p, status, _, _ in report.rows] == [("n=10 seed=1", "stored"),
+                                                                      ("n=20 seed=1", "skipped")]
+
+
+def test_the_cluster_is_handed_a_few_runs_per_worker_at_a_time(tmp_path, cluster, monkeypatch):
+    """Every run was submitted at once: a plan of 100,000 points (temperature=100:1000:1000
+    --seeds 100, 20 rods) kept the client submitting until its connection to the scheduler
+    closed, and the sweep waited for good: 0 runs stored after 14 minutes. Now at most
+    IN_FLIGHT_PER_THREAD runs per worker thread are out at once, the next submitted as one comes
+    back (the same plan stores about 115 runs a second on 2 workers). Counted here on the
+    client: runs submitted minus runs stored, at each submission, on a cluster of one thread."""
+    from distributed import Client
+
+    counts = {"submitted": 0, "stored": 0, "peak": 0}
+    submit, store = Client.submit, sweep._store
+
+    def counting_submit(self, *args, **kw):
+        counts["submitted"] += 1
+        counts["peak"] = max(counts["peak"], counts["submitted"] - counts["stored"])
+        return submit(self, *args, **kw)
+
+    def counting_store(*args):
+        counts["stored"] += 1
+        return store(*args)
+
+    monkeypatch.setattr(Client, "submit", counting_submit)
+    monkeypatch.setattr(sweep, "_store", counting_store)
+    monkeypatch.setattr(sweep, "IN_FLIGHT_PER_THREAD", 2)
+    report = sweep.run(sweep.plan([("n", [10, 11, 12, 13, 14, 15])], seeds=1), scene_of, key_of,
+                       str(tmp_path / "s.db"), scheduler=cluster, progress=False)
+    assert report.count("stored") == 6 == counts["submitted"] == counts["stored"]
+    assert counts["peak"] == 2, counts
 
 
 def test_a_failing_run_on_a_worker_is_reported_and_the_others_go_on(tmp_path, cluster):
@@ -231,7 +303,8 @@ count = 20
 
 def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     """gaz sweep over a scene file: every run stored once with the file's seeds; the same
-    command again stores nothing (each run recognised by its scene file); analyse --vs reads it."""
+    command again stores nothing (each run recognised by its scene file) and names each run's
+    SI_NUM, which it left empty; analyse --vs reads it."""
     from click.testing import CliRunner
 
     from gaz_cli.cli import cli
@@ -255,34 +328,84 @@ def test_gaz_sweep_stores_then_skips_and_analyse_tabulates(tmp_path, cluster):
     assert seeds == [5, 5, 6, 6]
     again = CliRunner().invoke(cli, args)
     assert again.exit_code == 0 and again.output.count(",skipped,") == 4
+    # a skipped run is named by its SI_NUM in the database (it was left empty): the same as stored
+    assert list(pd.read_csv(io.StringIO(again.stdout)).SI_NUM) == list(runs.SI_NUM)
     with Store(db, create=False) as store:
         assert len(store.simulation_numbers()) == 4
     table = CliRunner().invoke(cli, ["analyse", "--db", db, "--vs", "packing", "--format", "csv"])
     assert table.exit_code == 0 and "0.2," in table.output and "0.4," in table.output
 
 
-def test_gaz_sweep_reports_an_impossible_point_and_exits_1(tmp_path, cluster):
-    from click.testing import CliRunner
+def _no_cluster(monkeypatch):
+    def no_cluster(*args):
+        raise AssertionError("a cluster was started")
 
-    from gaz_cli.cli import cli
+    monkeypatch.setattr(sweep, "_client", no_cluster)
 
-    scene = tmp_path / "rods.toml"
-    scene.write_text(RODS)
-    result = CliRunner().invoke(cli, ["sweep", str(scene), "--vary", "packing=0.3,1.5", "--scheduler", cluster,
-                                      "--db", str(tmp_path / "r.db"), "--quiet"])
-    assert result.exit_code == 1
-    assert "stored" in result.output and "failed" in result.output
+
+@pytest.mark.parametrize("existing", [False, True])
+def test_a_point_the_scene_refuses_is_one_line_before_any_run(tmp_path, monkeypatch, existing):
+    """gaz sweep FILE --vary packing=0.1,0.5,0.95 (2D: 0.95 is above 0.9069, the densest disk
+    packing) ran 0.1 and 0.5, stored them and reported 0.95 failed, exit 1: a sweep half done, to
+    be finished by a second command after the value was dropped. Now every point goes through the
+    scene's door before anything runs: one line naming the value, the door's reason and the fix;
+    no cluster; a new --db not created, an existing one byte for byte as it was."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "disks.toml", tmp_path / "d.db"
+    scene.write_text(RODS.replace("dim = 1", "dim = 2"))
+    if existing:  # a database holding the sweep's first point already
+        simulate(_point_scene(scene, 0.1), db=str(db))
+    before = db.read_bytes() if existing else None
+    _no_cluster(monkeypatch)
+    res = invoke(["sweep", str(scene), "--vary", "packing=0.1,0.5,0.95", "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and res.stdout == "", res.output
+    assert lines[0] == (f"gaz: error: --vary packing=0.95: {scene}: packing 0.95 is at or above 0.9069, the densest "
+                        "disk packing; lower packing; drop 0.95 from --vary packing (1 of 3 runs refused, none "
+                        "started)"), lines[0]
+    assert (db.read_bytes() == before) if existing else not db.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["disks.toml", *(["d.db"] if existing else [])])
+
+
+def _point_scene(path, packing):
+    """The scene of ``path`` at ``packing``, as a sweep builds it."""
+    scene_of, seed, _ = sweep.scenes_of_file(path, ["packing"])
+    return scene_of({"packing": packing, "seed": seed})
+
+
+def test_a_combination_the_scene_refuses_names_the_whole_point(tmp_path, monkeypatch):
+    """Neither value is wrong alone: packing 0.8 with one disk leaves a box narrower than the
+    disk; packing 0.8 with 20 disks and 0.1 with one run. The line names the combination."""
+    from cli_helpers import invoke
+
+    scene, db = tmp_path / "disks.toml", tmp_path / "d.db"
+    scene.write_text(RODS.replace("dim = 1", "dim = 2"))
+    _no_cluster(monkeypatch)
+    res = invoke(["sweep", str(scene), "--vary", "packing=0.1,0.8", "--vary", "count=1,20", "--db", str(db),
+                  "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and res.stdout == "", res.output
+    assert lines[0].startswith("gaz: error: --vary packing=0.8 count=1 seed=5: "), lines[0]
+    assert lines[0].endswith("; change the values or the seeds so that every combination can run "
+                             "(1 of 4 runs refused, none started)"), lines[0]
+    assert not db.exists()
 
 
 @pytest.mark.parametrize("vary, fragment", [
-    ("colour=1,2", "--vary colour: not a key a sweep can vary; vary one of dim, length, packing"),
-    ("species=1,2", "--vary species: not a key a sweep can vary"),
-    ("count.Ne=10,20", "--vary count.Ne: no species named 'Ne'"),
+    ("colour=1,2", "--vary colour: unknown parameter 'colour'; a sweep can vary dim, length, packing"),
+    ("pakcing=0.1,0.2", "--vary pakcing: unknown parameter 'pakcing' (did you mean 'packing'?); a sweep can "
+                        "vary dim, length, packing,"),
+    ("cuont=10,20", "unknown parameter 'cuont' (did you mean 'count'?)"),
+    ("species=1,2", "--vary species: unknown parameter 'species'"),
+    ("count.Ne=10,20", "--vary count.Ne: unknown species 'Ne'; the file's species: Ar (vary count or count.Ar)"),
+    ("count.Arr=10,20", "--vary count.Arr: unknown species 'Arr' (did you mean 'Ar'?); the file's species: Ar"),
 ])
 def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, fragment):
     """--vary colour=1,2 started the sweep, opened (created) the database and failed every run
     with the scene file's 'unknown key', exit 1; now one line at the door listing the keys, no
-    database, no cluster."""
+    database, no cluster. A typo (pakcing) was told no closer name; now the closest allowed one
+    (the scene file's own resolver, scenefile.unknown_name)."""
     from cli_helpers import invoke
 
     scene = tmp_path / "rods.toml"
@@ -291,7 +414,7 @@ def test_gaz_sweep_refuses_a_key_it_cannot_vary_before_any_run(tmp_path, vary, f
     res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
     lines = res.stderr.splitlines()
     assert res.exit_code == 1 and len(lines) == 1 and fragment in lines[0], res.stderr
-    assert "count.NAME" in lines[0] or "count." in vary
+    assert "count.Ar" in lines[0]  # the file's own count keys, not a placeholder
     assert res.stdout == "" and not db.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["rods.toml"]
 
 
@@ -537,21 +660,19 @@ def test_a_value_not_a_number_is_named_itself(tmp_path, vary, wrong):
     assert res.stdout == "" and not db.exists()
 
 
-def test_a_varied_count_of_zero_names_the_species_count(tmp_path, cluster):
+def test_a_varied_count_of_zero_names_the_species_count(tmp_path, monkeypatch):
     """--vary count.He=0,3 failed its first point with "n must be at least 1, got 0"; it names the
-    [[species]] count of He now (the other point runs)."""
+    [[species]] count of He now, before any run."""
     from cli_helpers import invoke
 
     scene = tmp_path / "mix.toml"
     scene.write_text(RODS + '[[species]]\nname = "He"\ncount = 20\n')
-    res = invoke(["sweep", str(scene), "--vary", "count.He=0,3", "--scheduler", cluster, "--format", "json",
+    _no_cluster(monkeypatch)
+    res = invoke(["sweep", str(scene), "--vary", "count.He=0,3", "--format", "json",
                   "--db", str(tmp_path / "m.db"), "--quiet"])
-    assert res.exit_code == 1, res.stderr
-    import json
-
-    rows = {r["count.He"]: r for r in json.loads(res.stdout)["runs"]}
-    assert rows[3]["STATUS"] == "stored" and rows[0]["STATUS"] == "failed"
-    assert rows[0]["NOTE"] == f"{scene}: the [[species]] count of He must be at least 1, got 0"
+    assert res.exit_code == 1 and res.stdout == "", res.stderr
+    assert res.stderr == (f"gaz: error: --vary count.He=0: {scene}: the [[species]] count of He must be at least 1, "
+                          "got 0; drop 0 from --vary count.He (1 of 2 runs refused, none started)\n")
 
 
 def test_the_local_clusters_own_errors_stay_off_the_terminal():
@@ -598,3 +719,144 @@ def sa_url_with_password(url: str, password: str) -> str:
     import sqlalchemy as sa
 
     return sa.make_url(url).set(password=password).render_as_string(hide_password=False)
+
+
+def _help_examples() -> list[list[str]]:
+    """The ``gaz sweep`` lines of ``gaz sweep --help``'s examples, as argument lists."""
+    import shlex
+
+    from cli_helpers import invoke
+
+    text = invoke(["sweep", "--help"]).stdout
+    return [shlex.split(line)[1:] for line in text.splitlines() if line.strip().startswith("gaz sweep ")]
+
+
+def test_the_help_examples_run_as_written(tmp_path, monkeypatch):
+    """gaz sweep --help showed 'gaz sweep scene.toml --vary temperature=100,300,1000 --vary
+    count=100,400 --db t.db': no scene.toml anywhere ("Path 'scene.toml' does not exist", exit 2).
+    Now each example names a file of examples/ (run from the repository, as the README's) and
+    every point of it passes the scene's checks; the fast one (6 runs of the exam's gas of 100
+    and 400 atoms, about 3 s) runs to the end, every run stored."""
+    from pathlib import Path
+
+    from cli_helpers import invoke
+
+    from gaz_cli.runner import prepare
+
+    examples = _help_examples()
+    assert len(examples) >= 2, examples
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "examples").symlink_to(root / "examples")
+    for args in examples:
+        file, varies = args[1], [args[k + 1] for k, a in enumerate(args) if a == "--vary"]
+        assert (root / file).is_file(), file
+        scene_of, seed, _ = sweep.scenes_of_file(file, [sweep.parse_vary(v)[0] for v in varies])
+        for point in sweep.plan([sweep.parse_vary(v) for v in varies], 1, seed):
+            prepare(scene_of(point.overrides()))
+    fast = next(args for args in examples if "examples/exam.toml" in args)
+    res = invoke([*fast, "--workers", "1", "--quiet"])
+    assert res.exit_code == 0 and "6 stored" in res.stderr, res.output
+
+
+def test_ctrl_c_at_a_terminal_is_one_line_not_a_traceback_per_worker(tmp_path):
+    """Ctrl-C at a terminal sends SIGINT to the whole process group: gaz and every worker of its
+    local cluster. Each worker printed a KeyboardInterrupt traceback of 33 lines ("Process Dask
+    Worker process (from Nanny): ... CancelledError ... KeyboardInterrupt"), 66 lines on 2
+    workers before gaz's own line. Now the workers ignore SIGINT (sweeps.dask_setup, their
+    preload) and gaz alone answers: one line, exit 130, the stored runs kept. The command runs
+    in a session of its own with SIGINT's default action, as a shell in a terminal starts it,
+    and the signal goes to the group once the first run is stored (the others running)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    scene, db = tmp_path / "disks.toml", tmp_path / "i.db"
+    scene.write_text('dim = 2\npacking = 0.3\nduration = 1e-8\nseed = 1\nrecord = "none"\n'
+                     '[[species]]\nname = "Ar"\ncount = 400\n')   # about 1.5 s a run
+    env = {**os.environ, "NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR", str(tmp_path / "nc"))}
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "sweep", str(scene), "--vary",
+                             "temperature=100:600:6", "--workers", str(min(2, sweep.cores())), "--db", str(db),
+                             "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 90
+        while not db.exists() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert db.exists() and proc.poll() is None, "the sweep stored no run, or ended, before the signal"
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and out == "", (proc.returncode, err)
+    assert len(err.splitlines()) == 1 and err.startswith("gaz: interrupted by SIGINT; "), err
+    assert "run the same sweep again to finish it" in err, err
+
+
+@pytest.mark.parametrize("example, vary, fixed", [
+    ("comet.toml", "temperature=100,300", "[initial] kind = 'explicit') fixes temperature: every point would run "
+                                          "the same state, whatever its temperature;"),
+    ("comet.toml", "count.comet=1,2", "fixes count.comet:"),
+    ("marbles.toml", "temperature=100,300", "[initial] kind = 'upper-half') fixes temperature:"),
+])
+def test_a_key_the_files_initial_state_fixes_is_refused_before_any_run(tmp_path, monkeypatch, example, vary, fixed):
+    """gaz sweep examples/comet.toml --vary temperature=100,300 stored two runs of the same
+    explicit state (its velocities are given: the temperature is ignored), told apart by their
+    temperature only, which gaz analyse --vs temperature would then tabulate; gaz simulate
+    refuses --temperature on that file. Now the sweep is refused by the same rule
+    (scenefile.fixed_by_initial), one line, no database."""
+    from pathlib import Path
+
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene = Path(__file__).resolve().parent.parent / "examples" / example
+    db = tmp_path / "c.db"
+    res = invoke(["sweep", str(scene), "--vary", vary, "--db", str(db), "--quiet"])
+    lines = res.stderr.splitlines()
+    assert res.exit_code == 1 and len(lines) == 1 and fixed in lines[0], res.stderr
+    assert lines[0].endswith("vary another key, or describe the scene without its initial state"), lines[0]
+    assert res.stdout == "" and not db.exists()
+
+
+@pytest.mark.parametrize("varies, line", [
+    (["packing=0.1,0.2", "length=1e-7,2e-7"], "gaz: error: --vary packing and --vary length both set the box side; "
+                                              "vary one of them (with packing, the box follows from it and the counts)"),
+    (["engine=auto,reference"], "gaz: error: --vary: engine=auto seed=5 and engine=reference seed=5 are the same run "
+                                "(the same scene, seed included): it would be stored twice; drop one of the values "
+                                "that make them"),
+])
+def test_points_that_make_one_run_are_refused_before_any_run(tmp_path, monkeypatch, varies, line):
+    """--vary packing=0.1,0.2 --vary length=1e-7,2e-7 stored 4 runs of 2 scenes: the length given
+    last replaced the packing (SI_L 1e-7, 2e-7, 1e-7, 2e-7), each scene stored twice under two
+    packings. --vary engine=auto,reference (auto takes the reference engine for 20 disks) stored
+    the same run twice. Now one line each, no database, no cluster."""
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene, db = tmp_path / "disks.toml", tmp_path / "d.db"
+    scene.write_text(RODS.replace("dim = 1", "dim = 2"))
+    res = invoke(["sweep", str(scene), *(a for v in varies for a in ("--vary", v)), "--db", str(db), "--quiet"])
+    assert (res.exit_code, res.stdout, res.stderr) == (1, "", line + "\n")
+    assert not db.exists()
+
+
+def test_a_seed_past_the_largest_is_blamed_on_the_seeds(tmp_path, monkeypatch):
+    """seed = 2^63 - 1 in the file with --seeds 2: the second seed, 2^63, is refused at every
+    value; the line named one point ("--vary temperature=100 seed=9223372036854775808") and told
+    to "change the values or the seeds", a --vary of the seed. Now it names the seed and the fix,
+    --seeds or the file's."""
+    from cli_helpers import invoke
+
+    _no_cluster(monkeypatch)
+    scene, db = tmp_path / "big.toml", tmp_path / "b.db"
+    scene.write_text(RODS.replace("seed = 5", "seed = 9223372036854775807"))
+    res = invoke(["sweep", str(scene), "--vary", "temperature=100,200", "--seeds", "2", "--db", str(db), "--quiet"])
+    assert (res.exit_code, res.stdout) == (1, "") and res.stderr == (
+        f"gaz: error: --seeds: seed 9223372036854775808: {scene}: seed 9223372036854775808 must be between 0 and "
+        "2^63 - 1; lower --seeds or the file's seed (2 of 4 runs refused, none started)\n"), res.stderr
+    assert not db.exists()
