@@ -166,13 +166,11 @@ def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
 def _mixture_search(scene: Scene, plan, sigma: float, h: float, PP: tuple) -> tuple:
     """:func:`_search` for a mixture with size classes in a box with walls, no gravity, the
     search left to 'auto': size classes, wide cells or the dilute scan, whichever
-    :func:`.mixture_cost.cheapest` rates cheapest (wide cells below :data:`.sizing.WIDE_BELOW`
-    only, as for one species)."""
+    :func:`.mixture_cost.cheapest` rates cheapest."""
     D, n, L = int(scene.dim), scene.n, float(scene.length)
     wide_nc = sizing.wide_cells_per_axis(D, n, L, sigma, scene.packing_fraction)
     pick = mixture_cost.cheapest(D, L, *mixture_cost.species_of(scene),
-                                 lambda r: pair_reach(r, PP), plan, wide_nc,
-                                 wide=scene.packing_fraction < sizing.WIDE_BELOW[D])
+                                 lambda r: pair_reach(r, PP), plan, wide_nc)
     if pick == "dilute":
         return False, True, None, 1, h, False
     if pick == "wide":

@@ -115,14 +115,22 @@ def _section(D: int, s):
 
 
 def wide_work(D: int, L: float, rt: Rates, nc: int) -> dict:
-    """Wide cells, nc an axis, a unit time: full scans of 3^D blocks, crossings of 3^(D-1),
-    blocks of all particles rounded up to WIDE_LANES slots; the pairs kept, those whose
-    lines meet within the scanned window (1.5 cell widths)."""
+    """Wide cells, nc an axis, a unit time: full scans and crossings, each scanning the
+    blocks along the particle's path (:func:`.sizing._path_blocks` for its largest reach over
+    the cell's width; at most those of the window of 3 around, :func:`_window`), blocks of
+    all particles rounded up to WIDE_LANES slots; the pairs kept, those whose lines meet
+    within the scanned window (1.5 cell widths)."""
+    from gaz_cli.engine.sizing import _path_blocks
+
     w = L / nc
-    crossings = float((rt.n * D * rt.vd).sum()) / w
+    crossing = rt.n * D * rt.vd / w
     scans = float(rt.rescans.sum())
     b = _window(nc)
-    blocks = scans * b ** D + crossings * b ** (D - 1)
+    blocks = 0.0
+    for i, reach in enumerate(rt.reach.max(axis=1)):
+        course, at_crossing = _path_blocks(D, float(reach) / w)
+        blocks += (rt.rescans[i] * min(course, b ** D)
+                   + crossing[i] * min(at_crossing, b ** D))
     slots = WIDE_LANES * math.ceil(rt.n.sum() / nc ** D / WIDE_LANES) * blocks
     kept = float(rt.rescans @ (_section(D, rt.reach) @ rt.density)) * 1.5 * w
     return {"scan": scans, "block": blocks, "slot": slots, "pair": kept}
@@ -175,10 +183,7 @@ def costs(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int) ->
     return {s: sum(COST[s][k] * v for k, v in w[s].items()) for s in w}
 
 
-def cheapest(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int,
-             wide: bool = True) -> str:
-    """The search of least cost: 'classes', 'wide' (if ``wide``) or 'dilute' (:func:`costs`)."""
+def cheapest(D: int, L: float, counts, masses, radii, reach, plan, wide_nc: int) -> str:
+    """The search of least cost: 'classes', 'wide' or 'dilute' (:func:`costs`)."""
     c = costs(D, L, counts, masses, radii, reach, plan, wide_nc)
-    if not wide:
-        del c["wide"]
     return min(c, key=c.get)
