@@ -26,3 +26,14 @@ def invoke(args) -> Result:
             code = exc.code if isinstance(exc.code, int) else 1
         out, err = streams[0].getvalue(), streams[1].getvalue()
     return Result(code, out.decode(), err.decode())
+
+
+def wait_for_diagnostics(proc, lines: int = 3) -> None:
+    """Read a running ``gaz simulate --engine step`` child's stderr until it has printed
+    ``lines`` diagnostics lines ("time=..."): the run is under way. Fails with the child's
+    output if it ended first."""
+    seen = 0
+    while seen < lines:
+        line = proc.stderr.readline()
+        assert line, proc.communicate()  # (the run ended or failed instead)
+        seen += line.startswith("time=")

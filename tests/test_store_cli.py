@@ -17,7 +17,7 @@ import pytest
 import sqlalchemy as sa
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
-from cli_helpers import invoke
+from cli_helpers import invoke, wait_for_diagnostics
 from gaz_cli import sqlite_writer, staging
 from gaz_cli import store as st
 
@@ -159,11 +159,7 @@ def test_interrupt_rolls_back_and_says_what_is_left(tmp_path, signum):
                "--n", "100", "--length", "1e-7", "--duration", "1e-6", "--seed", "2", "--db", str(db),
                "--trajectory", str(traj), "--every", "1e-9")
     try:
-        diagnostics = 0
-        while diagnostics < 3:
-            line = proc.stderr.readline()
-            assert line, proc.communicate()  # (the run ended or failed instead)
-            diagnostics += line.startswith("time=")
+        wait_for_diagnostics(proc)
         proc.send_signal(signum)
         _, err = proc.communicate(timeout=120)
     finally:

@@ -7,7 +7,7 @@ import pytest
 
 from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
 
-from cli_helpers import invoke
+from cli_helpers import invoke, wait_for_diagnostics
 
 # a run of the exam's own engine (no JIT to wait for), a few ms long
 QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",
@@ -449,11 +449,7 @@ def test_a_first_run_killed_mid_run_leaves_a_whole_schema_that_the_next_run_uses
                               "--duration", "1e-6", "--seed", "2", "--db", postgres_db],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        diagnostics = 0
-        while diagnostics < 3:
-            line = child.stderr.readline()
-            assert line, child.communicate()  # (the run ended or failed instead)
-            diagnostics += line.startswith("time=")
+        wait_for_diagnostics(child)
         child.send_signal(signal.SIGKILL)
         child.wait(timeout=60)
     finally:

@@ -9,8 +9,8 @@ gravity can take any of three searches, all exact, at costs that cross over:
   ones pays many crossings per physical event (24 in a 3D mixture of 20 000 small spheres
   among 10 large ones, packing 0.05);
 * wide cells (:mod:`.neighbours.wide`): one grid sized by the largest reach, each cell a
-  float32 block; few crossings, but every scan covers the blocks of 3^D cells as wide as a
-  large diameter;
+  float32 block; few crossings, but every scan covers the blocks along the particle's path,
+  cells as wide as a large diameter (up to 3^D of them);
 * the dilute scan (:mod:`.neighbours.dilute`): no crossings, a float32 scan of all N.
 
 Per unit time, from the kinetic theory of the mixture (every species at the scene's
@@ -27,7 +27,8 @@ Each search's work counts (cells visited, blocks and slots of the float32 pass, 
 tests) follow from those rates and the search's sizes; :data:`COST` turns them into time.
 The constants are fitted (non-negative least squares, relative error) to the CPU time per
 physical event of 16 mixtures measured with each search forced, and checked on 12 others
-(see :data:`COST`). :func:`cheapest` names the search of least cost.
+(see :data:`COST`), when wide cells scanned all 3^D blocks around a particle; the work model
+now counts the blocks along its path (2026-11-25), the unit costs kept. :func:`cheapest` names the search of least cost.
 """
 
 from __future__ import annotations
