@@ -108,6 +108,21 @@ of size classes, wide cells and the dilute scan by engine/mixture_cost.py; load 
 | 4, start-up | <= 1.15 / 1.35 | 0.55 / 0.65 wall; the old tree 1.20 / 1.19 |
 | 5, gaz / C, lists | >= 1.0 | 1.117 CPU (1.117, 1.142, 1.109), 1.132 wall |
 | 6, mixture / small alone | <= 2 | per physical event 2D 1.50, 3D 1.48: the 3D mixture now takes wide cells (6 an axis), 3.0 us a physical event against 4.5 with size classes |
+
+Figures of 2026-11-25 (``--pairs 3``, new = 83b0102: wide cells scan the cells along each
+particle's path; 'auto' takes them below packing 0.08 in 3D, 0.05 in 2D; load 0.5-1.1,
+02:33-02:39 UTC, nothing beside it):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 4.17 (4.17, 4.18, 4.08) |
+| 2, scene (b) | >= 3x | 2.72 (2.72, 2.67, 3.35); 7 wide cells an axis, 1.76 crossings per physical event (``--only 2 --pairs 5`` at 064178c: 2.76) |
+| 2, (b)'s gas against the C code's Cell variant | | gaz/C 2.42 CPU (2.40, 2.53, 2.42), 2.72 with walls |
+| 2, scene (a) | not slower | 1.40 (1.39, 1.40, 1.40) |
+| 3, recording / engine | < 25 % | waited 12.3 % (rounds 11.1-12.7 %), wall added 28.4 %; gaz's insert 82.4 ms, SQLite's own 63.0 ms |
+| 4, start-up | <= 1.15 / 1.35 | 0.57 / 0.66 wall; the old tree 1.18 / 1.25 |
+| 5, gaz / C, lists | >= 1.0 | 1.232 CPU (1.290, 1.232, 1.214), 1.251 wall |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.67, 3D 1.75: both mixtures on wide cells (15 and 6 an axis) |
 """
 
 from __future__ import annotations
