@@ -451,7 +451,8 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
     same seed) is skipped: the same command finishes an interrupted sweep. A
     point the scene's checks refuse (a packing beyond the densest...) stops the
     sweep before any run; a run failing on its worker is reported and the
-    others go on (exit 1 if any failed). A progress bar on a terminal shows runs done, running, failed and the time left.
+    others go on (exit 1 if any failed). A progress bar on a terminal shows
+    runs done, running, failed and the time left.
 
     \b
     Examples:

@@ -35,7 +35,6 @@ SCALAR_FLAGS = ("dim", "length", "packing", "duration", "temperature", "seed", "
 """Flags that set the scene key of the same name."""
 
 
-
 def message(err: BaseException, given=None) -> str:
     """An error's one line in the CLI's words: each marked field as its flag.
 

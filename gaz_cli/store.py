@@ -24,8 +24,8 @@ PostgreSQL (which folds unquoted names to lower case).
 
 Opening a database for writing checks it before writing anything: tables
 with gaz's names but other columns are refused (a foreign database), so is a gaz
-database without one of its tables (dropped by hand), a newer schema version is refused, an older one is migrated forward
-(:data:`MIGRATIONS`), a new one is created. Creation is safe when several
+database without one of its tables (dropped by hand), a newer schema version is
+refused, an older one is migrated forward (:data:`MIGRATIONS`), a new one is created. Creation is safe when several
 processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
 ``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
 transaction). A new PostgreSQL database whose store's runs all failed is left as

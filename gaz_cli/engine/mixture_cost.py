@@ -40,6 +40,7 @@ import numpy as np
 
 from gaz_cli.engine.layout import WIDE_LANES
 from gaz_cli.engine.neighbours.ball import ball_cells
+from gaz_cli.engine.sizing import path_blocks
 
 COST = {
     "classes": {"crossing": 59.6, "cell": 2.88, "pair": 15.6},
@@ -117,19 +118,17 @@ def _section(D: int, s):
 
 def wide_work(D: int, L: float, rt: Rates, nc: int) -> dict:
     """Wide cells, nc an axis, a unit time: full scans and crossings, each scanning the
-    blocks along the particle's path (:func:`.sizing._path_blocks` for its largest reach over
+    blocks along the particle's path (:func:`.sizing.path_blocks` for its largest reach over
     the cell's width; at most those of the window of 3 around, :func:`_window`), blocks of
     all particles rounded up to WIDE_LANES slots; the pairs kept, those whose lines meet
     within the scanned window (1.5 cell widths)."""
-    from gaz_cli.engine.sizing import _path_blocks
-
     w = L / nc
     crossing = rt.n * D * rt.vd / w
     scans = float(rt.rescans.sum())
     b = _window(nc)
     blocks = 0.0
     for i, reach in enumerate(rt.reach.max(axis=1)):
-        course, at_crossing = _path_blocks(D, float(reach) / w)
+        course, at_crossing = path_blocks(D, float(reach) / w)
         blocks += (rt.rescans[i] * min(course, b ** D)
                    + crossing[i] * min(at_crossing, b ** D))
     slots = WIDE_LANES * math.ceil(rt.n.sum() / nc ** D / WIDE_LANES) * blocks

@@ -226,7 +226,7 @@ uniform point of the face it enters by). Monte Carlo, 2 10^5 paths each
 (benchmarks/wide_blocks.py); linear in between."""
 
 
-def _path_blocks(D: int, rho: float) -> tuple[float, float]:
+def path_blocks(D: int, rho: float) -> tuple[float, float]:
     """(cells a scan covers after a course change, at a crossing) for wide cells whose width
     is 1/rho reaches (:data:`PATH_BLOCKS`)."""
     x, course, cross = PATH_BLOCKS[D]
@@ -238,12 +238,12 @@ def _wide_cost(D: int, n: int, L: float, path: float, nc: int, sigma: float) -> 
     """The cost of a particle's event with wide cells (nc an axis), in DILUTE_COST's units:
     the event, k_D l / w crossings (each a queue event and a scan) and its own scan (l the
     path between two events of a particle, k_D as in :func:`dilute_scan_pays`); each scan
-    covers the cells of :func:`_path_blocks` for a reach ``sigma``; a cell holds n / nc^D
+    covers the cells of :func:`path_blocks` for a reach ``sigma``; a cell holds n / nc^D
     particles, its scan covers them rounded up to WIDE_LANES (the pass's vector step)."""
     per_cell = n / nc ** D
     slots = WIDE_LANES * math.ceil(per_cell / WIDE_LANES)
     cross = (4.0 / math.pi if D == 2 else 1.5) * path * nc / L
-    course, at_crossing = _path_blocks(D, sigma * nc / L)
+    course, at_crossing = path_blocks(D, sigma * nc / L)
     blocks = min(course, nc ** D) + min(at_crossing, nc ** D) * cross
     c = WIDE_COST
     return c["event"] * (1.0 + cross) + c["slot"] * slots * blocks

@@ -170,11 +170,10 @@ def _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g, lo0, hi0, lo1,
     predictions (a full scan: the second is sure). A cell across a periodic face is scanned
     through its image (:func:`.cells._beside`), each of the 3^D cells once. Returns (pair
     times computed exactly, slots the pass went through)."""
-    tw = tx
-    tcut = tw + HORIZON_SLACK * (tw - t)
+    tcut = tx + HORIZON_SLACK * (tx - t)
     if (t - XC[T0]) * XC[IT] > REBASE:
         _rebase(P, I, XB, XC, n, t)
-    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr = _bounds(P, XC, p, t, tw)
+    ok, tau, xk0, xk1, xk2, vk0, vk1, vk2, rk, h2, thr = _bounds(P, XC, p, t, tx)
     best = INF
     bj = -1
     best2 = INF
