@@ -68,7 +68,8 @@ RESTART_EVERY events per particle (memory locality; small systems fit in cache).
 
 PREFETCH_FROM_N = 20_000
 """Systems of this many particles or more prefetch the cells and rows of each scan, and
-the rows of the next events (their data no longer fits in the caches; below, the hints
+the partners and cells of the next events (their data no longer fits in the caches; every
+run requests the next events' own rows, :mod:`.prefetch`; below, the other hints
 cost more than they save: from 5000 instead, 3D N = 10^4 packing 0.05 with cells ran
 1.07-1.12x slower, median 1.09, 5 alternating pairs, 2026-11-23; the block prefetch of
 the gather alone, neighbours/cells.py, gained nothing there either)."""

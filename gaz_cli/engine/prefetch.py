@@ -1,10 +1,11 @@
-"""Memory hints of the event loop (large systems): rows and cells requested ahead of use.
+"""Memory hints of the event loop: rows and cells requested ahead of use.
 
-Past the caches each event waits on memory, so the loop asks for data ahead of use:
-the rows of the next events (the top of the heap) when an event starts, their cells
-and partners' rows when it ends, the next calendar bucket's list one particle an
-event, a scan's cells and particles before it reads them. Hints only: the events are
-the same with or without them (tested).
+Past the caches each event waits on memory, so the loop asks for data ahead of use: the
+rows of the next events (the top of the heap) when an event starts, in every run; in
+large systems (the driver's PREFETCH_FROM_N) also their cells and partners' rows when it
+ends, the next calendar bucket's list one particle an event, a scan's cells and
+particles before it reads them. Hints only: the events are the same with or without them
+(tested).
 """
 
 from __future__ import annotations
