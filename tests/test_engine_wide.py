@@ -168,7 +168,9 @@ def _kept_and_found(P, F, XC, nc, t_mirror, t, tw, L, D, PER):
     XB[:, 0, :] = 1e10
     _mirror_all(P, I, XB, XC, n, t_mirror, L)
     EV = np.full((n, 4), np.inf)
-    _predict_wide(P, I, EV, cells, XB, XC, 0, t, tw, n, nc, L, 0.0, -1, 1, -1, 1,
+    GB = np.zeros(3 ** D * cap, np.int32)
+    GS = np.zeros(3 ** D * cap, np.int32)
+    _predict_wide(P, I, EV, cells, XB, XC, GB, GS, 0, t, tw, n, nc, L, 0.0, -1, 1, -1, 1,
                   -1 if D > 2 else 0, 1 if D > 2 else 0, (1.0, 0.0), D, PER)
     kept = np.zeros(n, np.bool_)
     times = np.full(n, np.inf)

@@ -364,8 +364,9 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 if WIDE and rescan:
                     tx = EV[p, TX]
                     wl0, wh0, wl1, wh1, wl2, wh2 = _path_block(P, I, XC, edges, p, t, tx, D)
-                    exact, slots = _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g,
-                                                 wl0, wh0, wl1, wh1, wl2, wh2, PP, D, PER)
+                    exact, slots = _predict_wide(P, I, EV, cells, XB, XC, GB, GS, p, t, tx, n,
+                                                 nc, L, g, wl0, wh0, wl1, wh1, wl2, wh2, PP, D,
+                                                 PER)
                     n_pairs += exact
                     n_scanned += slots
                 if cellscan:

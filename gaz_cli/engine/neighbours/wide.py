@@ -11,7 +11,10 @@ slot s holding the particle of the cell table's slot s + 1): a scan of a cell is
 beyond its count, up to a multiple of :data:`.layout.WIDE_LANES`, the pass's vector step,
 hold an inert row: x0 = FAR, at rest, radius 0),
 then the exact float64 pair time (:func:`.interactions._pair_time`, from the rows) of
-the few pairs kept: the exact root decides, as in :mod:`.dilute`.
+the few pairs kept: the exact root decides, as in :mod:`.dilute`. The pairs kept are
+gathered first (``GB``, and their images' shifts in ``GS``), their rows requested, and
+timed once every cell is passed over: the rows arrive meanwhile (scene (b) 1.035-1.04x
+against timing each as the pass keeps it; same events).
 
 **Which cells a scan covers: those along the particle's path.** A particle scans at each
 of its events (a collision, a wall bounce, a cell crossing, a stale prediction it cannot
@@ -62,7 +65,7 @@ import numpy as np
 
 from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _earliest_two, _pair_time
-from gaz_cli.engine.intrinsics import _inline
+from gaz_cli.engine.intrinsics import _inline, _prefetch
 from gaz_cli.engine.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
                                    PV, SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
 from gaz_cli.engine.neighbours.cells import _beside, _stamp
@@ -163,8 +166,8 @@ def _path_block(P, I, XC, edges, p, t, tx, D):
 
 
 @_inline
-def _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g, lo0, hi0, lo1, hi1, lo2,
-                  hi2, PP, D, PER):
+def _predict_wide(P, I, EV, cells, XB, XC, GB, GS, p, t, tx, n, nc, L, g, lo0, hi0, lo1, hi1,
+                  lo2, hi2, PP, D, PER):
     """Particle p's two earliest collisions (its row at t) before tx, in the cells c +
     (lo..hi) on each axis around its cell c (:func:`_path_block`), written to its
     predictions (a full scan: the second is sure). A cell across a periodic face is scanned
@@ -198,6 +201,7 @@ def _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g, lo0, hi0, lo1,
     c2 = I[p, C0 + 2] if D > 2 else 0
     exact = 0
     scanned = 0
+    nk = 0  # the pass's survivors gathered in GB (periodic: their image shifts in GS)
     cx0 = (x0 - XC[CENTRE]) * XC[IL]  # p in box edges, float64 (its images: minus 0 or 1)
     cx1 = (x1 - XC[CENTRE]) * XC[IL]
     cx2 = (x2 - XC[CENTRE]) * XC[IL]
@@ -222,12 +226,6 @@ def _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g, lo0, hi0, lo1,
                     continue
                 X = XB[cell]
                 kept = True
-                # p seen from the cell's image: p moved by minus the image's shift
-                y0, y1, y2 = x0, x1, x2
-                if PER:
-                    y0 = x0 - s0 * L
-                    y1 = x1 - s1 * L
-                    y2 = x2 - s2 * L
                 if ok:
                     lanes = (cnt + WIDE_LANES - 1) & ~(WIDE_LANES - 1)
                     scanned += lanes
@@ -246,14 +244,29 @@ def _predict_wide(P, I, EV, cells, XB, XC, p, t, tx, n, nc, L, g, lo0, hi0, lo1,
                     m = cells[cell, 1 + s]
                     if m == p:
                         continue
-                    exact += 1
-                    dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, y0, y1, y2, v0, v1, v2,
-                                                                g, D, False)
-                    tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rad, P[m, PR], PP, D)
-                    if tp < best2 and tp <= tcut:
-                        best, bj, src1, best2, bj2, src2 = _earliest_two(tp, m, NEW, best, bj, src1, best2,
-                                                                         bj2, src2)
+                    # gathered (their rows requested now, they arrive while the other
+                    # cells are passed over), timed exactly below
+                    GB[nk] = m
+                    if PER:
+                        GS[nk] = (s0 + 1) * 9 + (s1 + 1) * 3 + (s2 + 1)
+                    _prefetch(P, m)
+                    _prefetch(I, m)
+                    nk += 1
     XB[own_cell, 0, own_slot] = own
+    for u in range(nk):
+        m = GB[u]
+        y0, y1, y2 = x0, x1, x2  # p seen from m's image: moved by minus the image's shift
+        if PER:
+            sh = GS[u]
+            y0 = x0 - (sh // 9 - 1) * L
+            y1 = x1 - ((sh // 3) % 3 - 1) * L
+            y2 = x2 - (sh % 3 - 1) * L
+        exact += 1
+        dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, y0, y1, y2, v0, v1, v2, g, D, False)
+        tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rad, P[m, PR], PP, D)
+        if tp < best2 and tp <= tcut:
+            best, bj, src1, best2, bj2, src2 = _earliest_two(tp, m, NEW, best, bj, src1, best2,
+                                                             bj2, src2)
     EV[p, TCOL] = best
     I[p, PART] = bj
     I[p, PCNT] = _stamp(I, bj, src1, oc1, oc2)
