@@ -123,6 +123,21 @@ particle's path; 'auto' takes them below packing 0.08 in 3D, 0.05 in 2D; load 0.
 | 4, start-up | <= 1.15 / 1.35 | 0.57 / 0.66 wall; the old tree 1.18 / 1.25 |
 | 5, gaz / C, lists | >= 1.0 | 1.232 CPU (1.290, 1.232, 1.214), 1.251 wall |
 | 6, mixture / small alone | <= 2 | per physical event 2D 1.67, 3D 1.75: both mixtures on wide cells (15 and 6 an axis) |
+
+Figures of 2026-11-25, later (``--pairs 5``, new = cba5283: less Python around the loop, the
+next events' rows requested in every run, wide cells' survivors gathered with their rows
+requested; load 0.7-1.3, 05:50-06:00 UTC, nothing beside it):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 4.28 (4.40, 4.28, 4.61, 4.28, 4.09) |
+| 2, scene (b) | >= 3x | 2.99 (3.13, 2.99, 3.28, 2.95, 2.98); ``--only 2 --pairs 5`` just before, same code: 3.04 (3.04, 3.13, 2.95, 3.07, 2.98) |
+| 2, (b)'s gas against the C code's Cell variant | | gaz/C 2.60 CPU (2.68, 2.60, 2.55, 2.56, 2.70), 2.99 with walls |
+| 2, scene (a) | not slower | 1.41 (1.40, 1.43, 1.41, 1.41, 1.41) |
+| 3, recording / engine | < 25 % | waited 9.9 % (rounds 9.4-13.7 %), wall added 16.6 %; gaz's insert 78.4 ms, SQLite's own 58.5 ms |
+| 4, start-up | <= 1.15 / 1.35 | 0.60 / 0.67 wall; the old tree 1.23 / 1.30 |
+| 5, gaz / C, lists | >= 1.0 | 1.222 CPU, 1.241 wall (medians of 5 pairs) |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.61, 3D 1.85 (the small particles alone got faster) |
 """
 
 from __future__ import annotations
