@@ -58,8 +58,9 @@ class Rows:
             return np.arange(self.n)
         key = _morton(self._cell_coords(x))
         if key.size and int(key.max()) < (1 << 16):
-            key = key.astype(np.uint16)  # (the same order; numpy radix-sorts 16-bit keys,
-        return np.argsort(key, kind="stable")  # 0.04 ms for 10^4 against 0.47 as int64)
+            # the same order: numpy radix-sorts 16-bit keys (0.04 ms for 10^4, 0.47 as int64)
+            key = key.astype(np.uint16)
+        return np.argsort(key, kind="stable")
 
     def _cell_coords(self, x: np.ndarray) -> np.ndarray:
         """Integer cell coordinates (N, D) of positions x, rounded as the kernels round them."""

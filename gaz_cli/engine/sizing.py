@@ -273,7 +273,8 @@ def wide_cells_per_axis(D: int, n: int, L: float, sigma: float, packing: float,
     """Cells along each axis for wide cells: the count, among those at least a pair's reach
     (sigma) wide (at most 64; in a periodic box at least PERIODIC_WIDE_CELLS), that costs
     least by the model of :func:`_wide_cost` (the same model with walls or periodic: a wrap
-    is a crossing)."""
+    is a crossing). Cached: a script that changes WIDE_COST or PATH_BLOCKS calls
+    ``wide_cells_per_axis.cache_clear()``."""
     path = _path(D, n, L, packing)
     least = PERIODIC_WIDE_CELLS if periodic else 1
     most = max(least, _most_wide_cells(L, sigma))
