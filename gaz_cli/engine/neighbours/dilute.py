@@ -100,7 +100,7 @@ import numpy as np
 
 from gaz_cli.engine.dynamics import _relative_at
 from gaz_cli.engine.interactions import _earliest_two, _pair_time
-from gaz_cli.engine.intrinsics import _fma, _inline
+from gaz_cli.engine.intrinsics import _fma, _inline, _kept8, _lowest
 from gaz_cli.engine.layout import CNT, INF, PART, PART2, PCNT, PCNT2, PR, PT, PV, SURE, TCOL, TCOL2, TX
 
 XS_ROWS = 8
@@ -320,21 +320,23 @@ def _predict_all(P, I, EV, XS, XC, p, t, n, g, PP, D, GRAV):
     bj2 = -1
     exact = 0
     m = 0
-    while m < (n if kept else 0):  # (most scans of a dilute gas keep none: no pass 2)
-        if m + 8 <= n and min(min(min(XS[KEEP, m], XS[KEEP, m + 1]),
-                                  min(XS[KEEP, m + 2], XS[KEEP, m + 3])),
-                              min(min(XS[KEEP, m + 4], XS[KEEP, m + 5]),
-                                  min(XS[KEEP, m + 6], XS[KEEP, m + 7]))) > 0.0:
-            m += 8  # (eight verdicts at a time: most groups keep none)
-            continue
-        if XS[KEEP, m] <= 0.0 and m != p:
+    top = n if kept else 0  # (most scans of a dilute gas keep none: no pass 2)
+    while m < top:
+        # eight verdicts at a time (_kept8: a bit for each kept, most groups keep none),
+        # the last few one by one
+        bits = _kept8(XS, KEEP, m) if m + 8 <= n else (1 << (n - m)) - 1
+        while bits != 0:
+            q = m + _lowest(bits)
+            bits &= bits - 1
+            if q == p or XS[KEEP, q] > 0.0:
+                continue
             exact += 1
-            dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, m, t, xk0, xk1, xk2, vk0, vk1, vk2,
+            dx0, dx1, dx2, dv0, dv1, dv2 = _relative_at(P, q, t, xk0, xk1, xk2, vk0, vk1, vk2,
                                                         g, D, GRAV)
-            tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[m, PR], PP, D)
+            tp = t + _pair_time(dx0, dx1, dx2, dv0, dv1, dv2, rk, P[q, PR], PP, D)
             if tp < best2 and tp <= tx:
-                best, bj, _, best2, bj2, _ = _earliest_two(tp, m, 0, best, bj, 0, best2, bj2, 0)
-        m += 1
+                best, bj, _, best2, bj2, _ = _earliest_two(tp, q, 0, best, bj, 0, best2, bj2, 0)
+        m += 8
     EV[p, TCOL] = best
     I[p, PART] = bj
     I[p, PCNT] = I[bj, CNT] if bj >= 0 else 0
