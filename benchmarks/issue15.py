@@ -138,6 +138,21 @@ requested; load 0.7-1.3, 05:50-06:00 UTC, nothing beside it):
 | 4, start-up | <= 1.15 / 1.35 | 0.60 / 0.67 wall; the old tree 1.23 / 1.30 |
 | 5, gaz / C, lists | >= 1.0 | 1.222 CPU, 1.241 wall (medians of 5 pairs) |
 | 6, mixture / small alone | <= 2 | per physical event 2D 1.61, 3D 1.85 (the small particles alone got faster) |
+
+Figures of 2026-11-25, latest (``--pairs 5``, new = 1d93762: the rejection pass's verdicts read
+eight at a time, ``intrinsics._kept8``; load 0.3-1.1, 09:18-09:26 UTC, nothing beside it;
+the same command on 64433ff at 08:30 gave (b) 2.95 (3.00, 2.93, 2.95, 2.95, 3.00)):
+
+| item | target | this run |
+| --- | --- | --- |
+| 2, README example engine | >= 3x | 4.67 (4.35, 4.95, 4.97, 4.58, 4.67) |
+| 2, scene (b) | >= 3x | 3.03 (3.00, 3.04, 3.03, 3.20, 3.00); ``--only 2 --pairs 5`` twice after it, same code: 3.14 (3.08, 3.15, 3.24, 3.08, 3.14) and 3.05 (3.02, 3.12, 3.10, 3.05, 3.03) |
+| 2, (b)'s gas against the C code's Cell variant | | gaz/C 2.69 CPU (2.65, 2.70, 2.66, 2.78, 2.69), 2.94 with walls |
+| 2, scene (a) | not slower | 1.42 (1.42, 1.51, 1.42, 1.44, 1.41) |
+| 3, recording / engine | < 25 % | waited 13.8 % (rounds 12.5-15.8 %), wall added 14.3 %; gaz's insert 83.2 ms, SQLite's own 61.8 ms |
+| 4, start-up | <= 1.15 / 1.35 | 0.55 / 0.60 wall; the old tree 1.15 / 1.19 |
+| 5, gaz / C, lists | >= 1.0 | 1.234 CPU (1.234, 1.229, 1.257, 1.238, 1.214), 1.252 wall |
+| 6, mixture / small alone | <= 2 | per physical event 2D 1.58, 3D 1.62 |
 """
 
 from __future__ import annotations
