@@ -60,3 +60,11 @@ def test_lowest_is_the_index_of_the_lowest_set_bit():
     got = _lowest_bits(xs)
     for x, k in zip(xs.tolist(), got.tolist()):
         assert (x & -x) & ((1 << 64) - 1) == 1 << k, (x, k)
+
+
+def test_kept8_refuses_a_strided_row():
+    """A row whose columns are not adjacent in memory (a strided view) is refused when the
+    kernel is compiled: the eight columns are read as one vector."""
+    arr = np.zeros((2, 32), dtype=np.float32)[:, ::2]
+    with pytest.raises(numba.TypingError):
+        _masks(arr, 0, np.arange(4))

@@ -112,13 +112,14 @@ def _prefetch_at(typingctx, arr, i, j):
 @intrinsic
 def _kept8(typingctx, arr, row, col):
     """The bits i < 8 (an int64) for which arr[row, col + i] is not > 0 (<= 0, or NaN), of a
-    2D float32 array whose row holds at least col + 8 columns: one vector load, compare
-    and mask move (vcmpleps, vmovmskps), where testing each column costs a branch (the
-    survivors of the float32 rejection pass, eight at a time: the README example 1.17x,
-    scene (b) of benchmarks/engine.py 1.015x; same events)."""
+    C-contiguous 2D float32 array whose row holds at least col + 8 columns: one vector
+    load, compare and mask move (vcmpleps, vmovmskps), where testing each column costs a
+    branch (the survivors of the float32 rejection pass, eight at a time: the README
+    example 1.17x, scene (b) of benchmarks/engine.py 1.015x; same events)."""
     if not (isinstance(arr, types.Array) and arr.ndim == 2 and arr.dtype == types.float32
-            and isinstance(row, types.Integer) and isinstance(col, types.Integer)):
-        return None
+            and arr.layout == "C" and isinstance(row, types.Integer)
+            and isinstance(col, types.Integer)):
+        return None  # (the 8 columns are read as one vector: contiguous rows only)
 
     def codegen(context, builder, sig, args):
         aryty = sig.args[0]
