@@ -83,10 +83,15 @@ the pass in chunks of 256 particles, each chunk's exact roots before the next (a
 that keeps a pair then looks for it in 256 verdicts, not 1000): the engine 2x slower
 (0.50-0.52 of this layout's speed in 5 pairs), though the pass alone, compiled apart,
 kept its 8 lanes; AVX-512 (16 lanes, LLVM's prefer-256-bit tuning turned off through
-NUMBA_CPU_FEATURES): the pass alone about 10 % faster on this host, not pursued.
+NUMBA_CPU_FEATURES): the pass alone about 10 % faster on this host, not pursued (measured
+again 2026-11-25 on wide cells: the pass alone 0.46 -> 0.29 ns a slot in L1, the whole
+loop of scene (b) 0.94x in 8 process pairs).
 Kept: the survivors looked for eight verdicts at a time (one min of eight, most groups
 none kept), instead of one by one through all n in a scan that keeps any: the README
-engine 1.05x faster (5 pairs: 1.05, 1.08, 1.11, 1.05, 1.04; load 1.4).
+engine 1.05x faster (5 pairs: 1.05, 1.08, 1.11, 1.05, 1.04; load 1.4); since 2026-11-25
+the eight verdicts are one bit mask (:func:`.intrinsics._kept8`, one vector compare) whose
+set bits are visited (:func:`.intrinsics._lowest`): the README engine 1.17x faster again
+(in-process alternating runs, 11 each; same events).
 
 Chosen by :func:`.sizing.use_dilute_scan` (a cost model of both searches); scenes with
 gravity or a periodic box keep cells.
