@@ -30,10 +30,10 @@ import numpy as np
 
 
 def build(db: str, rows: int) -> None:
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, State
-    from gaz_cli.species import lookup
-    from gaz_cli.store import Store
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, State
+    from gaz_cli.model.species import lookup
+    from gaz_cli.results.store import Store
 
     ar = lookup("Ar")
     store = Store(db)
@@ -58,7 +58,7 @@ def built(db: str) -> bool:
     """Whether ``db`` (a path or URL) already holds the simulations."""
     if "://" not in db:
         return Path(db).exists()
-    from gaz_cli.store import Store
+    from gaz_cli.results.store import Store
 
     with Store(db) as store:
         return len(store.simulation_numbers()) >= 2

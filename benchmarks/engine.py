@@ -13,7 +13,7 @@ Not a test: it prints numbers. Run from the repository root:
 (b) argon at 300 K, 3D box with walls, N = 10 000, packing 0.01;
 (c) 2D, N = 1000 disks, area fraction 0.2, walls;
 (d) 1D, N = 1000 rods, packing 0.5, walls;
-(e) speed-up over gaz_cli.reference on (c) at N = 200 and N = 1000;
+(e) speed-up over gaz_cli.engines.reference on (c) at N = 200 and N = 1000;
 (f) cost per event from N = 10^3 to 10^6 (3D periodic, packing 0.3; the sizes run in
     turn, --repeat rounds, so that a slow spell of the host falls on all), beside the work
     per event (pair times, calendar steps: flat) and the latency of one cache miss over
@@ -58,13 +58,13 @@ import time
 import numba
 import numpy as np
 
-from gaz_cli import engine
-from gaz_cli.engine import kernels as K
-from gaz_cli.engine.memory import _alloc
+from gaz_cli.engines import event as engine
+from gaz_cli.engines.event import kernels as K
+from gaz_cli.engines.event.memory import _alloc
 from gaz_cli.constants import K_B
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species, lookup
 
 UNIT_T = 1.0 / K_B
 
@@ -235,8 +235,8 @@ def fig_d(args):
 
 
 def fig_e(args):
-    from gaz_cli import reference
-    print("(e) speed-up over gaz_cli.reference on (c): events (collisions + bounces) per second")
+    from gaz_cli.engines import reference
+    print("(e) speed-up over gaz_cli.engines.reference on (c): events (collisions + bounces) per second")
     print("    the reference's catalogue keeps every prediction (exam Q30), so its rate falls as a run "
           "goes on: it is timed on a short and on a longer run")
     durations = {200: (6.0, 24.0), 1000: (0.3, 1.0)}
@@ -365,10 +365,10 @@ import sys
 if "--no-scipy" in sys.argv:
     sys.modules["scipy"] = None  # as on an install without the test extra
 import time
-from gaz_cli import engine
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines import event as engine
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
            temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")
 rs = engine.run(sc, initial_state(sc), Recorder())
@@ -430,7 +430,7 @@ class _Count(Recorder):
 
 
 def fig_i(args):
-    from gaz_cli import ideal
+    from gaz_cli.engines import ideal
 
     n = 10_000
     duration = 2e-8 * args.scale

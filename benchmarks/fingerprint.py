@@ -28,11 +28,11 @@ import sys
 
 import numpy as np
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species, lookup
 
 UNIT_T = 1.0 / K_B
 

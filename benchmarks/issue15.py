@@ -178,8 +178,8 @@ TARGET = {"readme": "new/old >= 3", "b": "new/old >= 3", "a": "new/old >= 1 (not
 def _scene(name: str):
     """The scene of one item-2 case (built in the child, on its tree's API)."""
     from gaz_cli.constants import K_B
-    from gaz_cli.scene import Scene
-    from gaz_cli.species import Species, lookup
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.model.species import Species, lookup
 
     ar = lookup("Ar")
     if name == "readme":
@@ -205,9 +205,9 @@ def child(name: str) -> None:
     """Time one scene's engine on the tree gaz_cli is imported from; print one JSON line."""
     import dataclasses
 
-    from gaz_cli import engine
-    from gaz_cli.recording import Recorder
-    from gaz_cli.scene import initial_state
+    from gaz_cli.engines import event as engine
+    from gaz_cli.model.recording import Recorder
+    from gaz_cli.model.scene import initial_state
 
     sc = _scene(name)
     st = initial_state(sc)

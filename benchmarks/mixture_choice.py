@@ -9,18 +9,18 @@ rounds, the order reversed every other round; the first also compiles), and the 
 (collisions and wall bounces) of each, the search 'auto' took, and its cost over the
 fastest's. The work counts of each forced search (queue events, crossings, pair tests,
 slots of the float32 pass, per physical event) are printed under it: what the model of
-:mod:`gaz_cli.engine.mixture_cost` predicts. Run from the repository root:
+:mod:`gaz_cli.engines.event.mixture_cost` predicts. Run from the repository root:
 
     python benchmarks/mixture_choice.py                  # the 28 mixtures, 2 rounds
     python benchmarks/mixture_choice.py --only 3A,2B --rounds 3
     python benchmarks/mixture_choice.py --only FIT --fit      # refit mixture_cost.COST
 
-``--fit``: after the runs, the constants of :data:`gaz_cli.engine.mixture_cost.COST` fitted
+``--fit``: after the runs, the constants of :data:`gaz_cli.engines.event.mixture_cost.COST` fitted
 to them (non-negative least squares on the relative error of each search's CPU time per
-physical event against the model's work counts, :func:`gaz_cli.engine.mixture_cost.work`),
+physical event against the model's work counts, :func:`gaz_cli.engines.event.mixture_cost.work`),
 and how often the refit model would take the fastest search; ``--only FIT`` (or CHECK,
 RANDOM) names a set. Each run lasts about ``--events`` physical events (the duration scaled
-from a short probe). The mixtures: FIT, the 16 :data:`gaz_cli.engine.mixture_cost.COST` was
+from a short probe). The mixtures: FIT, the 16 :data:`gaz_cli.engines.event.mixture_cost.COST` was
 fitted on; CHECK, 12 more it was checked on (names V...); RANDOM, 10 drawn at random after
 the model was written (names R...); the tests' (T...), the mixtures of the tests that say
 which search 'auto' takes.
@@ -53,10 +53,10 @@ import time
 
 from fingerprint import mixture  # (this directory: the script's own)
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 
 SEARCHES = {"classes": {"neighbours": "cells"}, "wide": {"neighbours": "wide", "classes": "off"},
             "dilute": {"neighbours": "dilute"}, "auto": {}}
@@ -96,11 +96,11 @@ def test_scenes() -> dict[str, Scene]:
 
 
 def model_work(scene: Scene) -> dict:
-    """:func:`gaz_cli.engine.mixture_cost.work` for ``scene`` (walls, hard spheres), with the
+    """:func:`gaz_cli.engines.event.mixture_cost.work` for ``scene`` (walls, hard spheres), with the
     plan and the wide cells the driver would size."""
-    from gaz_cli.engine import mixture_cost, sizing
-    from gaz_cli.engine.interactions import pair_reach
-    from gaz_cli.engine.neighbours import classes
+    from gaz_cli.engines.event import mixture_cost, sizing
+    from gaz_cli.engines.event.interactions import pair_reach
+    from gaz_cli.engines.event.neighbours import classes
 
     radii = scene.radii()
 
@@ -121,7 +121,7 @@ def fit(names: list[str], every: dict, measured: dict) -> None:
     import numpy as np
     from scipy.optimize import nnls
 
-    from gaz_cli.engine import mixture_cost
+    from gaz_cli.engines.event import mixture_cost
 
     work = {k: model_work(every[k]) for k in names}
     const = {}

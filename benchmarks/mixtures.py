@@ -57,7 +57,7 @@ dilute scan: one queue event per physical event, 13.1 us each, a float32 scan of
 per simulated second 2D 1.85, 3D 3.89, of which the physical events alone are 2.35x and 2.86x.
 
 Figures of 2026-11-24 ('python benchmarks/mixtures.py --repeat 3' on b1f948b; load 0.6-1):
-the 3D mixture now takes wide cells (:mod:`gaz_cli.engine.mixture_cost`: 6 an axis, 1.65
+the 3D mixture now takes wide cells (:mod:`gaz_cli.engines.event.mixture_cost`: 6 an axis, 1.65
 crossings and 2.6 us a physical event, against 9.1 crossings and 3.9 us with size classes),
 the 2D one keeps its size classes; mixture / small alone per physical event 2D 1.43, 3D 1.40
 (rounds 1.46, 1.40, 1.32; before, 2.29: its small spheres alone had gone over to wide cells).
@@ -87,8 +87,8 @@ SCENES = {
 
 def _scene(name: str, scale: float):
     from gaz_cli.constants import K_B
-    from gaz_cli.scene import Scene
-    from gaz_cli.species import Species
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.model.species import Species
 
     D, ns, nl, rl, L, dur = SCENES[name]
     comps = ((Species("small", 1.0, 1.0), ns),)
@@ -102,8 +102,8 @@ def child(name: str, scale: float) -> dict:
     """One measured run of scene ``name`` in this process (the tree on sys.path)."""
     import dataclasses
 
-    from gaz_cli import engine
-    from gaz_cli.scene import initial_state
+    from gaz_cli.engines import event as engine
+    from gaz_cli.model.scene import initial_state
 
     sc = _scene(name, scale)
     st = initial_state(sc)

@@ -20,7 +20,7 @@ events both ways.
 ``--survey``: the same comparison on eight periodic mixtures (:data:`SURVEY`: 2D and 3D, 1:8
 and 1:10, 0.1 % to 10 % large ones, packing 0.2 to 0.7), each run for about 30 events a
 particle (its duration from a short probe): the search 'auto' takes for a periodic mixture
-is size classes whenever their plan exists (:mod:`gaz_cli.engine.mixture_cost` weighs
+is size classes whenever their plan exists (:mod:`gaz_cli.engines.event.mixture_cost` weighs
 boxes with walls only). Measured 2026-11-24 (3 alternating rounds, load 1-2, a second
 process beside it): size classes faster in all eight, 1.12x to 85x (3D 4000 + 400 1:8 at
 0.3: 1.12x; 2D 8000 + 800 1:8 at 0.6: 1.31x; 3D 20000 + 20 1:10 at 0.2: 85x). A box too
@@ -38,9 +38,10 @@ import time
 
 from fingerprint import mixture
 
-from gaz_cli import engine, runner
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import initial_state
+from gaz_cli.engines import event as engine
+from gaz_cli.run import runner
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import initial_state
 
 
 SURVEY = [  # dim, small, large, radius ratio, packing

@@ -15,7 +15,7 @@ The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 ~178 thousand wall bounces). Each round, alternating:
 
 - in process, ``runner.simulate`` into a new SQLite file (the writer,
-  :mod:`gaz_cli.sqlite_writer`, inserting the rows early from a thread while the engine
+  :mod:`gaz_cli.results.sqlite`, inserting the rows early from a thread while the engine
   runs; ``--staged``: not, the rows moved in after the engine), then the same scene with
   no database (``--no-db``): the engine alone. Since the writer works in a thread of its
   own, CPU time (``time.process_time``, every thread) no longer splits into engine and
@@ -41,8 +41,8 @@ The scene is the README's first command (``gaz simulate --dim 3 --n 1000
 
 Medians over the rounds are printed, with the issue's bound: recording under 25 % of
 the engine's run time. Measured 2026-11-23 at load 3.5-4 on 2 cores (no core free):
-gaz_cli.staging's docstring. ``--buffer-rows N``: an experiment, the event engine's
-chunk of bounces (gaz_cli.engine.driver.BUFFER_ROWS) set to N.
+gaz_cli.results.staging's docstring. ``--buffer-rows N``: an experiment, the event engine's
+chunk of bounces (gaz_cli.engines.event.driver.BUFFER_ROWS) set to N.
 
 ``--insert`` also times, in wall seconds, the COMMIT and close of those rows (WAL, the
 writer's synchronous FULL, and OFF for comparison): what the user waits for after the
@@ -50,7 +50,7 @@ engine however early the rows go in. Measured 2026-11-24 (``/tmp/s27/commit.py``
 0.3): 24 ms with FULL (commit 21, close 3), 11 ms with OFF (no fsync), against a 75 ms
 engine.
 
-``--insert``: only :func:`gaz_cli.staging.insert_rows` of the example's REBOND rows (the
+``--insert``: only :func:`gaz_cli.results.staging.insert_rows` of the example's REBOND rows (the
 engine's chunks of 65536) into a new file, in one transaction, CPU per round (run it with PYTHONPATH at an older tree, alternating, to compare commits), and
 beside it SQLite's own cost for the same rows: one ``INSERT ... SELECT`` from a TEMP copy
 of them into the same file's REBOND (no Python, no binding: the floor of any writer
@@ -77,10 +77,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from gaz_cli import runner, sqlite_writer
-from gaz_cli.recording import TableRecorder
-from gaz_cli.scene import Scene
-from gaz_cli.species import lookup
+from gaz_cli.run import runner
+from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.model.recording import TableRecorder
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import lookup
 
 ARGS = ["--dim", "3", "--n", "1000", "--length", "3.4e-8", "--duration", "1e-8", "--seed", "1"]
 
@@ -164,7 +165,7 @@ def as_process(extra: list[str]) -> tuple[float, float]:
     w = time.perf_counter()
     # the gaz this process imported (python -m puts its working folder first on sys.path:
     # from a checkout, a PYTHONPATH at an older tree would time the checkout)
-    tree = str(Path(runner.__file__).resolve().parents[1])
+    tree = str(Path(runner.__file__).resolve().parents[2])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([tree, os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)}
     res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *ARGS, *extra, "--json"],
                          capture_output=True, text=True, check=True, env=env, cwd=tempfile.gettempdir())
@@ -266,7 +267,7 @@ def insert_only(rounds: int) -> None:
 
     import numpy as np
 
-    from gaz_cli import staging
+    from gaz_cli.results import staging
 
     b = runner.run_scene(scene("bounces"), keep_bounces=True).bounces
     k = len(b["t"])
@@ -368,7 +369,7 @@ def main():
     if args.staged:
         sqlite_writer.LOCK_BOUND_S = 0
     if args.buffer_rows:
-        from gaz_cli.engine import driver
+        from gaz_cli.engines.event import driver
 
         driver.BUFFER_ROWS = args.buffer_rows
     if args.insert:

@@ -4,8 +4,8 @@ Scene: 2D, N = 500 argon disks at 300 K, area fraction 0.2, hard elastic
 walls; the same initial states (seeds) for every engine. Time unit: the
 Enskog mean free time tau = 1/omega (about 1.1 ps here).
 
-For each seed the exact engine (``gaz_cli.engine.run``) gives the reference;
-the step engine (``gaz_cli.stepper.run``) runs at dt = 1 ... 0.001 tau with
+For each seed the exact engine (``gaz_cli.engines.event.run``) gives the reference;
+the step engine (``gaz_cli.engines.step.run``) runs at dt = 1 ... 0.001 tau with
 both contact detections ('swept', the default, and 'overlap', seed 002's
 rule). Per run: wall-clock time; wall pressure (from the bounces) against the
 exact run of the same initial state; kinetic energy error; collisions counted
@@ -41,26 +41,26 @@ from pathlib import Path
 
 import numpy as np
 
-from gaz_cli import stepper
+from gaz_cli.engines import step as stepper
 from gaz_cli.constants import K_B
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import lookup
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import lookup
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 
 
 def exact_engine():
-    """gaz_cli.engine.run, or the reference engine as a stand-in (said in the output)."""
+    """gaz_cli.engines.event.run, or the reference engine as a stand-in (said in the output)."""
     try:
-        from gaz_cli.engine import run
+        from gaz_cli.engines.event import run
 
-        return run, "gaz_cli.engine.run"
+        return run, "gaz_cli.engines.event.run"
     except ImportError:  # pragma: no cover - development stand-in
-        from gaz_cli.reference import run
+        from gaz_cli.engines.reference import run
 
-        return run, "gaz_cli.reference.run (stand-in)"
+        return run, "gaz_cli.engines.reference.run (stand-in)"
 
 
 def base_scene(n: int = 500, eta: float = 0.2, seed: int = 1) -> tuple[Scene, float]:

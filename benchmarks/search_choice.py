@@ -25,7 +25,7 @@ Figures (2026-11-23, 2 cores, load 0.6-0.7, 3 rounds, the 12 default scenes, one
 and at packing 0.03 cells ran 1.07x and 1.19x its wide cells (N = 2000, 10^4). Now 'auto'
 takes the fastest in all 12 (the cheapest of the three models; wide cells only below
 packing 0.02, sizing.WIDE_BELOW; blocks rounded to 16 slots, layout.WIDE_LANES). See
-:func:`gaz_cli.engine.sizing.dilute_scan_pays`.
+:func:`gaz_cli.engines.event.sizing.dilute_scan_pays`.
 """
 
 from __future__ import annotations
@@ -36,12 +36,13 @@ import os
 import statistics
 import time
 
-from gaz_cli import engine, theory
+from gaz_cli import theory
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
 from gaz_cli.geometry import UNIT_BALL
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import lookup
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import lookup
 
 SEARCHES = ("auto", "dilute", "wide", "cells")
 

@@ -124,12 +124,12 @@ from pathlib import Path
 
 import numpy as np
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import sizing
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines.event import sizing
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 from gaz_cli.theory import contact_value, z_klm
 
 C_SHELL = 1.5
@@ -268,11 +268,11 @@ def run_c(binary: Path, where: Path) -> dict:
 _WORKER = """
 import dataclasses, json, sys, time
 import numpy as np
-from gaz_cli import engine
-from gaz_cli.recording import Recorder, State
-from gaz_cli.scene import Scene
+from gaz_cli.engines import event as engine
+from gaz_cli.model.recording import Recorder, State
+from gaz_cli.model.scene import Scene
 from gaz_cli.constants import K_B
-from gaz_cli.species import Species
+from gaz_cli.model.species import Species
 a = np.load(sys.argv[1])
 n, length, duration = int(a["n"]), float(a["length"]), float(a["duration"])
 search, boundary = (sys.argv[3], sys.argv[4]) if len(sys.argv) > 4 else ("lists", "periodic")

@@ -19,11 +19,12 @@ import os
 import statistics
 import time
 
-from gaz_cli import stepper, theory
+from gaz_cli import theory
+from gaz_cli.engines import step as stepper
 from gaz_cli.constants import K_B
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 
 REPEATS = 5
 

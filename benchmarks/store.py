@@ -48,10 +48,10 @@ from dataclasses import replace
 import numpy as np
 import sqlalchemy as sa
 
-from gaz_cli import store as st
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import lookup
+from gaz_cli.results import store as st
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import lookup
 
 CHUNK = 1 << 16
 

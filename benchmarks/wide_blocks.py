@@ -1,6 +1,6 @@
-"""The mean number of wide cells a scan covers, the table gaz_cli.engine.sizing.PATH_BLOCKS.
+"""The mean number of wide cells a scan covers, the table gaz_cli.engines.event.sizing.PATH_BLOCKS.
 
-A scan of wide cells (gaz_cli.engine.neighbours.wide._path_block) covers the cells that meet
+A scan of wide cells (gaz_cli.engines.event.neighbours.wide._path_block) covers the cells that meet
 the bounding box of the particle's path to its exit from its cell, widened by the reach.
 This script draws paths in a cell of width 1 (isotropic directions; from a uniform point of
 the cell, as after a course change, or from a uniform point of a face, moving in, as at a

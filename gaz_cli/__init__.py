@@ -15,8 +15,8 @@ __version__ = "0.1.0"
 _LAZY = {
     "make_scene": "gaz_cli.api", "load_scene": "gaz_cli.api", "write_scene": "gaz_cli.api",
     "scene_text": "gaz_cli.api", "simulate": "gaz_cli.api", "open_store": "gaz_cli.api",
-    "analyse": "gaz_cli.api", "sweep": "gaz_cli.api", "versus": "gaz_cli.api", "Run": "gaz_cli.runner", "Scene": "gaz_cli.scene", "State": "gaz_cli.scene",
-    "Species": "gaz_cli.species",
+    "analyse": "gaz_cli.api", "sweep": "gaz_cli.api", "versus": "gaz_cli.api", "Run": "gaz_cli.run.runner", "Scene": "gaz_cli.model.scene", "State": "gaz_cli.model.scene",
+    "Species": "gaz_cli.model.species",
     **{name: "gaz_cli.errors" for name in ("GazError", "SceneError", "StoreError", "PlacementError", "OutputError",
                                            "EngineError", "QueryError", "Interrupted", "GazWarning")},
 }

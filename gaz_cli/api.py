@@ -7,15 +7,15 @@ Exposed at the package's top level (``import gaz_cli as gaz``; see README "From 
     run.summary["pressure"], run.state.positions, run.bounces["t"]
     gaz.simulate(scene, db="gaz.db"); frames = gaz.analyse("gaz.db", sim=1)
 
-Every scene goes through :func:`gaz_cli.scene.validate`, as it does from the command line.
+Every scene goes through :func:`gaz_cli.model.scene.validate`, as it does from the command line.
 """
 
 from __future__ import annotations
 
-from gaz_cli import scenefile
+from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
-from gaz_cli.runner import Run, run_scene
-from gaz_cli.scene import Scene
+from gaz_cli.run.runner import Run, run_scene
+from gaz_cli.model.scene import Scene
 
 __all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", "open_store", "analyse",
            "sweep", "versus", "Run"]
@@ -31,7 +31,7 @@ def make_scene(*, species, **keys) -> Scene:
     a list of ``{"point", "normal", "restitution"}`` tables.
     """
     if isinstance(species, str):
-        from gaz_cli.species import parse_mixture
+        from gaz_cli.model.species import parse_mixture
 
         entries = [{"name": sp.name, "count": k} for sp, k in parse_mixture(species, None)]
     elif isinstance(species, dict):
@@ -54,7 +54,7 @@ def load_scene(path) -> Scene:
 
 def write_scene(path, scene: Scene) -> None:
     """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
-    the door refuses (:func:`gaz_cli.scene.validate`, SceneError) is not written."""
+    the door refuses (:func:`gaz_cli.model.scene.validate`, SceneError) is not written."""
     _checked(scene, path)
     scenefile.write(path, scene)
 
@@ -68,7 +68,7 @@ def scene_text(scene: Scene) -> str:
 def _checked(scene, path=None) -> None:
     """Refuse what :func:`load_scene` would refuse of the file: no Scene, or an invalid one
     (a Scene made by hand, not through :func:`make_scene`)."""
-    from gaz_cli.scene import validate
+    from gaz_cli.model.scene import validate
 
     scenefile.require_scene(scene, path)
     validate(scene)
@@ -78,7 +78,7 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
              keep_collisions: bool = False, trajectory: str | None = None, every: float | None = None,
              save_state: str | None = None, write_scene: str | None = None, diagnostics=None,
              progress: bool = False) -> Run:
-    """Run ``scene``; returns a :class:`~gaz_cli.runner.Run`: ``summary`` (dict), and the final
+    """Run ``scene``; returns a :class:`~gaz_cli.run.runner.Run`: ``summary`` (dict), and the final
     ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
 
     ``db``: store the run there (a path or SQLAlchemy URL; None: no database). A scene
@@ -94,9 +94,9 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
 
 
 def open_store(db: str, create: bool = False):
-    """The results database ``db`` (:class:`gaz_cli.store.Store`; a context manager).
+    """The results database ``db`` (:class:`gaz_cli.results.store.Store`; a context manager).
     ``create=False`` refuses to make a new one."""
-    from gaz_cli.store import Store
+    from gaz_cli.results.store import Store
 
     return Store(db, create=create)
 
@@ -104,7 +104,7 @@ def open_store(db: str, create: bool = False):
 def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
     """What ``gaz analyse`` prints: table title -> pandas DataFrame (or dict of scalars).
     ``plot``: a folder for PNG figures."""
-    from gaz_cli import analysis
+    from gaz_cli.analysis import report as analysis
 
     return analysis.report(db, sim=sim, plot_dir=plot)
 
@@ -116,7 +116,8 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
     Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed).
     One ``vary`` may be given as a string."""
-    from gaz_cli import scenefile, sweeps
+    from gaz_cli.scenes import files as scenefile
+    from gaz_cli.run import sweeps
 
     if isinstance(vary, str):
         vary = [vary]
@@ -132,8 +133,8 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
 def versus(db: str, key: str, plot: str | None = None):
     """What ``gaz analyse --vs KEY`` prints: per value of ``key`` the mean over the runs (seeds),
     its standard error and theory (a DataFrame); ``plot``: a folder for the figures."""
-    from gaz_cli import studies
-    from gaz_cli.analysis import interruptible
+    from gaz_cli.analysis import studies
+    from gaz_cli.analysis.report import interruptible
 
     with interruptible(plot):
         with open_store(db) as store:

@@ -17,7 +17,7 @@ import warnings
 import click
 
 from gaz_cli import __version__, interrupts
-from gaz_cli.engines import CHOICES as ENGINE_CHOICES
+from gaz_cli.engines.registry import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import GazError, GazWarning
 
 FORMATS = ("table", "csv", "json")
@@ -202,8 +202,8 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
       gaz place --dim 1 --n 5 --radius 0.5 --length 10 --seed 1
       gaz place --dim 1 --n 2 --radius 1 --length 10 --repeat 20000 --bins 40 --histogram q12.png
     """
-    from gaz_cli import analysis
-    from gaz_cli.scene import check_placement
+    from gaz_cli.analysis import report as analysis
+    from gaz_cli.model.scene import check_placement
 
     check_placement(dim, n, radius, length)
     if repeat is None:
@@ -311,10 +311,13 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
       gaz simulate --dim 3 --n 4000 --boundary periodic --length 2e-8 --duration 1e-10 --record none
       gaz simulate examples/exam.toml --seed 7 --write-scene run.toml
     """
-    from gaz_cli import api, options as opts, progress, runner, scenefile
+    from gaz_cli import api, progress
+    from gaz_cli.scenes import options as opts
+    from gaz_cli.run import runner
+    from gaz_cli.scenes import files as scenefile
 
     if no_db and db is not None:
-        from gaz_cli.store import shown
+        from gaz_cli.results.store import shown
 
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
@@ -347,7 +350,7 @@ def scene_command(si_num, db):
       gaz scene 1 --db gaz.db > again.toml
       gaz simulate again.toml --db again.db
     """
-    from gaz_cli import scenefile
+    from gaz_cli.scenes import files as scenefile
 
     click.echo(scenefile.stored(db, si_num), nl=False)
 
@@ -395,7 +398,8 @@ def analyse(db, sim, fmt, plot, table, vs):
       gaz analyse --db iso.db --vs packing --plot figs      # after gaz sweep
     """
     with interrupts.saying(interrupts.STOPPED_ANALYSIS):    # a second of imports
-        from gaz_cli import analysis, api
+        from gaz_cli import api
+        from gaz_cli.analysis import report as analysis
 
     if vs is not None:
         if sim is not None or table is not None:
@@ -471,7 +475,7 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
             for p, status, si_num, why in report.rows]
     emit_frames({"runs": pd.DataFrame(rows)}, fmt)
     counts = ", ".join(f"{report.count(s)} {s}" for s in ("stored", "skipped", "failed"))
-    from gaz_cli.store import shown
+    from gaz_cli.results.store import shown
 
     click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {shown(report.db)})", err=True)
     if report.failed:
@@ -499,7 +503,7 @@ def query(name, db, params, fmt, list_only):
       gaz query q34 --db gaz.db
       gaz query q36 --param si_num=1 --db gaz.db --format csv
     """
-    from gaz_cli import queries
+    from gaz_cli.results import queries
 
     if list_only:
         import pandas as pd
@@ -544,7 +548,7 @@ def animate(trajectory, output, fps):
       gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
       gaz animate run.h5 -o run.gif
     """
-    from gaz_cli import animate as anim
+    from gaz_cli.outputs import animate as anim
 
     output = os.path.splitext(trajectory)[0] + ".gif" if output is None else output
     anim.check_output(output)
@@ -610,7 +614,7 @@ def main(argv=None) -> None:
         click.echo(f"{prog}: error: {exc.format_message()}", err=True)
         sys.exit(exc.exit_code)
     except GazError as exc:
-        from gaz_cli.options import message
+        from gaz_cli.scenes.options import message
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)

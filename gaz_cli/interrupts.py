@@ -1,7 +1,7 @@
 """SIGINT and SIGTERM during a run: an exception that is not lost, and held over writes
 that must not be cut in half.
 
-- :func:`catching` (around a whole run, :func:`gaz_cli.runner.simulate`):
+- :func:`catching` (around a whole run, :func:`gaz_cli.run.runner.simulate`):
   both signals raise :class:`~gaz_cli.errors.Interrupted`, so that the run
   unwinds and rolls back as for Ctrl-C. A signal landing while Python runs a
   weakref callback or a ``__del__`` sees its exception printed and dropped

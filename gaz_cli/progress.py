@@ -1,7 +1,7 @@
 """Progress of a long run on a terminal: a one-line notice while the engine compiles, then
 a bar of simulated time done, events per second and time left.
 
-:class:`Progress` is a :class:`~gaz_cli.recording.Recorder` that wants no rows, only
+:class:`Progress` is a :class:`~gaz_cli.model.recording.Recorder` that wants no rows, only
 the engines' progress reports: an engine calls ``progress(t, events)`` once its
 kernels are compiled (or loaded from Numba's cache) and then after each kernel
 call (about every :data:`EVENTS_PER_REPORT` events, or the step engine's time
@@ -31,7 +31,7 @@ import time
 
 import click
 
-from gaz_cli.recording import Recorder
+from gaz_cli.model.recording import Recorder
 
 AFTER_S = float(os.environ.get("GAZ_PROGRESS_AFTER", "1.0"))
 """Seconds before the bar (or the compile notice) appears. GAZ_PROGRESS_AFTER overrides

@@ -15,8 +15,8 @@ except ImportError:  # pragma: no cover - hypothesis is in the test extra
     _hypothesis_settings = None
 
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species, lookup
 
 UNIT = Species("unit", 1.0, 0.5)
 """A particle of mass 1 kg and diameter 1 m: with temperature 1/K_B, k_B T = m = sigma = 1."""
@@ -70,7 +70,7 @@ if _hypothesis_settings is not None:
     _hypothesis_settings.load_profile("gaz")
 
 KERNEL_RTOL = 64 * np.finfo(float).eps
-"""An engine kernel against its twin in gaz_cli.reference (pair time against tc, wall time
+"""An engine kernel against its twin in gaz_cli.engines.reference (pair time against tc, wall time
 against tr, collision against choc, flight against vol), relative. Error model: the two
 evaluate the same closed form in another order (the pair time's discriminant by Lagrange's
 identity against b^2 - a c, the impulse along dx / |dx|^2 against a unit normal), each side

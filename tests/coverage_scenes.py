@@ -13,10 +13,11 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from gaz_cli import analysis, runner
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species, lookup
 
 KT = 1.0
 

@@ -3,7 +3,7 @@
 Shared by ``tests/test_stress.py`` (short variants, in the default suite) and
 ``benchmarks/stress.py`` (long variants, the table of docs/stability.md): one
 builder per scene takes a size ("ci" or "long") and returns a :class:`Case`;
-:func:`run_checked` runs it through :func:`gaz_cli.engine.run` with a
+:func:`run_checked` runs it through :func:`gaz_cli.engines.event.run` with a
 :class:`Checker` recorder that asserts, while the run goes on,
 
 * event times non-decreasing, within [t0, t0 + duration] (each stream: REBOND
@@ -37,13 +37,14 @@ from fractions import Fraction
 import numpy as np
 from scipy.spatial import cKDTree
 
-from gaz_cli import engine, theory
+from gaz_cli import theory
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver
+from gaz_cli.engines.event import driver
 from gaz_cli.errors import GazError
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, State, default_tc, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, State, default_tc, initial_state
+from gaz_cli.model.species import Species
 
 # --- tolerances, one per kind of comparison, each with its error model -------------------
 

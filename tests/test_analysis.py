@@ -1,4 +1,4 @@
-"""gaz_cli.analysis and gaz_cli.plots on data with known answers (fast; no engine needed).
+"""gaz_cli.analysis.report and gaz_cli.analysis.plots on data with known answers (fast; no engine needed).
 
 The databases here are written through the store's own writer with
 synthetic wall hits of an ideal gas drawn from the flux-weighted laws of
@@ -16,13 +16,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from gaz_cli import analysis, errorbars, theory
+from gaz_cli import theory
+from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import errorbars
 from gaz_cli.constants import K_B
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import Scene, State
-from gaz_cli.species import Species
-from gaz_cli.store import Store
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.model.species import Species
+from gaz_cli.results.store import Store
 
 from cli_helpers import invoke
 

@@ -14,11 +14,12 @@ import pandas as pd
 import pytest
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
-from gaz_cli import analysis, errorbars
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import initial_state
-from gaz_cli.species import BUILTIN
-from gaz_cli.store import Store, rebond
+from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import errorbars
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import initial_state
+from gaz_cli.model.species import BUILTIN
+from gaz_cli.results.store import Store, rebond
 
 both = pytest.mark.parametrize("backend", BACKENDS, indirect=True)
 K = 6000

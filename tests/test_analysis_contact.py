@@ -17,10 +17,11 @@ import math
 
 import pytest
 
-from gaz_cli import analysis, runner
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species
 
 SMALL, LARGE = Species("A", 1.0, 0.05), Species("B", 3.0, 0.08)
 

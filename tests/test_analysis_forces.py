@@ -13,9 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import analysis, runner
-from gaz_cli.scene import Scene
-from gaz_cli.species import lookup
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import lookup
 
 ARGON = lookup("Ar")
 

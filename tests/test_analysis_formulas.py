@@ -15,11 +15,13 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import analysis, runner, theory
+from gaz_cli import theory
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species
-from gaz_cli.store import Store
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species
+from gaz_cli.results.store import Store
 
 ROUNDING = 1e-12
 """Relative tolerance: the same sums, added in another order."""

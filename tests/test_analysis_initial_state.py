@@ -11,10 +11,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaz_cli import analysis, runner
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species
 
 DISK = Species("A", 1.0, 0.02)
 
@@ -60,8 +61,8 @@ def test_walls_take_the_drift_as_heat(tmp_path):
 def test_vs_takes_the_peculiar_temperature_too(tmp_path):
     """gaz analyse --vs temperature over the drifting periodic run printed Z 1.037 against 1.184,
     Z_DEV_SIGMA -124: its temperature counted the drift as heat."""
-    from gaz_cli import studies
-    from gaz_cli.store import Store
+    from gaz_cli.analysis import studies
+    from gaz_cli.results.store import Store
 
     db = str(tmp_path / "x.db")
     scene, _ = _explicit((3.0, -1.0))

@@ -10,10 +10,11 @@ import math
 
 import numpy as np
 
-from gaz_cli import analysis, runner
+from gaz_cli.analysis import report as analysis
+from gaz_cli.run import runner
 from gaz_cli.constants import K_B
-from gaz_cli.scene import Scene
-from gaz_cli.species import Species
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species
 
 
 def _rods(seed, heavy=1.0, duration=20.0):

@@ -13,13 +13,15 @@ import textwrap
 
 import pytest
 
-from gaz_cli import runner
-from gaz_cli.scene import Scene
-from gaz_cli.species import lookup
+from gaz_cli.run import runner
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import lookup
 
 CHILD = textwrap.dedent("""
     import os, signal, sys
-    from gaz_cli import analysis, cli, studies
+    from gaz_cli import cli
+    from gaz_cli.analysis import report as analysis
+    from gaz_cli.analysis import studies
 
     signum = int(sys.argv[1])
     target = analysis if sys.argv[2] == "load_run" else studies
@@ -82,7 +84,7 @@ EARLY_CHILD = textwrap.dedent("""
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
-@pytest.mark.parametrize("module", ["numpy", "gaz_cli.analysis"])
+@pytest.mark.parametrize("module", ["numpy", "gaz_cli.analysis.report"])
 def test_a_signal_during_analyses_imports_is_one_line(db, signum, module):
     """The signal lands while ``gaz analyse`` imports NumPy (the first of about a second of
     imports) or the analysis module: the process sends it to itself from the import system, so

@@ -8,9 +8,9 @@ import sqlite3
 import pytest
 
 from cli_helpers import invoke
-from gaz_cli import runner
-from gaz_cli.scene import Scene
-from gaz_cli.species import lookup
+from gaz_cli.run import runner
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import lookup
 
 
 @pytest.fixture(scope="module")

@@ -106,7 +106,7 @@ def test_a_scene_the_door_refuses_is_not_written(tmp_path):
     docstring promises a file that reads back. Now the same SceneError, and no file; a valid
     scene made by hand is written and reads back."""
     import gaz_cli as gaz
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.model.species import BUILTIN
 
     bad = gaz.Scene(dim=2, length=1e-7, duration=-1.0, components=((BUILTIN["Ar"], 5),), seed=1)
     with pytest.raises(gaz.SceneError, match="duration must be a positive number, got -1.0"):

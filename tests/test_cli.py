@@ -280,7 +280,7 @@ def test_help_teaches():
 def test_analyse_help_names_every_table_that_table_takes():
     """gaz analyse --help listed the --table names without 'contact', which --table accepts
     (a mixture's contact values per pair of species): a reader of the help could not find it."""
-    from gaz_cli import analysis
+    from gaz_cli.analysis import report as analysis
 
     text = " ".join(invoke(["analyse", "--help"]).stdout.split())
     listed = text.split("NAME: ", 1)[1].split(".", 1)[0].split(", ")
@@ -314,7 +314,7 @@ def test_place_help_does_not_promise_a_recorded_seed():
 def test_a_run_that_met_overlapping_pairs_says_so(monkeypatch):
     """The engine counts collisions found already overlapping (a missed collision, or an
     overlapping start); simulate reports them on stderr, the results still on stdout."""
-    from gaz_cli.engine import driver
+    from gaz_cli.engines.event import driver
 
     real = driver._Simulation._load
 

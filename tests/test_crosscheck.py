@@ -1,4 +1,4 @@
-"""The fast engine against the exam's algorithm (gaz_cli/reference.py), event by event.
+"""The fast engine against the exam's algorithm (gaz_cli/engines/reference.py), event by event.
 
 The initial state depends on the scene and its seed only; from it both
 engines must produce the same sequence of events — the same particles, the
@@ -14,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 
-reference = pytest.importorskip("gaz_cli.reference")
+reference = pytest.importorskip("gaz_cli.engines.reference")
 
 EVENTS = 300
 

@@ -1,4 +1,4 @@
-"""The SQLite writer's early insert (gaz_cli.sqlite_writer._EarlyInsert): a run's rows inserted
+"""The SQLite writer's early insert (gaz_cli.results.sqlite._EarlyInsert): a run's rows inserted
 by a thread while its engine runs give the same database as the staged commit; a run holding
 the write lock past the bound gives it back (another writer gets in) and still stores every
 row; a failure in the thread or an interrupt leaves no row, no lock, no thread, and one error."""
@@ -14,12 +14,14 @@ import pytest
 from conftest import random_rows
 from test_sqlite_writer import STARTED, content, runs, write
 
-from gaz_cli import runner, sqlite_writer, staging
-from gaz_cli.engine import driver
+from gaz_cli.run import runner
+from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import staging
+from gaz_cli.engines.event import driver
 from gaz_cli.errors import Interrupted, StoreError
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species, lookup
 
 
 def forbid(monkeypatch, obj, name):
@@ -32,8 +34,8 @@ def forbid(monkeypatch, obj, name):
 
 def existing(path) -> str:
     """A gaz database at ``path``, made before the run (a new one is made under a name of its
-    own until its first commit, gaz_cli.sqlite_writer.SqliteFile): these tests share its lock."""
-    from gaz_cli.store import Store
+    own until its first commit, gaz_cli.results.sqlite.SqliteFile): these tests share its lock."""
+    from gaz_cli.results.store import Store
 
     Store(str(path)).close()
     return str(path)

@@ -16,13 +16,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver
+from gaz_cli.engines.event import driver
 from gaz_cli.errors import EngineError, SceneError
-from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, State, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import MemoryRecorder, Recorder
+from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.species import Species
 
 UNIT_T = 1.0 / K_B
 """Temperature giving k_B T = 1 J: with m = 1 kg, unit thermal speed."""

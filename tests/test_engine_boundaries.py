@@ -1,4 +1,4 @@
-"""gaz_cli.engine.boundaries, kernel by kernel: the wall time against the exam's ``tr``, the
+"""gaz_cli.engines.event.boundaries, kernel by kernel: the wall time against the exam's ``tr``, the
 bounce against ``rebond``, the periodic wrap and nearest image against their definitions."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from conftest import KERNEL_RTOL
 
-from gaz_cli import reference
-from gaz_cli.engine.boundaries import _bounce, _crossing, _nearest, _wrap
-from gaz_cli.engine.layout import I_WIDTH, P_WIDTH, PR, PT, PV
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.boundaries import _bounce, _crossing, _nearest, _wrap
+from gaz_cli.engines.event.layout import I_WIDTH, P_WIDTH, PR, PT, PV
 
 L = 10.0
 

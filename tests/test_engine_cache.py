@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import gaz_cli
-from gaz_cli.engine.intrinsics import kernel_sources, sources_digest
+from gaz_cli.engines.event.intrinsics import kernel_sources, sources_digest
 
 PACKAGE = Path(gaz_cli.__file__).parent
 
@@ -32,10 +32,10 @@ def test_digest_follows_an_edit_in_a_new_sub_package(tree):
     deep = tree / "gaz_cli" / "engine" / "neighbours" / "deep"
     deep.mkdir()
     (deep / "__init__.py").write_text('"""A nested package."""\n', encoding="utf-8")
-    (deep / "helpers.py").write_text("from gaz_cli.engine.intrinsics import _inline\n\n\n"
+    (deep / "helpers.py").write_text("from gaz_cli.engines.event.intrinsics import _inline\n\n\n"
                                      "@_inline\ndef _x(a):\n    return a\n", encoding="utf-8")
     _edit(tree / "gaz_cli" / "engine" / "loop.py",
-          "\nfrom gaz_cli.engine.neighbours.deep.helpers import _x  # noqa: E402,F401\n")
+          "\nfrom gaz_cli.engines.event.neighbours.deep.helpers import _x  # noqa: E402,F401\n")
     before = sources_digest(tree)
     _edit(deep / "helpers.py", "\n\n@_inline\ndef _y(a):\n    return a + 1\n")
     assert sources_digest(tree) != before
@@ -50,15 +50,15 @@ def test_digest_follows_the_numba_options(tree):
 def test_digest_ignores_the_python_side(tree):
     # the driver, sizing and the CLI are Python only: editing them needs no recompilation
     before = sources_digest(tree)
-    for name in ("engine/driver.py", "engine/sizing.py", "cli.py"):
+    for name in ("engines/event/driver.py", "engines/event/sizing.py", "cli.py"):
         _edit(tree / "gaz_cli" / name)
     assert sources_digest(tree) == before
 
 
 def test_sources_are_the_modules_the_loop_imports():
     """The set read from the import lines equals the modules Python loads with the loop (a
-    fresh interpreter importing gaz_cli.engine.loop; package __init__ files aside)."""
-    code = ("import json, sys; import gaz_cli.engine.loop; print(json.dumps(sorted("
+    fresh interpreter importing gaz_cli.engines.event.loop; package __init__ files aside)."""
+    code = ("import json, sys; import gaz_cli.engines.event.loop; print(json.dumps(sorted("
             "m.__file__ for n, m in sys.modules.items() if n.startswith('gaz_cli') "
             "and getattr(m, '__file__', None) and not m.__file__.endswith('__init__.py'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

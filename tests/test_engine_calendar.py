@@ -1,4 +1,4 @@
-"""gaz_cli.engine.calendar: the calendar queue gives the events in the order of the exam's
+"""gaz_cli.engines.event.calendar: the calendar queue gives the events in the order of the exam's
 sorted catalogue (``reference.ajoutEv``), whatever its shape, with entries moved and removed
 as the event loop moves and removes them."""
 
@@ -7,10 +7,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaz_cli import reference
-from gaz_cli.engine.calendar import (_build_queue, _heap_remove, _next_bucket, _q_insert,
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.calendar import (_build_queue, _heap_remove, _next_bucket, _q_insert,
                                      _q_remove)
-from gaz_cli.engine.layout import NONE, QB, STATE
+from gaz_cli.engines.event.layout import NONE, QB, STATE
 
 
 class Calendar:

@@ -1,4 +1,4 @@
-"""gaz_cli.engine.neighbours.cells: cell assignment and moves keep the cell table exact, and
+"""gaz_cli.engines.event.neighbours.cells: cell assignment and moves keep the cell table exact, and
 a scan (gather, then pair times) finds the earliest collision the exam's ``tc`` finds among
 the particles of the 3^D cells around."""
 
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from conftest import KERNEL_RTOL
 
-from gaz_cli import reference
-from gaz_cli.engine.layout import (C0, CELL, DONE, GATHER_SLOTS, I_WIDTH, INF, NEW, P_WIDTH,
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.layout import (C0, CELL, DONE, GATHER_SLOTS, I_WIDTH, INF, NEW, P_WIDTH,
                                    PR, PT, PV, SLOT)
-from gaz_cli.engine.neighbours.cells import (_assign_cells, _cell_of, _gather_cells, _move,
+from gaz_cli.engines.event.neighbours.cells import (_assign_cells, _cell_of, _gather_cells, _move,
                                              _scan_gathered)
 
 L = 10.0

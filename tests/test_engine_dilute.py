@@ -1,5 +1,5 @@
-"""The dilute scan (gaz_cli.engine.neighbours.dilute): every particle scans all the others,
-no cells; and when 'auto' takes it (gaz_cli.engine.sizing.use_dilute_scan)."""
+"""The dilute scan (gaz_cli.engines.event.neighbours.dilute): every particle scans all the others,
+no cells; and when 'auto' takes it (gaz_cli.engines.event.sizing.use_dilute_scan)."""
 
 from __future__ import annotations
 
@@ -11,15 +11,15 @@ import numpy as np
 import pytest
 from test_event_engine import assert_inside, assert_same_events_as_the_exam, min_gap, unit_scene
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
-from gaz_cli.engine.layout import PR, PT, PV
-from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE, XS_ROWS, _keep, _mirror_all
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species, lookup
+from gaz_cli.engines.event.dynamics import _relative_at
+from gaz_cli.engines.event.interactions import _pair_time
+from gaz_cli.engines.event.layout import PR, PT, PV
+from gaz_cli.engines.event.neighbours.dilute import KEEP, XC_SIZE, XS_ROWS, _keep, _mirror_all
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species, lookup
 
 DILUTE = {"neighbours": "dilute"}
 
@@ -134,7 +134,7 @@ def test_auto_weighs_a_mixture_by_its_own_packing():
 
 def test_unknown_neighbour_search_is_refused():
     """At the one door (scene.validate), naming the choices; the engine assumes a valid scene."""
-    from gaz_cli.scene import validate
+    from gaz_cli.model.scene import validate
 
     scene = readme_scene(extras={"neighbours": "sparse"})
     with pytest.raises(ValueError, match="is not one of auto, cells, lists, dilute"):

@@ -1,4 +1,4 @@
-"""gaz_cli.engine.dynamics, kernel by kernel: a row's flight against the exam's ``vol`` (and
+"""gaz_cli.engines.event.dynamics, kernel by kernel: a row's flight against the exam's ``vol`` (and
 the parabola under gravity), and the state of every row at a time."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from conftest import KERNEL_RTOL
 
-from gaz_cli import reference
-from gaz_cli.engine.dynamics import _advance, _state_at
-from gaz_cli.engine.layout import P_WIDTH, PT, PV
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.dynamics import _advance, _state_at
+from gaz_cli.engines.event.layout import P_WIDTH, PT, PV
 
 
 def _rows(rng, n, dim):

@@ -1,4 +1,4 @@
-"""gaz_cli.engine.interactions, kernel by kernel, against the exam's twins in reference.py.
+"""gaz_cli.engines.event.interactions, kernel by kernel, against the exam's twins in reference.py.
 
 ``_pair_dt`` (the hard-sphere pair time) against ``tc``, ``_collide`` (the collision rule)
 against ``choc``; tolerance KERNEL_RTOL (conftest.py, with its error model).
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from conftest import KERNEL_RTOL
 
-from gaz_cli import reference
-from gaz_cli.engine.interactions import _collide, _pair_dt
-from gaz_cli.engine.layout import P_WIDTH, PR, PT, PV
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.interactions import _collide, _pair_dt
+from gaz_cli.engines.event.layout import P_WIDTH, PR, PT, PV
 
 DRAWS = 200
 
@@ -158,7 +158,7 @@ def test_pair_time_within_a_horizon_is_the_pair_time_or_inf(dim):
     """The scans' cheap rejection (_pair_time_within) changes no answer: the pair time when
     contact comes within the horizon, inf when it comes after, when the pair recedes or
     misses; an overlapping approaching pair touches at once whatever the horizon."""
-    from gaz_cli.engine.interactions import _pair_time_within
+    from gaz_cli.engines.event.interactions import _pair_time_within
 
     rng = np.random.default_rng(5)
     sigma, pp = 1.0, (1.0, 0.0)

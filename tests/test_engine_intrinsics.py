@@ -1,4 +1,4 @@
-"""The engine's Numba intrinsics that compute something (gaz_cli.engine.intrinsics): the
+"""The engine's Numba intrinsics that compute something (gaz_cli.engines.event.intrinsics): the
 eight-verdict mask of the float32 rejection pass (_kept8) and the lowest set bit
 (_lowest), against numpy on the same values, edge values included."""
 
@@ -8,7 +8,7 @@ import numba
 import numpy as np
 import pytest
 
-from gaz_cli.engine.intrinsics import _kept8, _lowest
+from gaz_cli.engines.event.intrinsics import _kept8, _lowest
 
 
 @numba.njit  # (not cached: Numba's cache would not see a change of the intrinsics)

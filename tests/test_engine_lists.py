@@ -1,4 +1,4 @@
-"""gaz_cli.engine.neighbours.lists and .line: a neighbour list holds exactly the particles
+"""gaz_cli.engines.event.neighbours.lists and .line: a neighbour list holds exactly the particles
 within R_k + R_m + 2h of its centre, its scan finds the exam's ``tc`` earliest among them,
 and a rod's scan the earliest of its two neighbours on the line."""
 
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from conftest import KERNEL_RTOL
 
-from gaz_cli import reference
-from gaz_cli.engine.layout import CNT, DONE, GATHER_SLOTS, I_WIDTH, INF, P_WIDTH, PR, PT, PV
-from gaz_cli.engine.neighbours.cells import _assign_cells
-from gaz_cli.engine.neighbours.line import _scan_1d
-from gaz_cli.engine.neighbours.lists import _build_nl, _nl_exit, _scan_nl
+from gaz_cli.engines import reference
+from gaz_cli.engines.event.layout import CNT, DONE, GATHER_SLOTS, I_WIDTH, INF, P_WIDTH, PR, PT, PV
+from gaz_cli.engines.event.neighbours.cells import _assign_cells
+from gaz_cli.engines.event.neighbours.line import _scan_1d
+from gaz_cli.engines.event.neighbours.lists import _build_nl, _nl_exit, _scan_nl
 
 L = 10.0
 

@@ -15,12 +15,12 @@ import sys
 import numpy as np
 import pytest
 
-from gaz_cli import engine
-from gaz_cli.engine import driver, memory, sizing
-from gaz_cli.engine import kernels as K
-from gaz_cli.engine.rows import Rows
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import initial_state
+from gaz_cli.engines import event as engine
+from gaz_cli.engines.event import driver, memory, sizing
+from gaz_cli.engines.event import kernels as K
+from gaz_cli.engines.event.rows import Rows
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import initial_state
 
 
 def _run(scene, state):
@@ -205,10 +205,10 @@ def test_space_order_is_the_stable_order_of_the_z_keys():
 
 _PROBE = """
 import sys
-from gaz_cli import engine
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines import event as engine
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
            temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")
 engine.run(sc, initial_state(sc), Recorder())

@@ -1,4 +1,4 @@
-"""Cells per size class (gaz_cli.engine.neighbours.classes): mixtures of very different sizes.
+"""Cells per size class (gaz_cli.engines.event.neighbours.classes): mixtures of very different sizes.
 
 The plan's grids (sizes, the coarse cells' width), the adjacency rule (a pair in contact is
 adjacent), then whole runs: the same events as one grid, no collision missed, energy and
@@ -13,14 +13,14 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import driver, sizing
-from gaz_cli.engine.interactions import pair_reach
-from gaz_cli.engine.neighbours import ball, classes
-from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, State, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines.event import driver, sizing
+from gaz_cli.engines.event.interactions import pair_reach
+from gaz_cli.engines.event.neighbours import ball, classes
+from gaz_cli.model.recording import MemoryRecorder, Recorder
+from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.species import Species
 
 from test_event_engine import HORIZON, assert_inside, event_sequence, time_tolerances
 

@@ -1,5 +1,5 @@
-"""Wide cells scanned by the float32 pass (gaz_cli.engine.neighbours.wide); and when 'auto'
-takes them (gaz_cli.engine.sizing.use_wide_cells)."""
+"""Wide cells scanned by the float32 pass (gaz_cli.engines.event.neighbours.wide); and when 'auto'
+takes them (gaz_cli.engines.event.sizing.use_wide_cells)."""
 
 from __future__ import annotations
 
@@ -14,17 +14,17 @@ from test_engine_dilute import (ENERGY_RTOL, adversarial_rows, assert_exact_runs
 from test_event_engine import (HORIZON, assert_same_events_as_the_exam, event_sequence, min_gap,
                                time_tolerances, unit_scene)
 
-from gaz_cli import engine
-from gaz_cli.engine import sizing
-from gaz_cli.engine.dynamics import _relative_at
-from gaz_cli.engine.interactions import _pair_time
-from gaz_cli.engine.boundaries import _crossing
-from gaz_cli.engine.layout import C0, CELL, I_WIDTH, PR, PT, PV, SLOT, TCOL, TCOL2
-from gaz_cli.engine.neighbours.cells import _assign_cells
-from gaz_cli.engine.neighbours.dilute import KEEP, XC_SIZE
-from gaz_cli.engine.neighbours.wide import _mirror_all, _path_block, _predict_wide
-from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import initial_state
+from gaz_cli.engines import event as engine
+from gaz_cli.engines.event import sizing
+from gaz_cli.engines.event.dynamics import _relative_at
+from gaz_cli.engines.event.interactions import _pair_time
+from gaz_cli.engines.event.boundaries import _crossing
+from gaz_cli.engines.event.layout import C0, CELL, I_WIDTH, PR, PT, PV, SLOT, TCOL, TCOL2
+from gaz_cli.engines.event.neighbours.cells import _assign_cells
+from gaz_cli.engines.event.neighbours.dilute import KEEP, XC_SIZE
+from gaz_cli.engines.event.neighbours.wide import _mirror_all, _path_block, _predict_wide
+from gaz_cli.model.recording import MemoryRecorder, Recorder
+from gaz_cli.model.scene import initial_state
 
 WIDE = {"neighbours": "wide"}
 

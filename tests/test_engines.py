@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from gaz_cli import engines, theory
-from gaz_cli.scene import Scene
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli import theory
+from gaz_cli.engines import registry as engines
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import BUILTIN, Species
 
 ARGON = BUILTIN["Ar"]
 POINT = Species("point", ARGON.mass, 0.0)
@@ -59,7 +60,7 @@ def test_auto_never_picks_a_step_longer_than_the_run():
     """gaz simulate --n 1 --radius 0.01 --mass 1 --length 1 --duration 1 --drag 0.5 (a 1 kg body at
     300 K, 1e-11 m/s) picked dt = 2.5e8 s, 1/50 of its box crossing, then refused it: '--dt
     2.47952e+08 s is longer than --duration 1 s; lower --dt', an option the user never gave."""
-    from gaz_cli.scene import validate
+    from gaz_cli.model.scene import validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=1.0, components=((body, 1),), seed=1, engine="auto",
@@ -75,9 +76,9 @@ def test_auto_steps_falling_bodies_by_their_fall_not_their_thermal_speed():
     warned of pairs left 0.09 sigma apart). The fall across the box sets the speed now."""
     import warnings
 
-    from gaz_cli import stepper
-    from gaz_cli.recording import Recorder
-    from gaz_cli.scene import initial_state, validate
+    from gaz_cli.engines import step as stepper
+    from gaz_cli.model.recording import Recorder
+    from gaz_cli.model.scene import initial_state, validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=0.6, components=((body, 100),), seed=1, engine="auto",
@@ -102,9 +103,9 @@ def test_auto_steps_attracting_bodies_by_their_pull_not_their_thermal_speed():
     (1/50)^2 = 4e-4 of the energy at stake in each close pass, of either sign: over the ~300
     collisions of the run, sqrt(300) x 4e-4 = 0.7 %; 3 % of |E0| leaves room, and the old
     step's error was 160 |E0|."""
-    from gaz_cli import stepper
-    from gaz_cli.recording import Recorder
-    from gaz_cli.scene import initial_state, validate
+    from gaz_cli.engines import step as stepper
+    from gaz_cli.model.recording import Recorder
+    from gaz_cli.model.scene import initial_state, validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=5.0, components=((body, 10),), seed=1, engine="auto",
@@ -133,10 +134,10 @@ def test_a_tiny_run_loads_no_compiled_engine():
             "try:\n    main(['simulate', '--dim', '3', '--n', '100', '--length', '1e-8', '--duration', '1e-12',"
             " '--seed', '1', '--no-db', '--json'])\nexcept SystemExit:\n    pass\n"
             "from gaz_cli import placement\n"
-            "loop = sys.modules.get('gaz_cli.engine.loop')\n"
+            "loop = sys.modules.get('gaz_cli.engines.event.loop')\n"
             "built = loop.build.cache_info().currsize if loop else 0\n"
-            "heavy = ('pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask', 'gaz_cli.engine.driver',"
-            " 'gaz_cli.engine.loop', 'tomllib', 'numba')\n"
+            "heavy = ('pandas', 'sqlalchemy', 'matplotlib', 'h5py', 'dask', 'gaz_cli.engines.event.driver',"
+            " 'gaz_cli.engines.event.loop', 'tomllib', 'numba')\n"
             "print(sorted(m for m in heavy if m in sys.modules), built, placement.rsa._compiled_rsa.cache_info().currsize,"
             " file=sys.stderr)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)

@@ -1,4 +1,4 @@
-"""The error estimator: reblocking and the frozen initial draw (gaz_cli.errorbars)."""
+"""The error estimator: reblocking and the frozen initial draw (gaz_cli.analysis.errorbars)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import errorbars
+from gaz_cli.analysis import errorbars
 
 
 def test_reblocking_of_correlated_noise_covers_the_truth():

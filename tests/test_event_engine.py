@@ -1,6 +1,6 @@
-"""The fast event-driven engine (gaz_cli.engine): exactness, invariants, stability.
+"""The fast event-driven engine (gaz_cli.engines.event): exactness, invariants, stability.
 
-Cross-check against the exam's algorithm (gaz_cli.reference) event by event,
+Cross-check against the exam's algorithm (gaz_cli.engines.reference) event by event,
 then conservation laws, geometry (nobody outside, nobody overlapping) and the
 numerical-stability rules of physics.md §9 on stressed scenes.
 """
@@ -12,11 +12,13 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import engine, reference, theory
+from gaz_cli import theory
+from gaz_cli.engines import event as engine
+from gaz_cli.engines import reference
 from gaz_cli.constants import K_B
-from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, State, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import MemoryRecorder, Recorder
+from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.species import Species
 
 
 def unit_scene(dim, n, radius, duration=1.0, seed=1, **kw):
@@ -365,7 +367,7 @@ def test_neighbour_lists_in_a_tiny_periodic_box_list_each_neighbour_once():
     """Two disks in a periodic box small enough for 2 cells an axis: a list gathers from
     3 cells an axis, so the box gets 3, and each disk lists the other once (with 2 it
     listed it once per image cell). Found by review; the duplicates only cost time."""
-    from gaz_cli.engine import driver
+    from gaz_cli.engines.event import driver
 
     scene = unit_scene(2, 2, 0.1056, duration=3.0, boundary="periodic", seed=2,
                        extras={"neighbours": "lists"})

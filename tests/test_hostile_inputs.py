@@ -263,9 +263,9 @@ def test_a_run_staged_in_a_scratch_file_counts_it_in_the_free_space_asked(tmp_pa
     ignored it. Here ~51,000 bounces on a 6 MiB disk: 2 x 2.4 MB fit in memory; staged (the bound
     lowered to 1000 rows) 2 x 2.4 + 3.6 MB do not, and the line says so."""
     from conftest import mounted_tmpfs
-    from gaz_cli import staging
-    from gaz_cli.scene import Scene, check_database_space
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.results import staging
+    from gaz_cli.model.scene import Scene, check_database_space
+    from gaz_cli.model.species import BUILTIN
 
     scene = Scene(dim=2, length=1e-7, duration=6.5e-7, components=((BUILTIN["Ar"], 20),), seed=2)
     with mounted_tmpfs(tmp_path / "disk", "6M") as disk:

@@ -6,11 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaz_cli import engine, ideal
+from gaz_cli.engines import event as engine
+from gaz_cli.engines import ideal
 from gaz_cli.errors import SceneError
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, initial_state, validate
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, initial_state, validate
+from gaz_cli.model.species import BUILTIN, Species
 
 ARGON = BUILTIN["Ar"]
 POINT = Species("point", ARGON.mass, 0.0)

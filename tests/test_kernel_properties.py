@@ -28,11 +28,12 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 import stress_scenes as S
-from gaz_cli import engine, reference
-from gaz_cli.engine import kernels as K
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, State, default_tc, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines import event as engine
+from gaz_cli.engines import reference
+from gaz_cli.engines.event import kernels as K
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, State, default_tc, initial_state
+from gaz_cli.model.species import Species
 
 EPS = np.finfo(float).eps
 

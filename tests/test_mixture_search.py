@@ -1,4 +1,4 @@
-"""The search a mixture of very different sizes takes (gaz_cli.engine.mixture_cost and the
+"""The search a mixture of very different sizes takes (gaz_cli.engines.event.mixture_cost and the
 driver's _search): the cheapest of size classes, wide cells and the dilute scan in a box with
 walls, never neighbour lists unless forced; wide cells on a mixture give the events of size
 classes."""
@@ -13,13 +13,13 @@ import pytest
 from test_engine_mixtures import min_gap
 from test_event_engine import HORIZON, assert_inside, event_sequence, time_tolerances
 
-from gaz_cli import engine
+from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.engine import mixture_cost
-from gaz_cli.engine.driver import resolved_search
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines.event import mixture_cost
+from gaz_cli.engines.event.driver import resolved_search
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 
 
 def mixture(dim, n_small, n_large, ratio, packing, boundary="walls"):

@@ -17,8 +17,8 @@ import pytest
 from conftest import KERNEL_RTOL
 
 from gaz_cli import placement
-from gaz_cli.engine.interactions import _contact_dt
-from gaz_cli.engine.layout import P_WIDTH, PR, PV
+from gaz_cli.engines.event.interactions import _contact_dt
+from gaz_cli.engines.event.layout import P_WIDTH, PR, PV
 
 DRAWS = 200
 
@@ -138,7 +138,7 @@ def test_growth_stopped_at_a_full_cell_goes_on_as_if_the_cell_had_room(monkeypat
     """The growth kernel returns at a crossing into a full cell (CELL_FULL) and, its table
     widened by the engine's :func:`wider`, goes on where it stopped: the same positions, bit
     for bit, as a growth whose table had room from the start (widened 3 times up front)."""
-    from gaz_cli.engine.neighbours.cells import wider
+    from gaz_cli.engines.event.neighbours.cells import wider
 
     rng = np.random.default_rng(8)
     radii = np.where(rng.random(300) < 0.05, 0.5, 0.15)

@@ -43,7 +43,7 @@ def test_one_size_keeps_the_index_order():
 # --- sizes far apart: the large particles first, then the small ones among them ---------
 from test_placement import _overlapping, assert_valid  # noqa: E402
 
-from gaz_cli.engine.layout import P_WIDTH, PR, PV  # noqa: E402
+from gaz_cli.engines.event.layout import P_WIDTH, PR, PV  # noqa: E402
 from gaz_cli.errors import PlacementError  # noqa: E402
 from gaz_cli.placement import mixture, obstacles  # noqa: E402
 

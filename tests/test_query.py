@@ -8,8 +8,8 @@ import pytest
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
-from gaz_cli import queries
-from gaz_cli import store as st
+from gaz_cli.results import queries
+from gaz_cli.results import store as st
 from gaz_cli.errors import QueryError
 
 QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",

@@ -1,4 +1,4 @@
-"""What engines hand their recorders (gaz_cli.recording.Recorder): arrays the recorder keeps
+"""What engines hand their recorders (gaz_cli.model.recording.Recorder): arrays the recorder keeps
 without a copy, which the engine never touches again."""
 
 from __future__ import annotations
@@ -6,11 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gaz_cli import engines, ideal, stepper
-from gaz_cli.engine import driver
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.engines import registry as engines
+from gaz_cli.engines import ideal
+from gaz_cli.engines import step as stepper
+from gaz_cli.engines.event import driver
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import BUILTIN, Species
 
 ARGON = BUILTIN["Ar"]
 POINT = Species("point", ARGON.mass, 0.0)

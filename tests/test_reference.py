@@ -1,4 +1,4 @@
-"""The exam's functions (gaz_cli/reference.py) checked against physics and brute force."""
+"""The exam's functions (gaz_cli/engines/reference.py) checked against physics and brute force."""
 
 from __future__ import annotations
 
@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gaz_cli import reference as ref
+from gaz_cli.engines import reference as ref
 from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, State, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.species import Species
 
 
 # --------------------------------------------------------------------------

@@ -16,10 +16,10 @@ import pytest
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
 
-from gaz_cli import scenefile
+from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
-from gaz_cli.scene import Scene, initial_state, validate
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.model.scene import Scene, initial_state, validate
+from gaz_cli.model.species import BUILTIN, Species
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -33,10 +33,10 @@ def _rows(db) -> list:
 # --- the module graph -------------------------------------------------------------------------
 def test_importing_the_scene_imports_neither_placement_nor_theory_nor_an_engine():
     """The scene is a description: it must not pull in what it describes (no cycle back)."""
-    code = ("import sys, gaz_cli.scene; print(sorted(m for m in sys.modules if m.startswith('gaz_cli')))")
+    code = ("import sys, gaz_cli.model.scene; print(sorted(m for m in sys.modules if m.startswith('gaz_cli')))")
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    for module in ("gaz_cli.placement", "gaz_cli.theory", "gaz_cli.stepper", "gaz_cli.engine",
-                   "gaz_cli.reference", "gaz_cli.options"):
+    for module in ("gaz_cli.placement", "gaz_cli.theory", "gaz_cli.engines.step", "gaz_cli.engines.event",
+                   "gaz_cli.engines.reference", "gaz_cli.scenes.options"):
         assert f"'{module}'" not in loaded, loaded
 
 
@@ -231,7 +231,7 @@ def test_a_species_name_the_database_cannot_hold_is_refused_at_the_door(tmp_path
 
 @pytest.mark.parametrize("backend", BACKENDS, indirect=True)
 def test_species_names_up_to_64_characters_any_script_are_stored_as_given(backend, tmp_path):
-    from gaz_cli import store as st
+    from gaz_cli.results import store as st
 
     names = ["x" * 64, "Argon \u2603 \u6c29", "a;b=c'd\"e"]  # ',' and ':' are refused (mixtures)
     path = tmp_path / "named.toml"
@@ -365,7 +365,7 @@ def test_a_run_left_on_auto_stores_the_search_it_took_and_reruns_to_its_rows_und
     not 'auto': a later gaz whose cost model (sizing) chooses otherwise reruns the stored
     scene file to the same rows, while a new run on 'auto' takes the other search."""
     from gaz_cli import api
-    from gaz_cli.engine import sizing
+    from gaz_cli.engines.event import sizing
 
     keys = dict(dim=2, length=1.0, duration=1.0, temperature=1.0 / 1.380649e-23, seed=5,
                 engine="event")
@@ -388,8 +388,8 @@ def test_a_run_left_on_auto_stores_the_search_it_took_and_reruns_to_its_rows_und
 
 
 def test_a_search_given_explicitly_is_kept_and_the_skin_of_lists_stored():
-    from gaz_cli.engine import sizing
-    from gaz_cli.runner import prepare
+    from gaz_cli.engines.event import sizing
+    from gaz_cli.run.runner import prepare
 
     base = Scene(dim=3, components=((BUILTIN["Ar"], 400),), length=3.0e-9, duration=1e-13,
                  boundary="periodic", engine="event", seed=1, force=True)

@@ -1,4 +1,4 @@
-"""The SQLite writer without SQLAlchemy (gaz_cli.sqlite_writer): its schema is SQLAlchemy's,
+"""The SQLite writer without SQLAlchemy (gaz_cli.results.sqlite): its schema is SQLAlchemy's,
 its database is the store's table by table, it hands older and foreign databases to the
 store, and a tiny ``gaz simulate --db FILE`` imports neither SQLAlchemy nor pandas.
 
@@ -15,12 +15,13 @@ import numpy as np
 import pytest
 from conftest import random_rows
 
-from gaz_cli import sqlite_writer, staging
-from gaz_cli import store as st
+from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import staging
+from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species, lookup
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species, lookup
 
 STARTED = dt.datetime(2026, 11, 22, 23, 30, 5)
 
@@ -135,7 +136,7 @@ def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch, path):
     """A failure at the commit rolls the whole run back: no SIMULATION, SCENE, COMPOSITION or
     REBOND row, the file consistent; one StoreError line -- while the staged rows move in, or
     when the rows inserted early get their RESULTAT row."""
-    from gaz_cli.store import Store
+    from gaz_cli.results.store import Store
 
     db = tmp_path / "g.db"
     Store(str(db)).close()  # a gaz database (a new one is not created for a run that fails)
@@ -167,7 +168,7 @@ for seed in ("1", "2"):  # a new file, then a file at the current layout
               "--seed", seed, "--db", sys.argv[1], "--json"])
     except SystemExit as exit:
         assert not exit.code, exit.code
-print(sorted(m for m in ("sqlalchemy", "pandas", "matplotlib", "h5py", "dask", "gaz_cli.engine.driver")
+print(sorted(m for m in ("sqlalchemy", "pandas", "matplotlib", "h5py", "dask", "gaz_cli.engines.event.driver")
              if m in sys.modules), file=sys.stderr)
 """
 
@@ -258,7 +259,7 @@ def test_a_signal_stops_the_wait_for_another_writers_lock(tmp_path, phase):
 
     db = tmp_path / "gaz.db"
     scene = runs()[0]
-    from gaz_cli.store import Store
+    from gaz_cli.results.store import Store
 
     Store(str(db)).close()  # a gaz database, at the current schema
     holder = sqlite3.connect(db, isolation_level=None, check_same_thread=False)

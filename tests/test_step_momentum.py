@@ -8,10 +8,10 @@ import warnings
 import numpy as np
 import pytest
 
-from gaz_cli import stepper
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import Species
+from gaz_cli.engines import step as stepper
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import Species
 
 BALL = Species("ball", 1.0, 0.01)
 G = 9.81

@@ -9,10 +9,10 @@ import warnings
 import numpy as np
 import pytest
 
-from gaz_cli import stepper
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, State
-from gaz_cli.species import Species
+from gaz_cli.engines import step as stepper
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.model.species import Species
 
 BALL = Species("ball", 1.0, 0.01)
 BEAD = Species("bead", 1.0, 0.005)

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from gaz_cli import stepper
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, State
-from gaz_cli.species import Species
-from gaz_cli.stepper import kernels
+from gaz_cli.engines import step as stepper
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.model.species import Species
+from gaz_cli.engines.step import kernels
 
 BALL = Species("ball", 1.0, 0.01)
 G = 9.81

@@ -8,13 +8,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gaz_cli import stepper
+from gaz_cli.engines import step as stepper
 from gaz_cli.errors import SceneError
-from gaz_cli.recording import MemoryRecorder, Recorder
-from gaz_cli.scene import Scene, State, initial_state, validate
-from gaz_cli.species import Species
-from gaz_cli.stepper import kernels
-from gaz_cli.stepper.presets import PRESETS
+from gaz_cli.model.recording import MemoryRecorder, Recorder
+from gaz_cli.model.scene import Scene, State, initial_state, validate
+from gaz_cli.model.species import Species
+from gaz_cli.engines.step import kernels
+from gaz_cli.scenes.presets import PRESETS
 
 from cli_helpers import invoke
 
@@ -269,7 +269,7 @@ def test_restitution_removes_the_predicted_energy_in_one_collision():
 
 def test_small_steps_reproduce_the_exact_reference_engine():
     """dt = 1/70 of the mean free time: the same collisions (pairs, times) and bounces as the exam's algorithm."""
-    from gaz_cli import reference
+    from gaz_cli.engines import reference
 
     sc, st = gas(n=45, radius=0.03, duration=0.15, dt=5e-4)  # 60 disks, packing 0.3, tau about 0.036 s
     exact, step = MemoryRecorder(collisions=True), MemoryRecorder(collisions=True)
@@ -654,8 +654,8 @@ def test_a_preset_is_placed_with_the_seed_given_and_refuses_what_it_fixes():
     records), so the stored scene repeats the run; --n sets the number of marbles; flags a
     preset fixes are refused in one line instead of being silently ignored."""
     from gaz_cli.errors import SceneError
-    from gaz_cli.options import from_options
-    from gaz_cli.scene import initial_state
+    from gaz_cli.scenes.options import from_options
+    from gaz_cli.model.scene import initial_state
 
     scene, _ = from_options(preset="marbles", seed=5, n=40)
     state = initial_state(scene)
@@ -679,7 +679,7 @@ def test_a_signal_seen_as_the_kernel_returns_keeps_its_number(monkeypatch):
     exits 143 and says SIGTERM (it said SIGINT and exited 130, one CI run in a few)."""
     import signal
 
-    import gaz_cli.stepper as stepper_mod
+    import gaz_cli.engines.step as stepper_mod
     from gaz_cli.errors import Interrupted
 
     real = stepper_mod._k._advance

@@ -15,11 +15,11 @@ import pytest
 import sqlalchemy as sa
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
-from gaz_cli import store as st
+from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import initial_state
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import initial_state
+from gaz_cli.model.species import BUILTIN, Species
 
 both = pytest.mark.parametrize("backend", BACKENDS, indirect=True)
 
@@ -319,7 +319,7 @@ def test_concurrent_first_opens_create_one_schema(backend):
     gets one schema: one version row, the built-in species once. (Eight: on a loaded host
     8 processes failed in 2 rounds of 30 before sqlite_writer.use_wal waited, in 0 of 40 after.)"""
     # each process imports first, then all open at the same instant
-    code = ("import sys, time; from gaz_cli.store import Store; "
+    code = ("import sys, time; from gaz_cli.results.store import Store; "
             "time.sleep(max(0.0, float(sys.argv[2]) - time.time())); Store(sys.argv[1]).close()")
     start = str(time.time() + 4.0)
     procs = [subprocess.Popen([sys.executable, "-c", code, backend, start], stderr=subprocess.PIPE, text=True)

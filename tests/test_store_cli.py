@@ -18,8 +18,9 @@ import sqlalchemy as sa
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke, wait_for_diagnostics
-from gaz_cli import sqlite_writer, staging
-from gaz_cli import store as st
+from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import staging
+from gaz_cli.results import store as st
 
 # a run of the exam's own engine (no JIT to wait for), a few ms long
 QUICK = ["simulate", "--engine", "reference", "--dim", "2", "--n", "20", "--length", "1e-7",
@@ -83,12 +84,12 @@ def test_eight_writers_one_file_and_a_reader(tmp_path):
 CHILD = textwrap.dedent("""
     import sys
     import numpy as np
-    from gaz_cli import store as st
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, initial_state
-    from gaz_cli.species import lookup
+    from gaz_cli.results import store as st
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.species import lookup
 
-    from gaz_cli import staging
+    from gaz_cli.results import staging
     staging.MEMORY_ROWS = 100_000  # this run's 400 000 rows spill to a scratch file
     import time
     move_in = staging.move_in
@@ -307,7 +308,7 @@ def test_a_failing_summary_commits_nothing(tmp_path, monkeypatch):
     """The summary comes before the commit: when it fails, nothing is committed (it used to
     exit 1 with the simulation committed). It failed for one particle in a periodic box, which
     now runs; a pressure that cannot be computed stands in for it."""
-    from gaz_cli import runner
+    from gaz_cli.run import runner
     from gaz_cli.errors import SceneError
 
     def fails(*args, **kwargs):

@@ -46,7 +46,7 @@ def test_a_file_uri_as_db_is_refused_and_a_dotted_path_is_that_file(tmp_path, mo
 def _interrupted_run(monkeypatch, db):
     """``gaz simulate QUICK --db db`` interrupted by a SIGINT taking effect after the engine,
     before the commit: its result."""
-    from gaz_cli import runner
+    from gaz_cli.run import runner
     from gaz_cli.errors import Interrupted
 
     def interrupted(*args, **kwargs):
@@ -76,10 +76,10 @@ def test_a_run_that_fails_or_is_interrupted_leaves_no_new_database(tmp_path, mon
 def test_two_runs_into_one_new_file_both_land(tmp_path):
     """Two writers open one new file; the second to commit finds it made by the first (its own
     private file cannot take the name) and commits into it: SI_NUM 1 and 2, no file left over."""
-    from gaz_cli import sqlite_writer
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, initial_state
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.results import sqlite as sqlite_writer
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.species import BUILTIN
 
     db = tmp_path / "new.db"
     scene = Scene(dim=2, length=1e-7, duration=2e-10, components=((BUILTIN["Ar"], 20),), seed=1)
@@ -134,14 +134,14 @@ def test_a_new_file_that_cannot_be_completed_stores_nothing_and_says_so(tmp_path
     import errno
     import os
 
-    from gaz_cli import sqlite_writer
+    from gaz_cli.results import sqlite as sqlite_writer
 
     import pytest
 
     from gaz_cli.errors import StoreError
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, initial_state
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.species import BUILTIN
 
     db = tmp_path / "new.db"
     real_exists = os.path.exists
@@ -175,9 +175,9 @@ def test_a_new_files_first_run_lands_whole_and_later_writers_use_wal(tmp_path):
     the file in WAL mode, as every gaz database, so that readers read while gaz writes."""
     import os
 
-    from gaz_cli import runner
-    from gaz_cli.scene import Scene
-    from gaz_cli.species import lookup
+    from gaz_cli.run import runner
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.model.species import lookup
 
     # the README example's gas for 1 ns: ~18,000 bounces, several chunks of the early insert
     scene = Scene(dim=3, length=3.4e-8, duration=1e-9, components=((lookup("Ar"), 1000),), seed=1)
@@ -230,11 +230,11 @@ def test_a_failed_first_run_leaves_a_new_postgresql_database_empty(postgres_db, 
     """A run into a new PostgreSQL database that failed (--save-state on a full disk), was
     interrupted, or failed through the Python API left gaz's ten tables behind, empty. Now
     the database is as it was (no table); a database with runs keeps them, and its tables."""
-    from gaz_cli import runner
-    from gaz_cli import store as st
+    from gaz_cli.run import runner
+    from gaz_cli.results import store as st
     from gaz_cli.errors import Interrupted
-    from gaz_cli.scene import Scene
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.model.species import BUILTIN
 
     res = invoke([*QUICK, "--db", postgres_db, "--save-state", "/dev/full"])  # ENOSPC
     assert res.exit_code == 1 and res.stderr.count("\n") == 1, res.output
@@ -285,10 +285,10 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
     database). Now the new file is made under a private name and takes its own with its first
     run stored: nothing is left by a failed one; a store opened and closed without a run
     still makes the database; two stores opened on one new file both land."""
-    from gaz_cli import store as st
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, initial_state
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.results import store as st
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.species import BUILTIN
 
     monkeypatch.chdir(tmp_path)
     urls = ["sqlite:///x.db?timeout=5", f"sqlite:///file:{tmp_path / 'x.db'}?mode=rwc&uri=true"]
@@ -326,12 +326,12 @@ def test_a_urls_busy_timeout_holds_on_every_path_also_after_a_lost_race(tmp_path
     second run, the file was opened again with none of the URL's options. With the lock held by
     another writer, each path now gives up after the URL's timeout, in one line that says so,
     nothing stored; a timeout that is not a number of seconds is refused before the run."""
-    from gaz_cli import sqlite_writer
-    from gaz_cli import store as st
+    from gaz_cli.results import sqlite as sqlite_writer
+    from gaz_cli.results import store as st
     from gaz_cli.errors import StoreError
-    from gaz_cli.recording import RunStats
-    from gaz_cli.scene import Scene, initial_state
-    from gaz_cli.species import BUILTIN
+    from gaz_cli.model.recording import RunStats
+    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.species import BUILTIN
 
     monkeypatch.chdir(tmp_path)
     # the default made short, so that a writer ignoring the URL fails fast, saying 2 s
@@ -408,7 +408,7 @@ def test_a_gaz_sqlite_file_without_one_of_its_tables_is_refused_before_the_run(t
     db, traj = tmp_path / "a.db", tmp_path / "run.h5"
     assert invoke([*QUICK, "--db", str(db)]).exit_code == 0
     empty = tmp_path / "empty.db"
-    from gaz_cli import store as st
+    from gaz_cli.results import store as st
 
     st.Store(str(empty)).close()  # a database made by the API, no run yet
     for path, table in ((db, "resultat"), (empty, "choc")):
@@ -441,7 +441,7 @@ def test_a_first_run_killed_mid_run_leaves_a_whole_schema_that_the_next_run_uses
     import subprocess
     import sys
 
-    from gaz_cli import store as st
+    from gaz_cli.results import store as st
 
     # the time-stepped engine: its diagnostics on stderr say the run is under way
     child = subprocess.Popen([sys.executable, "-m", "gaz_cli", "simulate", "--engine", "step", "--dt", "1e-12",

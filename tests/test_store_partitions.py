@@ -11,11 +11,11 @@ import pytest
 import sqlalchemy as sa
 
 from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
-from gaz_cli import store as st
+from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import initial_state
-from gaz_cli.species import BUILTIN, Species
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import initial_state
+from gaz_cli.model.species import BUILTIN, Species
 
 pytestmark = pytest.mark.postgres
 

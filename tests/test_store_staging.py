@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 from conftest import random_rows
 
-from gaz_cli import runner, staging, store as st
-from gaz_cli.recording import RunStats
-from gaz_cli.scene import Scene, initial_state
-from gaz_cli.species import lookup
+from gaz_cli.run import runner
+from gaz_cli.results import staging
+from gaz_cli.results import store as st
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.species import lookup
 
 
 def mixture(record="all"):

@@ -196,7 +196,7 @@ def test_gravity_inelastic_bed_comes_to_rest(monkeypatch):
     run ends with one line naming the simulated time reached once the time left would take
     beyond the engine's bound of events (lowered here to keep the test short), instead of
     crawling for hours within the event budget."""
-    from gaz_cli.engine import driver, guards
+    from gaz_cli.engines.event import driver, guards
 
     monkeypatch.setattr(guards, "MAX_PROJECTED_EVENTS", 1e6)
     monkeypatch.setattr(driver, "CHUNK", 1 << 16)
@@ -216,7 +216,7 @@ def test_gravity_inelastic_bed_comes_to_rest(monkeypatch):
 def test_gravity_one_disk_at_rest_on_the_floor(monkeypatch):
     """It stays where it is, or the run is refused in one clear error (the engine's choice:
     simulated time stands still, its stall guard ends the run; its chunks made short here)."""
-    from gaz_cli.engine import driver
+    from gaz_cli.engines.event import driver
 
     monkeypatch.setattr(driver, "CHUNK", 1 << 12)
     monkeypatch.setattr(driver, "FIRST_CHUNK", 1 << 10)

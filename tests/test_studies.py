@@ -7,12 +7,12 @@ import math
 
 import pytest
 
-from gaz_cli import studies
+from gaz_cli.analysis import studies
 from gaz_cli.errors import GazError
-from gaz_cli.runner import simulate
-from gaz_cli.scene import Scene
-from gaz_cli.species import BUILTIN
-from gaz_cli.store import Store
+from gaz_cli.run.runner import simulate
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import BUILTIN
+from gaz_cli.results.store import Store
 
 ARGON = BUILTIN["Ar"]
 N = 50
@@ -98,7 +98,7 @@ def test_theory_curve_is_drawn_apart_from_every_data_series(two_scenes_db):
     import matplotlib.pyplot as plt
     from matplotlib.colors import to_rgba
 
-    from gaz_cli import plots
+    from gaz_cli.analysis import plots
 
     with Store(two_scenes_db, create=False) as store, warnings.catch_warnings():
         warnings.simplefilter("ignore")          # the mixture left out, said in a warning

@@ -10,12 +10,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gaz_cli import sweeps as sweep
+from gaz_cli.run import sweeps as sweep
 from gaz_cli.errors import SceneError
-from gaz_cli.runner import simulate
-from gaz_cli.scene import Scene
-from gaz_cli.species import BUILTIN
-from gaz_cli.store import Store, rebond
+from gaz_cli.run.runner import simulate
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import BUILTIN
+from gaz_cli.results.store import Store, rebond
 
 from backends import postgres_db, postgres_url  # noqa: E402,F401 - fixtures
 
@@ -484,8 +484,8 @@ def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_a
     cluster. One of the runs alone fits."""
     from cli_helpers import invoke
 
-    from gaz_cli.scene import check_database_space
-    from gaz_cli.scenefile import load
+    from gaz_cli.model.scene import check_database_space
+    from gaz_cli.scenes.files import load
 
     scene = _disks_without_a_cluster(tmp_path, monkeypatch)
     db = tiny_disk / "s.db"
@@ -523,7 +523,7 @@ def test_a_sweep_past_32_bit_row_numbers_is_refused_before_its_cluster(tmp_path,
     import sqlalchemy as sa
     from cli_helpers import invoke
 
-    from gaz_cli import store as st
+    from gaz_cli.results import store as st
 
     st.Store(postgres_db).close()
     engine = sa.create_engine(postgres_db)
@@ -686,7 +686,7 @@ def test_the_local_clusters_own_errors_stay_off_the_terminal():
 
     code = textwrap.dedent("""
         import logging
-        from gaz_cli import sweeps
+        from gaz_cli.run import sweeps
         with sweeps._client(workers=1, scheduler=None, runs=1) as client:
             client.run(lambda: logging.getLogger("distributed.worker").error("worker says boom"))
             logging.getLogger("distributed.scheduler").error("scheduler says boom")
@@ -741,7 +741,7 @@ def test_the_help_examples_run_as_written(tmp_path, monkeypatch):
 
     from cli_helpers import invoke
 
-    from gaz_cli.runner import prepare
+    from gaz_cli.run.runner import prepare
 
     examples = _help_examples()
     assert len(examples) >= 2, examples

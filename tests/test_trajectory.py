@@ -8,13 +8,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from gaz_cli import stepper
+from gaz_cli.engines import step as stepper
 from gaz_cli.errors import OutputError, SceneError
-from gaz_cli.recording import MemoryRecorder
-from gaz_cli.scene import Scene, State
-from gaz_cli.species import Species
-from gaz_cli.scene import MAX_SNAPSHOTS, check_outputs
-from gaz_cli.trajectory import open_trajectory, read_h5md, read_trajectory
+from gaz_cli.model.recording import MemoryRecorder
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.model.species import Species
+from gaz_cli.model.scene import MAX_SNAPSHOTS, check_outputs
+from gaz_cli.outputs.trajectory import open_trajectory, read_h5md, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
 
@@ -65,7 +65,7 @@ def test_h5md_round_trip(tmp_path, suffix):
         assert box.attrs["dimension"] == 3 and list(box.attrs["boundary"]) == [b"none"] * 3
         assert "image" not in f["particles/all"]  # walls: no image
         np.testing.assert_array_equal(f["particles/all/species"][()], [0, 0, 0, 0, 1, 1])
-        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.trajectory)
+        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.outputs.trajectory)
         for attrs, key in ((f["h5md/creator"].attrs, "name"), (f["h5md/author"].attrs, "name"),
                            (box.attrs, "boundary"), (f["parameters"].attrs, "engine"),
                            (f["h5md/modules/units"].attrs, "system")):
@@ -148,7 +148,7 @@ def test_writer_errors(tmp_path):
 
 def test_step_engine_writes_a_trajectory(tmp_path):
     """The engine's snapshots land in the file at t = k * every, the last one equal to the final state."""
-    from gaz_cli.runner import Tee
+    from gaz_cli.run.runner import Tee
 
     sc = small_scene(n=8)
     rng = np.random.default_rng(2)
@@ -167,7 +167,7 @@ def test_render_gif(tmp_path, dim, suffix):
     """gaz animate draws every format simulate writes."""
     from PIL import Image
 
-    from gaz_cli.animate import render_gif
+    from gaz_cli.outputs.animate import render_gif
 
     if suffix == ".gsd":
         pytest.importorskip("gsd")
@@ -211,7 +211,7 @@ def test_animate_help_and_readme_say_how_3d_and_long_runs_are_drawn():
     from pathlib import Path
 
     from cli_helpers import invoke
-    from gaz_cli.animate import MAX_FRAMES
+    from gaz_cli.outputs.animate import MAX_FRAMES
 
     help_text = " ".join(invoke(["animate", "--help"]).stdout.split())
     assert "3D spheres as a side view (x across, z up" in help_text, help_text
@@ -462,7 +462,7 @@ PERIODIC_SEARCHES = {
 
 def periodic_scene(dim, components, extras, **kw) -> Scene:
     from gaz_cli.constants import K_B
-    from gaz_cli.scene import validate
+    from gaz_cli.model.scene import validate
 
     if dim == 1:
         kw["initial"] = {"kind": "explicit", "positions": [[0.1], [0.4], [0.7]],
@@ -477,8 +477,8 @@ def periodic_scene(dim, components, extras, **kw) -> Scene:
 def write_run(scene, every, path, run=None):
     """Run ``scene`` (the event engine unless ``run``) into the trajectory ``path`` (H5MD, or
     GSD for a .gsd path); (stats, times, wrapped positions, images, velocities) read back, SI."""
-    from gaz_cli import engine
-    from gaz_cli.scene import initial_state
+    from gaz_cli.engines import event as engine
+    from gaz_cli.model.scene import initial_state
 
     with open_trajectory(path, every, scene) as w:
         stats = (run or engine.run)(scene, initial_state(scene), w)
@@ -498,7 +498,7 @@ def write_run(scene, every, path, run=None):
 
 def fastest_speed_bound(scene) -> float:
     """sqrt(2 E / m_min): no particle is ever faster (energy conserved, shared by collisions)."""
-    from gaz_cli.scene import initial_state
+    from gaz_cli.model.scene import initial_state
 
     v = initial_state(scene).velocities
     energy = 0.5 * float(np.sum(scene.masses()[:, None] * v ** 2))
@@ -524,7 +524,7 @@ def test_gsd_images_of_sparse_snapshots_are_those_of_a_dense_run(tmp_path, monke
 
 def _check_sparse_images(tmp_path, monkeypatch, search, suffix):
     """Sparse snapshots' images = the dense run's minimum-image count (see the tests above)."""
-    from gaz_cli.engine import driver
+    from gaz_cli.engines.event import driver
 
     dim, components, extras, churn = PERIODIC_SEARCHES[search]
     if churn:  # rows reloaded (rebase) and renumbered (restart) every few events per particle
@@ -569,7 +569,8 @@ def test_free_particles_mean_squared_displacement_grows_as_v_t_squared(tmp_path,
     Tolerance: the unwrapped position is a wrapped one (rounded in the engine's flight, the
     wrap, the nanometre conversion and back: a few ulp of L) plus an exact image count, and
     v t is rounded once: 16 eps (L + |v| t) a coordinate."""
-    from gaz_cli import engine, ideal
+    from gaz_cli.engines import event as engine
+    from gaz_cli.engines import ideal
 
     scene = periodic_scene(dim, ((Species("P", 1.0, 0.0), 20),), {})
     stats, t, x, images, v = write_run(scene, 1.0, tmp_path / "free.h5",

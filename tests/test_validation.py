@@ -1,6 +1,6 @@
 """Validation: the event engine's gas against the laws of shared/physics.md, through `gaz analyse`.
 
-Each test runs the exact event-driven engine (gaz_cli.engine) on a scene in
+Each test runs the exact event-driven engine (gaz_cli.engines.event) on a scene in
 reduced units (m = k_B T = 1, box side 1) and checks a law within its
 statistical error or its stated accuracy:
 
@@ -28,13 +28,14 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gaz_cli import analysis, theory
+from gaz_cli import theory
+from gaz_cli.analysis import report as analysis
 from gaz_cli.constants import K_B
-from gaz_cli.recording import Recorder
-from gaz_cli.scene import Scene, State, initial_state
-from gaz_cli.species import Species
+from gaz_cli.model.recording import Recorder
+from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.species import Species
 
-from gaz_cli.engine import run as event_run
+from gaz_cli.engines.event import run as event_run
 
 pytestmark = pytest.mark.validation
 
@@ -56,7 +57,7 @@ def reduced_scene(dim, n, packing, duration, seed=1, **kw) -> Scene:
 
 def analyse(tmp_path, scene):
     """Simulate ``scene`` into a fresh database and return analysis.report(db, sim=1)."""
-    from gaz_cli import runner
+    from gaz_cli.run import runner
 
     db = str(tmp_path / "validation.db")
     runner.simulate(scene, db=db)

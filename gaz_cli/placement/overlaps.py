@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 
-from gaz_cli.engine.layout import C0, DONE, GATHER_SLOTS, I_WIDTH
-from gaz_cli.engine.neighbours.cells import _assign_cells, _gather_cells
-from gaz_cli.engine.sizing import _cell_width
+from gaz_cli.engines.event.layout import C0, DONE, GATHER_SLOTS, I_WIDTH
+from gaz_cli.engines.event.neighbours.cells import _assign_cells, _gather_cells
+from gaz_cli.engines.event.sizing import _cell_width
 from gaz_cli.placement import mixture
 from gaz_cli.numba_config import njit
 

@@ -1,5 +1,5 @@
--- The SQLite schema of a gaz database, version 3: generated from gaz_cli/store.py's metadata by
--- gaz_cli.sqlite_writer.generated_schema() (tests/test_sqlite_writer.py keeps it equal)
+-- The SQLite schema of a gaz database, version 3: generated from gaz_cli/results/store.py's metadata by
+-- gaz_cli.results.sqlite.generated_schema() (tests/test_sqlite_writer.py keeps it equal)
 
 CREATE TABLE IF NOT EXISTS particule (
 	pa_num INTEGER NOT NULL, 
