@@ -207,7 +207,7 @@ def child(name: str) -> None:
 
     from gaz_cli.engines import event as engine
     from gaz_cli.model.recording import Recorder
-    from gaz_cli.model.scene import initial_state
+    from gaz_cli.placement.initial import initial_state
 
     sc = _scene(name)
     st = initial_state(sc)

@@ -55,7 +55,8 @@ from fingerprint import mixture  # (this directory: the script's own)
 
 from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 SEARCHES = {"classes": {"neighbours": "cells"}, "wide": {"neighbours": "wide", "classes": "off"},

@@ -103,7 +103,7 @@ def child(name: str, scale: float) -> dict:
     import dataclasses
 
     from gaz_cli.engines import event as engine
-    from gaz_cli.model.scene import initial_state
+    from gaz_cli.placement.initial import initial_state
 
     sc = _scene(name, scale)
     st = initial_state(sc)

@@ -41,7 +41,7 @@ from fingerprint import mixture
 from gaz_cli.engines import event as engine
 from gaz_cli.run import runner
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 
 
 SURVEY = [  # dim, small, large, radius ratio, packing

@@ -44,7 +44,8 @@ import numpy as np
 from gaz_cli.engines import step as stepper
 from gaz_cli.constants import K_B
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import lookup
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -41,7 +41,8 @@ from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
 from gaz_cli.geometry import UNIT_BALL
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import lookup
 
 SEARCHES = ("auto", "dilute", "wide", "cells")

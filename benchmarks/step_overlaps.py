@@ -23,7 +23,8 @@ from gaz_cli import theory
 from gaz_cli.engines import step as stepper
 from gaz_cli.constants import K_B
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 REPEATS = 5

@@ -50,7 +50,8 @@ import sqlalchemy as sa
 
 from gaz_cli.results import store as st
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import lookup
 
 CHUNK = 1 << 16

@@ -7,7 +7,7 @@ Exposed at the package's top level (``import gaz_cli as gaz``; see README "From 
     run.summary["pressure"], run.state.positions, run.bounces["t"]
     gaz.simulate(scene, db="gaz.db"); frames = gaz.analyse("gaz.db", sim=1)
 
-Every scene goes through :func:`gaz_cli.model.scene.validate`, as it does from the command line.
+Every scene goes through :func:`gaz_cli.scenes.validate.validate`, as it does from the command line.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def load_scene(path) -> Scene:
 
 def write_scene(path, scene: Scene) -> None:
     """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
-    the door refuses (:func:`gaz_cli.model.scene.validate`, SceneError) is not written."""
+    the door refuses (:func:`gaz_cli.scenes.validate.validate`, SceneError) is not written."""
     _checked(scene, path)
     scenefile.write(path, scene)
 
@@ -68,7 +68,7 @@ def scene_text(scene: Scene) -> str:
 def _checked(scene, path=None) -> None:
     """Refuse what :func:`load_scene` would refuse of the file: no Scene, or an invalid one
     (a Scene made by hand, not through :func:`make_scene`)."""
-    from gaz_cli.model.scene import validate
+    from gaz_cli.scenes.validate import validate
 
     scenefile.require_scene(scene, path)
     validate(scene)

@@ -203,7 +203,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
       gaz place --dim 1 --n 2 --radius 1 --length 10 --repeat 20000 --bins 40 --histogram q12.png
     """
     from gaz_cli.analysis import report as analysis
-    from gaz_cli.model.scene import check_placement
+    from gaz_cli.scenes.validate import check_placement
 
     check_placement(dim, n, radius, length)
     if repeat is None:

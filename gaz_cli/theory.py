@@ -1139,7 +1139,7 @@ def kinetic_temperature(dim: int, kinetic_energy, number, periodic: bool = False
     With ``periodic`` the total momentum P is conserved: its D degrees of freedom
     are not thermal, k_B T = 2 (K - P^2/(2M))/(D (N - 1)), ``drift_energy``
     P^2/(2M) (J; 0 when the momentum was removed at the start, as gaz does for
-    the velocities it draws: :func:`gaz_cli.model.scene.initial_state`; an explicit
+    the velocities it draws: :func:`gaz_cli.placement.initial.initial_state`; an explicit
     initial state keeps its own). A single particle keeps its momentum and counts
     its D degrees of freedom, periodic or not (removing it would stop the particle).
     """

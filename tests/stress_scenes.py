@@ -43,7 +43,9 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines.event import driver
 from gaz_cli.errors import GazError
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, State, default_tc, initial_state
+from gaz_cli.model.estimates import default_tc
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 # --- tolerances, one per kind of comparison, each with its error model -------------------

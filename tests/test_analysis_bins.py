@@ -17,7 +17,7 @@ from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 
 from gaz_cli.analysis import report as analysis
 from gaz_cli.analysis import errorbars
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import BUILTIN
 from gaz_cli.results.store import Store, rebond
 

@@ -17,7 +17,8 @@ import pytest
 from gaz_cli.engines import event as engine
 from gaz_cli.constants import K_B
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 reference = pytest.importorskip("gaz_cli.engines.reference")

@@ -21,7 +21,8 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines.event import driver
 from gaz_cli.errors import EngineError, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 UNIT_T = 1.0 / K_B

@@ -18,7 +18,8 @@ from gaz_cli.engines.event.interactions import _pair_time
 from gaz_cli.engines.event.layout import PR, PT, PV
 from gaz_cli.engines.event.neighbours.dilute import KEEP, XC_SIZE, XS_ROWS, _keep, _mirror_all
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species, lookup
 
 DILUTE = {"neighbours": "dilute"}
@@ -134,7 +135,7 @@ def test_auto_weighs_a_mixture_by_its_own_packing():
 
 def test_unknown_neighbour_search_is_refused():
     """At the one door (scene.validate), naming the choices; the engine assumes a valid scene."""
-    from gaz_cli.model.scene import validate
+    from gaz_cli.scenes.validate import validate
 
     scene = readme_scene(extras={"neighbours": "sparse"})
     with pytest.raises(ValueError, match="is not one of auto, cells, lists, dilute"):

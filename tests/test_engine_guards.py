@@ -18,7 +18,8 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines.event import driver, guards
 from gaz_cli.errors import EngineError
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 from conftest import radius_for
@@ -172,7 +173,7 @@ def test_grazing_pairs_are_decided_as_exact_arithmetic_decides(dim, distance):
     of sigma: the kernel's pair time says 'collide' exactly when rational arithmetic on the
     same doubles does. (With the discriminant written b^2 - a c, 1000 sigma apart agreed in
     15 cases of 40.)"""
-    from gaz_cli.engines.event import kernels as K
+    from gaz_cli.engines.event import interactions as K
 
     rng = np.random.default_rng(dim * 1000 + int(distance))
     sig = 1.0

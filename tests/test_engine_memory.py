@@ -17,10 +17,10 @@ import pytest
 
 from gaz_cli.engines import event as engine
 from gaz_cli.engines.event import driver, memory, sizing
-from gaz_cli.engines.event import kernels as K
+from gaz_cli.engines.event import layout as K
 from gaz_cli.engines.event.rows import Rows
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 
 
 def _run(scene, state):

@@ -19,7 +19,8 @@ from gaz_cli.engines.event import driver, sizing
 from gaz_cli.engines.event.interactions import pair_reach
 from gaz_cli.engines.event.neighbours import ball, classes
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 from test_event_engine import HORIZON, assert_inside, event_sequence, time_tolerances

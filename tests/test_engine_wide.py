@@ -24,7 +24,7 @@ from gaz_cli.engines.event.neighbours.cells import _assign_cells
 from gaz_cli.engines.event.neighbours.dilute import KEEP, XC_SIZE
 from gaz_cli.engines.event.neighbours.wide import _mirror_all, _path_block, _predict_wide
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 
 WIDE = {"neighbours": "wide"}
 

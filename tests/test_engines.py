@@ -60,7 +60,7 @@ def test_auto_never_picks_a_step_longer_than_the_run():
     """gaz simulate --n 1 --radius 0.01 --mass 1 --length 1 --duration 1 --drag 0.5 (a 1 kg body at
     300 K, 1e-11 m/s) picked dt = 2.5e8 s, 1/50 of its box crossing, then refused it: '--dt
     2.47952e+08 s is longer than --duration 1 s; lower --dt', an option the user never gave."""
-    from gaz_cli.model.scene import validate
+    from gaz_cli.scenes.validate import validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=1.0, components=((body, 1),), seed=1, engine="auto",
@@ -78,7 +78,8 @@ def test_auto_steps_falling_bodies_by_their_fall_not_their_thermal_speed():
 
     from gaz_cli.engines import step as stepper
     from gaz_cli.model.recording import Recorder
-    from gaz_cli.model.scene import initial_state, validate
+    from gaz_cli.placement.initial import initial_state
+    from gaz_cli.scenes.validate import validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=0.6, components=((body, 100),), seed=1, engine="auto",
@@ -105,7 +106,8 @@ def test_auto_steps_attracting_bodies_by_their_pull_not_their_thermal_speed():
     step's error was 160 |E0|."""
     from gaz_cli.engines import step as stepper
     from gaz_cli.model.recording import Recorder
-    from gaz_cli.model.scene import initial_state, validate
+    from gaz_cli.placement.initial import initial_state
+    from gaz_cli.scenes.validate import validate
 
     body = Species("body", 1.0, 0.01)
     scene = validate(Scene(dim=2, length=1.0, duration=5.0, components=((body, 10),), seed=1, engine="auto",

@@ -17,7 +17,8 @@ from gaz_cli.engines import event as engine
 from gaz_cli.engines import reference
 from gaz_cli.constants import K_B
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 

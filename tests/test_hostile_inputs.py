@@ -264,7 +264,8 @@ def test_a_run_staged_in_a_scratch_file_counts_it_in_the_free_space_asked(tmp_pa
     lowered to 1000 rows) 2 x 2.4 + 3.6 MB do not, and the line says so."""
     from conftest import mounted_tmpfs
     from gaz_cli.results import staging
-    from gaz_cli.model.scene import Scene, check_database_space
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.results.budgets import check_database_space
     from gaz_cli.model.species import BUILTIN
 
     scene = Scene(dim=2, length=1e-7, duration=6.5e-7, components=((BUILTIN["Ar"], 20),), seed=2)

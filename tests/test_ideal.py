@@ -10,7 +10,9 @@ from gaz_cli.engines import event as engine
 from gaz_cli.engines import ideal
 from gaz_cli.errors import SceneError
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, initial_state, validate
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
+from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import BUILTIN, Species
 
 ARGON = BUILTIN["Ar"]

@@ -30,9 +30,11 @@ from hypothesis import strategies as st
 import stress_scenes as S
 from gaz_cli.engines import event as engine
 from gaz_cli.engines import reference
-from gaz_cli.engines.event import kernels as K
+from gaz_cli.engines.event import interactions as K
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, State, default_tc, initial_state
+from gaz_cli.model.estimates import default_tc
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 EPS = np.finfo(float).eps

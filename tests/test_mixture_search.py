@@ -18,7 +18,8 @@ from gaz_cli.constants import K_B
 from gaz_cli.engines.event import mixture_cost
 from gaz_cli.engines.event.driver import resolved_search
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 

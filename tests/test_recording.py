@@ -11,7 +11,8 @@ from gaz_cli.engines import ideal
 from gaz_cli.engines import step as stepper
 from gaz_cli.engines.event import driver
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import BUILTIN, Species
 
 ARGON = BUILTIN["Ar"]

@@ -13,7 +13,8 @@ from gaz_cli.engines import reference as ref
 from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 

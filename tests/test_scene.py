@@ -8,7 +8,8 @@ import pytest
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
 from gaz_cli.scenes.options import from_options
-from gaz_cli.model.scene import initial_state, validate
+from gaz_cli.placement.initial import initial_state
+from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import BUILTIN, lookup, parse_mixture
 
 
@@ -114,7 +115,7 @@ def test_mass_range_is_where_the_reduced_mass_stays_a_normal_double():
     is accepted there and refused a factor 10 outside (where m_i m_j leaves the headroom)."""
     import sys
 
-    from gaz_cli.model.scene import mass_range
+    from gaz_cli.model.checks import mass_range
 
     lo, hi = mass_range()
     for mi in (lo, hi):
@@ -135,7 +136,7 @@ def test_the_speed_and_box_ranges_keep_the_pair_time_discriminant_finite(length)
     import re
     import sys
 
-    from gaz_cli.model.scene import HUGE, SPEED_TAIL, TINY
+    from gaz_cli.model.checks import HUGE, SPEED_TAIL, TINY
 
     sc = _custom(6.6e-26, length=length, force=True)
     with pytest.raises(SceneError) as err:
@@ -151,7 +152,7 @@ def test_the_speed_and_box_ranges_keep_the_pair_time_discriminant_finite(length)
 
 
 def test_memory_is_refused_before_allocation_with_need_and_have(monkeypatch):
-    from gaz_cli.model import scene as scene_mod
+    from gaz_cli.model import estimates as scene_mod
 
     monkeypatch.setattr(scene_mod, "physical_memory", lambda: 10 ** 9)
     big = _custom(6.6e-26, length=1e-3, force=True)
@@ -168,7 +169,7 @@ def test_a_run_refused_for_memory_allocates_nothing_per_particle(monkeypatch, ex
     arrays of radii and masses, on a 25 GB machine, instead of saying it needs too much."""
     import tracemalloc
 
-    from gaz_cli.model import scene as scene_mod
+    from gaz_cli.model import estimates as scene_mod
 
     monkeypatch.setattr(scene_mod, "physical_memory", lambda: 10 ** 9)
     n = 10 ** 7  # 4.8 GB for the event engine, 3.7 GB for the step engine: refused
@@ -189,7 +190,7 @@ def test_work_estimate_follows_the_event_engine_and_force_lifts_the_bound(make_s
     packing 0.3: within a factor 1.5 (Enskog is good to a few percent here; wall hits are the
     dilute flux, the contact density at the wall is higher: measured ratios 0.83-0.99 without gravity)."""
     from gaz_cli.run import runner
-    from gaz_cli.model.scene import MAX_EVENTS, work_estimate
+    from gaz_cli.model.estimates import MAX_EVENTS, work_estimate
 
     sc = make_scene(dim=2, n=300, packing=0.3, duration=0.5, record="none")
     est = work_estimate(sc)["events"]
@@ -207,7 +208,7 @@ def test_work_estimate_of_a_box_barely_wider_than_its_particle(argon_scene):
     mean of the engine's counts over 24 seeds (one atom's speed is one draw), and a run of 3e12
     bounces refused at the door (it was estimated at 1.5e10 and run, for hours)."""
     from gaz_cli.run import runner
-    from gaz_cli.model.scene import work_estimate
+    from gaz_cli.model.estimates import work_estimate
 
     length = 2 * lookup("Ar").radius * 1.01
     sc = argon_scene(dim=3, n=1, length=length, duration=2e-10, record="none")
@@ -224,7 +225,8 @@ def test_work_estimate_of_rods_filling_their_segment():
     are, the estimate was 10 times too low)."""
     from gaz_cli.run import runner
     from gaz_cli.constants import K_B
-    from gaz_cli.model.scene import Scene, work_estimate
+    from gaz_cli.model.estimates import work_estimate
+    from gaz_cli.model.scene import Scene
     from gaz_cli.model.species import Species
 
     n, length, eta = 20, 1.0, 0.999

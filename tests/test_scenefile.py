@@ -18,7 +18,9 @@ from cli_helpers import invoke
 
 from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
-from gaz_cli.model.scene import Scene, initial_state, validate
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
+from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import BUILTIN, Species
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

@@ -20,7 +20,8 @@ from gaz_cli.results import staging
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species, lookup
 
 STARTED = dt.datetime(2026, 11, 22, 23, 30, 5)

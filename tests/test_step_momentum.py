@@ -10,7 +10,8 @@ import pytest
 
 from gaz_cli.engines import step as stepper
 from gaz_cli.model.recording import MemoryRecorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 BALL = Species("ball", 1.0, 0.01)

@@ -11,7 +11,9 @@ import pytest
 from gaz_cli.engines import step as stepper
 from gaz_cli.errors import SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder
-from gaz_cli.model.scene import Scene, State, initial_state, validate
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
+from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import Species
 from gaz_cli.engines.step import kernels
 from gaz_cli.scenes.presets import PRESETS
@@ -655,7 +657,7 @@ def test_a_preset_is_placed_with_the_seed_given_and_refuses_what_it_fixes():
     preset fixes are refused in one line instead of being silently ignored."""
     from gaz_cli.errors import SceneError
     from gaz_cli.scenes.options import from_options
-    from gaz_cli.model.scene import initial_state
+    from gaz_cli.placement.initial import initial_state
 
     scene, _ = from_options(preset="marbles", seed=5, n=40)
     state = initial_state(scene)

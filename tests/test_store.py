@@ -18,7 +18,7 @@ from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import BUILTIN, Species
 
 both = pytest.mark.parametrize("backend", BACKENDS, indirect=True)

@@ -13,7 +13,7 @@ from backends import postgres_url  # noqa: F401 - fixture
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 
 @pytest.fixture(params=["may skip triggers", "ordinary role"])
 def role_db(request, postgres_url):

@@ -78,7 +78,8 @@ def test_two_runs_into_one_new_file_both_land(tmp_path):
     private file cannot take the name) and commits into it: SI_NUM 1 and 2, no file left over."""
     from gaz_cli.results import sqlite as sqlite_writer
     from gaz_cli.model.recording import RunStats
-    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.placement.initial import initial_state
     from gaz_cli.model.species import BUILTIN
 
     db = tmp_path / "new.db"
@@ -140,7 +141,8 @@ def test_a_new_file_that_cannot_be_completed_stores_nothing_and_says_so(tmp_path
 
     from gaz_cli.errors import StoreError
     from gaz_cli.model.recording import RunStats
-    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.placement.initial import initial_state
     from gaz_cli.model.species import BUILTIN
 
     db = tmp_path / "new.db"
@@ -287,7 +289,8 @@ def test_a_failed_first_run_through_the_store_or_a_url_with_options_leaves_no_fi
     still makes the database; two stores opened on one new file both land."""
     from gaz_cli.results import store as st
     from gaz_cli.model.recording import RunStats
-    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.placement.initial import initial_state
     from gaz_cli.model.species import BUILTIN
 
     monkeypatch.chdir(tmp_path)
@@ -330,7 +333,8 @@ def test_a_urls_busy_timeout_holds_on_every_path_also_after_a_lost_race(tmp_path
     from gaz_cli.results import store as st
     from gaz_cli.errors import StoreError
     from gaz_cli.model.recording import RunStats
-    from gaz_cli.model.scene import Scene, initial_state
+    from gaz_cli.model.scene import Scene
+    from gaz_cli.placement.initial import initial_state
     from gaz_cli.model.species import BUILTIN
 
     monkeypatch.chdir(tmp_path)

@@ -14,7 +14,7 @@ from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import initial_state
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import BUILTIN, Species
 
 pytestmark = pytest.mark.postgres

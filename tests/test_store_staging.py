@@ -11,7 +11,8 @@ from gaz_cli.run import runner
 from gaz_cli.results import staging
 from gaz_cli.results import store as st
 from gaz_cli.model.recording import RunStats
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import lookup
 
 

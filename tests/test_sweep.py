@@ -484,7 +484,7 @@ def test_a_sweep_beyond_the_free_space_of_the_database_disk_is_one_line_before_a
     cluster. One of the runs alone fits."""
     from cli_helpers import invoke
 
-    from gaz_cli.model.scene import check_database_space
+    from gaz_cli.results.budgets import check_database_space
     from gaz_cli.scenes.files import load
 
     scene = _disks_without_a_cluster(tmp_path, monkeypatch)

@@ -13,7 +13,8 @@ from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.model.recording import MemoryRecorder
 from gaz_cli.model.scene import Scene, State
 from gaz_cli.model.species import Species
-from gaz_cli.model.scene import MAX_SNAPSHOTS, check_outputs
+from gaz_cli.model.estimates import MAX_SNAPSHOTS
+from gaz_cli.scenes.validate import check_outputs
 from gaz_cli.outputs.trajectory import open_trajectory, read_h5md, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
@@ -462,7 +463,7 @@ PERIODIC_SEARCHES = {
 
 def periodic_scene(dim, components, extras, **kw) -> Scene:
     from gaz_cli.constants import K_B
-    from gaz_cli.model.scene import validate
+    from gaz_cli.scenes.validate import validate
 
     if dim == 1:
         kw["initial"] = {"kind": "explicit", "positions": [[0.1], [0.4], [0.7]],
@@ -478,7 +479,7 @@ def write_run(scene, every, path, run=None):
     """Run ``scene`` (the event engine unless ``run``) into the trajectory ``path`` (H5MD, or
     GSD for a .gsd path); (stats, times, wrapped positions, images, velocities) read back, SI."""
     from gaz_cli.engines import event as engine
-    from gaz_cli.model.scene import initial_state
+    from gaz_cli.placement.initial import initial_state
 
     with open_trajectory(path, every, scene) as w:
         stats = (run or engine.run)(scene, initial_state(scene), w)
@@ -498,7 +499,7 @@ def write_run(scene, every, path, run=None):
 
 def fastest_speed_bound(scene) -> float:
     """sqrt(2 E / m_min): no particle is ever faster (energy conserved, shared by collisions)."""
-    from gaz_cli.model.scene import initial_state
+    from gaz_cli.placement.initial import initial_state
 
     v = initial_state(scene).velocities
     energy = 0.5 * float(np.sum(scene.masses()[:, None] * v ** 2))

@@ -32,7 +32,8 @@ from gaz_cli import theory
 from gaz_cli.analysis import report as analysis
 from gaz_cli.constants import K_B
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 
 from gaz_cli.engines.event import run as event_run

@@ -71,7 +71,7 @@ def _check_place_args(dim, n, radius, length):
         raise SceneError(f"--radius must be > 0, got {radius}")
     if not (length > 0 and math.isfinite(length)):
         raise SceneError(f"--length must be > 0, got {length}")
-    from gaz_cli.model.scene import DENSEST, ball_volume
+    from gaz_cli.geometry import DENSEST, ball_volume
 
     eta = n * float(ball_volume(dim, radius)) / length ** dim
     if 2 * radius >= length:
@@ -254,7 +254,7 @@ class Run:
 
     @property
     def packing_fraction(self) -> float:
-        from gaz_cli.model.scene import ball_volume
+        from gaz_cli.geometry import ball_volume
 
         return float(np.sum(self.species.COUNT * ball_volume(self.dim, self.species.RADIUS_M.to_numpy()))
                      / self.length ** self.dim)
@@ -471,9 +471,9 @@ def _refuse_stored(si_num: int, problem: str):
 def _check_stored(si_num: int, sim, species: pd.DataFrame) -> None:
     """Refuse (StoreError) a SIMULATION row, or a species of its composition, that no run can have
     (written by hand or by another program): analysis would divide by it, or its squares and
-    products overflow (the ranges of :func:`gaz_cli.model.scene.check_magnitudes`; a duration up to
+    products overflow (the ranges of :func:`gaz_cli.model.checks.check_magnitudes`; a duration up to
     sqrt(scene.HUGE), the error of a time average taking its square)."""
-    from gaz_cli.model import scene as sc
+    from gaz_cli.model import checks as sc
 
     def bad(what, value, allowed):
         value = value.item() if hasattr(value, "item") else value     # a numpy scalar: its Python value
@@ -531,9 +531,9 @@ def _checked_bin_keys(run: Run, key: np.ndarray) -> np.ndarray:
 
 def _check_bounce_speeds(run: Run) -> None:
     """Refuse (StoreError) REBOND rows whose RE_VIT or RE_VP is not a speed a run in this box records:
-    negative, or above :func:`gaz_cli.model.scene.speed_range`'s largest (squares and products in double
+    negative, or above :func:`gaz_cli.model.checks.speed_range`'s largest (squares and products in double
     precision), read from the per-bin sums (a bin's sum of k speeds is at most k times the largest)."""
-    from gaz_cli.model import scene as sc
+    from gaz_cli.model import checks as sc
 
     h = run.hits
     if h is None or not len(h):
@@ -854,7 +854,7 @@ def rebuild_initial_state(scene_file: str | None, ke_start: float):
     """
     if not isinstance(scene_file, str) or not math.isfinite(ke_start):
         return None
-    from gaz_cli.model import scene as scene_module
+    from gaz_cli.placement import initial as scene_module
     from gaz_cli.scenes import files as scenefile
 
     try:

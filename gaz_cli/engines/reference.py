@@ -69,7 +69,8 @@ from gaz_cli.constants import K_B
 from gaz_cli.errors import EngineError, PlacementError, SceneError
 from gaz_cli.model.recording import Recorder, RunStats
 from gaz_cli.geometry import DENSEST, packing_fraction
-from gaz_cli.model.scene import STEP_ONLY, State, reference_refusal
+from gaz_cli.model.checks import field_error
+from gaz_cli.model.scene import STEP_ONLY, Scene, State
 from gaz_cli.model.species import BUILTIN
 
 MAX_RESTARTS = 10_000
@@ -94,6 +95,26 @@ TEMPERATURE = 300.0
 def _uniform(rng, size):
     """Uniform floats in [0, 1) of shape ``size``: the exam's np.random.rand, or rng."""
     return np.random.rand(*size) if rng is None else rng.random(size)
+
+
+def reference_refusal(scene: Scene) -> str | None:
+    """What the reference engine (the exam's algorithm: hard elastic walls, no gravity) cannot
+    take in ``scene``, as a marked field and value (`boundary` periodic), or None."""
+    if scene.boundary != "walls":
+        return f"`boundary` {scene.boundary}"
+    if scene.gravity != 0.0:
+        return f"`gravity` {scene.gravity:g}"
+    if scene.restitution != 1.0:
+        return f"`restitution` {scene.restitution:g}"
+    return None
+
+
+def check_reference_scene(scene: Scene) -> None:
+    """SceneError (fields named) unless the reference engine can run ``scene``."""
+    why = reference_refusal(scene)
+    if why is not None:
+        raise field_error(f"`engine` reference (the exam's algorithm) handles hard elastic walls "
+                          f"without gravity only, not {why}; use `engine` event")
 
 
 def placement1D(N: int, R: float, L: float, *, rng=None,

@@ -27,17 +27,18 @@ import math
 from dataclasses import replace
 
 from gaz_cli.errors import SceneError
+from gaz_cli.model.scene import ENGINES as ENGINE_NAMES, STEP_ONLY
 
 ENGINES = {
-    "event": "gaz_cli.engines.event",
+    "event": "gaz_cli.engines.event.driver",
     "ideal": "gaz_cli.engines.ideal",
     "reference": "gaz_cli.engines.reference",
     "step": "gaz_cli.engines.step",
 }
 """Engine name -> module exposing ``run(scene, state, recorder) -> RunStats``."""
 
-CHOICES = ("auto", *ENGINES)
-"""What a scene's ``engine`` may say."""
+CHOICES = ENGINE_NAMES
+"""What a scene's ``engine`` may say (:data:`gaz_cli.model.scene.ENGINES`)."""
 
 TINY_WORK = 2e4
 """A run of at most this many events x particles plus particles^2 (estimated: its catalogue
@@ -56,6 +57,33 @@ def engine_run(name: str):
     if name not in ENGINES:
         raise SceneError(f"engine {name!r} is not one of {', '.join(CHOICES)}")
     return importlib.import_module(ENGINES[name]).run
+
+
+def accepts(scene) -> None:
+    """Raise SceneError (fields named) unless the engine ``scene`` names (resolved: not 'auto')
+    runs it: the step engine's options in range with ``engine`` step and absent with any other
+    (which would ignore them); the event engine's search settings, set with ``engine`` event
+    only; the event engine's periodic box; what the reference engine handles."""
+    from gaz_cli.engines.event.search import check_event_scene, check_search
+    from gaz_cli.model.checks import field_error
+
+    if scene.engine != "step":
+        for name, unused in STEP_ONLY.items():
+            value = getattr(scene, name)
+            if value is not unused and value != unused:
+                raise field_error(f"`{name}` {value!r} applies to `engine` step only (the {scene.engine} "
+                                  f"engine would ignore it); set `engine` step, or drop `{name}`")
+    else:
+        from gaz_cli.engines.step.accepts import check_step_scene
+
+        check_step_scene(scene)
+    if scene.engine == "reference":
+        from gaz_cli.engines.reference import check_reference_scene
+
+        check_reference_scene(scene)
+    if scene.engine == "event":
+        check_event_scene(scene)
+    check_search(scene)
 
 
 def choose(scene):
@@ -78,7 +106,7 @@ def choose(scene):
             scene = replace(scene, dt=dt)
             reason += f"; dt = {dt:.3g} s, {basis}"
         return replace(scene, engine="step"), reason
-    from gaz_cli.model.scene import search_given
+    from gaz_cli.engines.event.search import search_given
 
     given = search_given(scene.extras)
     if given:
@@ -99,11 +127,12 @@ def choose(scene):
 
 def _tiny_work(scene) -> float | None:
     """The reference engine's work for the run (events x particles + particles^2, its initial
-    catalogue: :func:`gaz_cli.model.scene.work_estimate`), if at most TINY_WORK; else None.
+    catalogue: :func:`gaz_cli.model.estimates.work_estimate`), if at most TINY_WORK; else None.
 
     Without the catalogue's N^2, 3010 particles for 5 events counted as tiny: the reference
     engine took 2.2 s where the event engine takes about 0.5 s with its start-up."""
-    from gaz_cli.model.scene import reference_refusal, work_estimate
+    from gaz_cli.engines.reference import reference_refusal
+    from gaz_cli.model.estimates import work_estimate
 
     if reference_refusal(scene) is not None or scene.initial:
         return None
@@ -130,7 +159,7 @@ def step_for(scene) -> tuple[float, str]:
     radius = scene.mean_radius()
     speed = float(theory.mean_speed(scene.dim, scene.temperature, mass))
     pulls = {" at the speed of a fall across the box": math.sqrt(2.0 * scene.gravity * scene.length)}  # m/s
-    try:  # checked later, with the step engine's options (scene._check_engine_options)
+    try:  # checked later, with the step engine's options (accepts)
         reach = max(2.0 * radius, float(scene.softening), 0.0)
     except (TypeError, ValueError):
         reach = 2.0 * radius

@@ -4,8 +4,8 @@
 :class:`~gaz_cli.model.recording.Recorder` that takes only snapshots
 (``snapshot_every`` = the requested interval); every engine calls its
 ``add_snapshot(t, positions, velocities)`` at t = 0, every, 2 every, ...
-At most :data:`gaz_cli.model.scene.MAX_SNAPSHOTS` snapshots without ``--force`` (checked by
-:func:`gaz_cli.model.scene.check_outputs`, the one door).
+At most :data:`gaz_cli.model.estimates.MAX_SNAPSHOTS` snapshots without ``--force`` (checked by
+:func:`gaz_cli.scenes.validate.check_outputs`, the one door).
 The format follows the file's extension; :func:`read_trajectory` reads each back
 (``gaz animate`` draws any of them).
 

@@ -75,7 +75,8 @@ from gaz_cli import __version__, interrupts
 from gaz_cli.results import sqlite as sqlite_writer
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
-from gaz_cli.model.scene import Scene, check_row_numbers
+from gaz_cli.model.scene import Scene
+from gaz_cli.results.budgets import check_row_numbers
 from gaz_cli.scenes import files as scenefile
 from gaz_cli.model.species import BUILTIN, NAME_MAX, Species
 
@@ -673,7 +674,7 @@ class Store(RunStore):
     def check_row_numbers(self, scenes: list[Scene], fix: str = "shorten `duration`") -> None:
         """Refuse, before they run, the runs of ``scenes`` whose rows would number past this
         database's 32-bit row numbers (a PostgreSQL database made before schema 6;
-        :func:`gaz_cli.model.scene.check_row_numbers`); nothing elsewhere (64-bit)."""
+        :func:`gaz_cli.results.budgets.check_row_numbers`); nothing elsewhere (64-bit)."""
         if self.is_sqlite:
             return
         with self._errors(), self.engine.connect() as conn:

@@ -1,7 +1,7 @@
 """One simulation from scene to database: the driver behind ``gaz simulate``.
 
 Order of operations: validate the scene and fix its seed; place the particles
-and draw their velocities (:func:`gaz_cli.model.scene.initial_state`, independent of
+and draw their velocities (:func:`gaz_cli.placement.initial.initial_state`, independent of
 the engine: a placement that gives up is refused before any database is
 created or touched); open the store (its schema checked, created or migrated:
 a database that cannot take the run fails here, before any simulation); let
@@ -28,8 +28,10 @@ import numpy as np
 from gaz_cli import interrupts
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
-from gaz_cli.model.scene import (Scene, State, check_database_space, check_diagnostics, check_outputs,
-                           fresh_seed, initial_state, validate)
+from gaz_cli.model.scene import Scene, State, fresh_seed
+from gaz_cli.placement.initial import initial_state
+from gaz_cli.results.budgets import check_database_space
+from gaz_cli.scenes.validate import check_diagnostics, check_outputs, validate
 
 from gaz_cli.engines.registry import engine_run
 
@@ -232,10 +234,10 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
     database. ``state``: an explicit initial state, else one is drawn from the scene and its
-    seed (:func:`gaz_cli.model.scene.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
+    seed (:func:`gaz_cli.placement.initial.initial_state`, which also makes the presets' states). ``trajectory``/``every``: snapshot
     file and interval (simulated s). ``diagnostics``: callable receiving the
     step engine's diagnostics (a dict) every ``scene.print_every`` steps; refused with another
-    engine or without print_every (:func:`gaz_cli.model.scene.check_diagnostics`). ``write_scene``: write the scene file of the run
+    engine or without print_every (:func:`gaz_cli.scenes.validate.check_diagnostics`). ``write_scene``: write the scene file of the run
     (with its seed) to this path before running. ``progress``: draw a progress bar (and a
     notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when

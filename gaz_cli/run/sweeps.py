@@ -11,7 +11,7 @@ run, and an interrupt keeps every run already stored.
 
 Before any cluster starts, a sweep into a SQLite file whose runs would not fit on its
 disk is refused, as ``gaz simulate`` refuses one run
-(:func:`gaz_cli.model.scene.check_database_space`: every run's rows, and the largest one's
+(:func:`gaz_cli.results.budgets.check_database_space`: every run's rows, and the largest one's
 copy in the WAL file and scratch file), and a sweep into a PostgreSQL database made before
 schema 6 whose runs would number their rows past its 32-bit integers
 (:meth:`gaz_cli.results.store.Store.check_row_numbers`).
@@ -20,7 +20,7 @@ runs it holds already): nothing is created or migrated for a sweep that is refus
 
 A run already in the database -- the same scene file text, seed included
 (SCENE.SC_FILE) -- is skipped, so running the same sweep again finishes an
-interrupted one. Every point goes through the scene's door (:func:`gaz_cli.model.scene.validate`)
+interrupted one. Every point goes through the scene's door (:func:`gaz_cli.scenes.validate.validate`)
 before anything is read or run: one refused is the whole sweep refused, in one line
 (:func:`_refuse_points_that_cannot_run`). A run that fails on its worker (a placement that
 gives up) is reported and the others go on.
@@ -375,7 +375,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     was stored.
     """
     from gaz_cli.run.runner import prepare, sqlite_file
-    from gaz_cli.model.scene import check_database_space
+    from gaz_cli.results.budgets import check_database_space
     from gaz_cli.results.store import Store
 
     from gaz_cli.results.sqlite import database_name, open_for_writing
@@ -438,7 +438,7 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
 
 def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
     """Raise SceneError, in one line, when a point of the sweep cannot run: the scene door
-    (:func:`gaz_cli.model.scene.validate`, through ``scene_of``) refused it. ``refused``: each such
+    (:func:`gaz_cli.scenes.validate.validate`, through ``scene_of``) refused it. ``refused``: each such
     point and the door's message. Said before any database or cluster, so that a sweep either
     runs every point or none (a packing beyond the densest at its third value ran and stored
     the first two).

@@ -14,7 +14,7 @@ A scene file holds everything ``gaz simulate`` takes (docs/scenes.md)::
 Top-level keys are the fields of :class:`gaz_cli.model.scene.Scene`; ``[[species]]`` (name,
 count, and mass and radius for a custom species), ``[[planes]]`` (point, normal,
 restitution), ``[initial]`` (an explicit or preset initial state), ``[search]`` (the event
-engine's partner search: neighbours, skin, classes; :data:`gaz_cli.model.scene.SEARCH`, kept in
+engine's partner search: neighbours, skin, classes; :data:`gaz_cli.engines.event.search.SEARCH`, kept in
 ``Scene.extras``) and ``[output]`` (db, trajectory, every, save_state) are tables.
 
 A stored run's scene file (SCENE.SC_FILE, :func:`dumps`) runs it again with the same rows:
@@ -23,7 +23,7 @@ left on 'auto' as resolved (:func:`gaz_cli.run.runner.with_search`; each search 
 rounds its own way, and a gas is chaotic: the rows differ between them); not what the run
 derived otherwise (``engine_reason``). Reading checks the keys and their types
 (unknown key, wrong type: one line naming the key, the value and what is allowed), then
-builds the scene and passes it through :func:`gaz_cli.model.scene.validate`, the one door.
+builds the scene and passes it through :func:`gaz_cli.scenes.validate.validate`, the one door.
 
 Writing uses a small writer of our own (:func:`dumps`): a scene is flat tables of scalars
 and arrays, and our writer puts the unit of each key in a comment beside it, which the
@@ -45,7 +45,11 @@ from pathlib import Path
 from gaz_cli.engines.registry import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, packing_fraction
-from gaz_cli.model.scene import SEARCH, Scene, default_tc, field_error, render, validate
+from gaz_cli.engines.event.search import SEARCH
+from gaz_cli.model.checks import field_error, render
+from gaz_cli.model.estimates import default_tc
+from gaz_cli.model.scene import Scene
+from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import BUILTIN, Species, lookup
 
 REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
@@ -206,7 +210,7 @@ def _components(entries: list, where: str) -> tuple:
 
 def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
     """(Scene, outputs) of a scene document (a parsed file, with any overrides merged in),
-    validated by :func:`gaz_cli.model.scene.validate`. ``where`` prefixes the messages."""
+    validated by :func:`gaz_cli.scenes.validate.validate`. ``where`` prefixes the messages."""
     check(doc, where)
     for key in ("dim", "duration"):
         if key not in doc:
@@ -274,7 +278,7 @@ FIELD_KEYS = {"n": "[[species]] count"}
 
 
 def in_file_terms(err: SceneError, where: str = "") -> SceneError:
-    """``err`` of :func:`gaz_cli.model.scene.validate`, prefixed by ``where``, its fields named as a
+    """``err`` of :func:`gaz_cli.scenes.validate.validate`, prefixed by ``where``, its fields named as a
     scene file names them (:data:`FIELD_KEYS`: `n` is the count of [[species]]); the marks are
     kept (``marked``) for the command line, which names its own flags."""
     marked = where + getattr(err, "marked", str(err))
@@ -324,7 +328,7 @@ def to_doc(scene: Scene, outputs: dict | None = None) -> dict:
 
     The step engine's keys are written only with ``engine = "step"``; a built-in species
     by its name, a custom one with its mass and radius; the search settings of ``extras``
-    that were set (:data:`gaz_cli.model.scene.SEARCH`), not the derived ones.
+    that were set (:data:`gaz_cli.engines.event.search.SEARCH`), not the derived ones.
     """
     doc = {}
     for f in fields(Scene):
@@ -432,7 +436,7 @@ def stored(db: str, si_num: int) -> str:
 def without_builtin_clash(text: str) -> str:
     """A stored scene file that runs today: ``text`` itself, unless a custom species of it bears a
     built-in name with other values (stored by a gaz older than that check,
-    :func:`gaz_cli.model.scene.check_builtin_clash`, which now refuses the file): then the file with
+    :func:`gaz_cli.model.checks.check_builtin_clash`, which now refuses the file): then the file with
     that species renamed NAME-custom (NAME-custom2... if taken), said in its heading comment
     and in a :class:`~gaz_cli.errors.GazWarning`. The run is the same (a name moves nothing):
     the same seed gives the same rows, its PARTICULE row named anew."""

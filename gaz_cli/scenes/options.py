@@ -3,7 +3,7 @@
 The command line, a scene file and a preset (a packaged scene file) all become one scene
 document (the dict of :mod:`gaz_cli.scenes.files`): the file's (or preset's) keys, then the
 flags given on the command line over them. That document goes through
-:func:`gaz_cli.scenes.files.build`, hence :func:`gaz_cli.model.scene.validate`, like any other.
+:func:`gaz_cli.scenes.files.build`, hence :func:`gaz_cli.scenes.validate.validate`, like any other.
 
 The library's messages name scene fields (`drag`); :data:`FLAGS` maps them to this
 command line's flags, here and nowhere else (:func:`message`).
@@ -15,7 +15,8 @@ import math
 
 from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
-from gaz_cli.model.scene import Scene, render
+from gaz_cli.model.checks import render
+from gaz_cli.model.scene import Scene
 from gaz_cli.model.species import DEFAULT_SPECIES, parse_mixture
 
 FLAGS = {

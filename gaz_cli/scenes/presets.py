@@ -5,13 +5,14 @@ A preset is a packaged scene file (``gaz_cli/scenes/NAME.toml``, read by
 comet, an explicit initial state) and marbles (seed 002, marbles dropped on a ramp, placed
 in the upper half of the box). The keyword arguments override the file's top-level keys
 (``seed``, ``duration``, ``dt``...) and ``n`` the count of a single-species preset; the
-state is :func:`gaz_cli.model.scene.initial_state` of the scene, so it follows the seed.
+state is :func:`gaz_cli.placement.initial.initial_state` of the scene, so it follows the seed.
 """
 
 from __future__ import annotations
 
 from gaz_cli.scenes import files as scenefile
-from gaz_cli.model.scene import Scene, State, initial_state
+from gaz_cli.model.scene import Scene, State
+from gaz_cli.placement.initial import initial_state
 
 G_NEWTON = 6.674e-11
 """Newtonian constant of gravitation, m^3 kg^-1 s^-2 (CODATA 2018: 6.67430e-11); comet.toml's pair_gravity."""

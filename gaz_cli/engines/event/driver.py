@@ -181,7 +181,7 @@ def _mixture_search(scene: Scene, plan, sigma: float, h: float, PP: tuple) -> tu
 
 def resolved_search(scene: Scene) -> dict:
     """The search a run of ``scene`` (valid, event engine) takes, in the names of the scene
-    file's ``[search]`` table (:data:`gaz_cli.model.scene.SEARCH`): 'neighbours' (the path taken:
+    file's ``[search]`` table (:data:`gaz_cli.engines.event.search.SEARCH`): 'neighbours' (the path taken:
     'lists', 'dilute', 'wide' or 'cells'), 'classes' ('off' when one grid; 'auto' when the size
     classes are used, the plan being a rule of the radii alone), 'skin' (with lists: the
     skin in largest diameters). Empty when no search runs (1D, no pairs).

@@ -14,7 +14,7 @@ import numpy as np
 
 from gaz_cli.engines.event.layout import GATHER_SLOTS, WIDE_LANES
 from gaz_cli.geometry import UNIT_BALL
-from gaz_cli.model.scene import PERIODIC_WIDE_CELLS
+from gaz_cli.engines.event.search import PERIODIC_WIDE_CELLS
 
 CELLS_PER_PARTICLE = 2.0
 """At most this many cells per particle (dilute gases); cells stay at least one diameter wide.
@@ -45,7 +45,7 @@ def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bo
                         sigma: float, h: float, packing: float) -> bool:
     """Whether a run uses neighbour lists (dense 2D/3D) or cell-crossing events.
 
-    ``choice`` (scene.extras['neighbours'], one of :data:`gaz_cli.model.scene.SEARCH`'s: checked at
+    ``choice`` (scene.extras['neighbours'], one of :data:`gaz_cli.engines.event.search.SEARCH`'s: checked at
     the door, scene.validate) may force 'lists' or 'cells'; 'auto' picks lists from
     NEIGHBOUR_LIST_FROM on. Periodic boxes need three list-sized cells per axis (one image
     per neighbour): narrower ones use cells.

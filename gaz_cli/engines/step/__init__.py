@@ -60,7 +60,6 @@ are taken up by the next step.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 import time
 import warnings
 
@@ -70,7 +69,8 @@ import numpy as np
 from gaz_cli.errors import EngineError, GazWarning, SceneError
 from gaz_cli.interrupts import interrupt_in
 from gaz_cli.model.recording import Recorder, RunStats
-from gaz_cli.model.scene import Scene, State, check_in_front_of_planes, validate
+from gaz_cli.engines.step.accepts import check_in_front_of_planes, check_step_scene
+from gaz_cli.model.scene import Scene, State
 from gaz_cli.engines.step import kernels as _k
 
 DETECTIONS = ("overlap", "swept")
@@ -123,9 +123,9 @@ def forces(scene: Scene) -> tuple[str, ...]:
 
 
 def check(scene: Scene) -> None:
-    """Raise SceneError when the step engine cannot run ``scene``: the one door,
-    :func:`gaz_cli.model.scene.validate` (its work bound aside: the caller chose the run)."""
-    validate(replace(scene, force=True))
+    """Raise SceneError when the step engine cannot run ``scene`` (its options: the rest of the
+    scene was admitted by the one door, :func:`gaz_cli.scenes.validate.validate`)."""
+    check_step_scene(scene)
 
 
 def planes_array(scene: Scene) -> np.ndarray:
