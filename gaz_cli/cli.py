@@ -17,7 +17,7 @@ import warnings
 import click
 
 from gaz_cli import __version__, interrupts
-from gaz_cli.engines.registry import CHOICES as ENGINE_CHOICES
+from gaz_cli.model.scene import OPTIONS
 from gaz_cli.errors import GazError, GazWarning
 
 FORMATS = ("table", "csv", "json")
@@ -42,6 +42,26 @@ def seed_option(f=None, *, default="a fresh seed, recorded in the database and t
         return click.option("--seed", type=click.IntRange(0, 2 ** 63 - 1), default=None,
                             help=f"Random seed; same seed, same rows. Default: {default}.")(f)
     return decorate(f) if f is not None else decorate
+
+
+_CLICK_TYPES = {"real": float, "int": int, "str": str}
+
+
+def scene_option(name: str):
+    """The click option of scene option ``name``, read from its row of the table
+    (:data:`gaz_cli.model.scene.OPTIONS`): flag, type (a choice, a range), help. Its default is
+    None (a flag not given leaves a scene file's value), a list for ``--plane``, False for a switch."""
+    row = OPTIONS[name]
+    if row.kind == "bool":
+        return click.option(row.flag, name, is_flag=True, help=row.help)
+    if row.kind == "planes":
+        return click.option(row.flag, name, multiple=True, metavar="X,Y[,Z]:NX,NY[,NZ][:E]", help=row.help)
+    kind = _CLICK_TYPES[row.kind]
+    if row.rule and row.rule[0] == "one of":
+        kind = click.Choice(list(row.rule[1]))
+    elif row.rule and row.rule[0] == "whole at least zero":
+        kind = click.IntRange(0)
+    return click.option(row.flag, name, type=kind, default=None, help=row.help)
 
 
 def format_option(f):
@@ -225,58 +245,35 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 # --- simulate -----------------------------------------------------------------
 @cli.command()
 @click.argument("scene_file", metavar="[SCENE.toml]", required=False, type=click.Path(dir_okay=False))
-@click.option("--dim", type=int, default=None, help="Dimension of space: 1, 2 or 3.")
+@scene_option("dim")
 @click.option("--n", "n", type=int, default=None, help="Number of particles (or give counts in --species).")
-@click.option("--length", type=float, default=None, help="Box side L, m.")
+@scene_option("length")
 @click.option("--packing", type=float, default=None, callback=positive("--packing"),
               help="Packing fraction (the particles' share of the box) instead of --length: the box "
                    "side follows from it, as a scene file's packing key.")
-@click.option("--duration", type=float, default=None, help="Simulated time T, s (not the run time).")
+@scene_option("duration")
 @click.option("--species", default=None, metavar="NAME|NAME:COUNT,...",
               help="Built-in gas (He Ne Ar Kr Xe H2 N2 O2 CO2 CH4; default Ar) or a mixture Ar:500,He:500.")
 @click.option("--radius", type=float, default=None, help="Custom particle radius, m (with --mass).")
 @click.option("--mass", type=float, default=None, help="Custom particle mass, kg (with --radius).")
-@click.option("--temperature", type=float, default=None,
-              help="Temperature of the Maxwell-Boltzmann velocities, K.  [default: 300]")
+@scene_option("temperature")
 @seed_option
 @db_option(default=None, note=" Default: the scene file's [output] db, else gaz.db.")
 @click.option("--no-db", is_flag=True, help="Write no database (summary only).")
-@click.option("--engine", type=click.Choice(ENGINE_CHOICES), default=None,
-              help="auto: the cheapest exact path for the scene, named with its reason in the summary "
-                   "(ideal when no two particles can meet, step for drag, pair gravity, planes or damped "
-                   "walls, event otherwise); event: fast exact event-driven engine; ideal: closed-form "
-                   "wall bounces, no queue (point particles, or one); reference: the exam's algorithm "
-                   "(slow, the specification); step: fixed time step (--dt, or auto picks one).  "
-                   "[default: auto]")
-@click.option("--boundary", type=click.Choice(["walls", "periodic"]), default=None,
-              help="Hard walls (the exam) or a periodic box (pressure from the collision virial).  [default: walls]")
-@click.option("--gravity", type=float, default=None,
-              help="Uniform gravity g, m/s^2, pulling towards 0 along the last axis.  [default: 0]")
-@click.option("--restitution", type=float, default=None,
-              help="Coefficient of restitution of particle collisions (1 = elastic).  [default: 1]")
-@click.option("--tc", type=float, default=None,
-              help="TC model contact time, s: collisions within tc of a previous one are elastic "
-                   "(guards against inelastic collapse). Default: 1e-4 of the mean free time when "
-                   "--restitution < 1.")
-@click.option("--record", type=click.Choice(["none", "bounces", "all"]), default=None,
-              help="What goes to the database: nothing but the summary, wall bounces (REBOND), "
-                   "or also particle collisions (table CHOC).  [default: bounces]")
-@click.option("--method", "placement", type=click.Choice(["auto", "rejection", "rapid", "lattice", "grow"]),
-              default=None, help="Placement method (see gaz place --help); a mixture of sizes far "
-                                 "apart places its large particles first, then the small ones "
-                                 "among them.  [default: auto]")
-@click.option("--dt", type=float, default=None, help="Time step, s (--engine step).")
-@click.option("--drag", type=float, default=None, help="Linear friction gamma, 1/s (--engine step).  [default: 0]")
-@click.option("--pair-gravity", type=float, default=None,
-              help="Newtonian attraction between bodies with this G, m^3/(kg s^2) (--engine step).  [default: 0]")
-@click.option("--softening", type=float, default=None,
-              help="Plummer softening length, m (--engine step).  [default: 0]")
-@click.option("--wall-restitution", type=float, default=None,
-              help="Restitution of the walls (1 = elastic; --engine step).  [default: 1]")
-@click.option("--plane", "planes", multiple=True, metavar="X,Y[,Z]:NX,NY[,NZ][:E]",
-              help="Extra plane wall: a point, its inward normal, optional restitution (--engine step). Repeatable.")
-@click.option("--print-every", type=click.IntRange(0), default=None,
-              help="Diagnostics on stderr every this many steps (--engine step).  [default: 0]")
+@scene_option("engine")
+@scene_option("boundary")
+@scene_option("gravity")
+@scene_option("restitution")
+@scene_option("tc")
+@scene_option("record")
+@scene_option("placement")
+@scene_option("dt")
+@scene_option("drag")
+@scene_option("pair_gravity")
+@scene_option("softening")
+@scene_option("wall_restitution")
+@scene_option("planes")
+@scene_option("print_every")
 @click.option("--preset", default=None,
               help="A packaged scene file: comet (seed 003), marbles (seed 002). Flags given with it "
                    "override it, or are refused when its initial state depends on them.")
@@ -292,12 +289,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--quiet", is_flag=True,
               help="No progress bar and no compile notice on stderr (shown only on a terminal, "
                    "for runs longer than about a second).")
-@click.option("--force", is_flag=True,
-              help="Run even when the estimated work is beyond its bound: more than 1e11 events "
-                   "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
-                   "(reference engine), 1e4 snapshots, or a trajectory or a SQLite file's rows larger "
-                   "than their disk's free space. The refusal prints the estimate. Memory and double-precision ranges are "
-                   "never overridden.")
+@scene_option("force")
 def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
-from gaz_cli.model.scene import BOUNDARIES, ENGINES, PLACEMENTS, RECORD_LEVELS, Scene
+from gaz_cli.model.scene import ALL, OPTIONS, Scene
 from gaz_cli.model.species import NAME_MAX, NAME_SEPARATORS, Species, builtin_named
 
 # --- what double precision carries through the formulas --------------------------------------
@@ -98,20 +98,48 @@ def check_one_of(name: str, value, allowed) -> None:
         raise field_error(f"`{name}` {value!r} is not one of {', '.join(allowed)}")
 
 
+def check_option(name: str, value) -> None:
+    """``value`` within the range of scene option ``name`` (its :class:`~gaz_cli.model.scene.Option`
+    row's rule); SceneError naming the field, the value, the range and the fix. An option
+    whose rule is None has a check of its own (dim, seed, gravity, planes)."""
+    rule = OPTIONS[name].rule
+    if rule is None:
+        return
+    kind, *args = rule
+    if kind == "positive":
+        check_positive(name, value, *args)
+    elif kind == "at least zero":
+        check_at_least_zero(name, value, *args)
+    elif kind == "unit interval":
+        check_unit_interval(name, value, *args)
+    elif kind == "one of":
+        check_one_of(name, value, *args)
+    elif kind == "whole at least zero":
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+            raise field_error(f"`{name}` {value!r} is not a whole number >= 0 ({args[0]})")
+    elif kind == "bool":
+        if not isinstance(value, bool):
+            raise field_error(f"`{name}` {value!r} is not true or false")
+    else:
+        raise ValueError(f"scene option {name!r}: unknown rule {kind!r}")
+
+
 def check_fields(scene: Scene) -> None:
     """The scene's own fields, each in its range; raise :class:`SceneError` naming the field, the
     value, the allowed range and the fix. No engine, placement or disk is consulted: the door
     (:func:`gaz_cli.scenes.validate.validate`) adds those checks after this one.
 
     In order: dimension, engine name, placement; counts, species, box, duration, temperature;
-    boundary, recording, restitution, gravity, seed, tc, force.
+    boundary, recording, restitution, gravity, seed; then every other option of
+    :data:`~gaz_cli.model.scene.OPTIONS` that applies to every engine, by its rule
+    (:func:`check_option`).
     """
     if not isinstance(scene, Scene):
         raise SceneError(f"expected a Scene, got {type(scene).__name__}")
     if isinstance(scene.dim, bool) or scene.dim not in (1, 2, 3):
         raise field_error(f"`dim` {scene.dim!r} is not 1, 2 or 3")
-    check_one_of("engine", scene.engine, ENGINES)
-    check_one_of("placement", scene.placement, PLACEMENTS)
+    check_option("engine", scene.engine)
+    check_option("placement", scene.placement)
     if scene.placement == "rapid" and scene.dim != 1:
         raise field_error("`placement` rapid works in 1D only (the exam's Q10); use rejection, grow or lattice")
     if not isinstance(scene.components, (tuple, list)) or not scene.components:
@@ -121,9 +149,8 @@ def check_fields(scene: Scene) -> None:
             raise field_error(f"`species` entry {item!r} is not a (Species, count) pair")
     for sp, k in scene.components:
         check_count(k, None if len(scene.components) == 1 else sp.name)
-    check_positive("length", scene.length, " (m)")
-    check_positive("duration", scene.duration, " (simulated seconds)")
-    check_positive("temperature", scene.temperature, " (kelvin)")
+    for name in ("length", "duration", "temperature"):
+        check_option(name, getattr(scene, name))
     for sp, k in scene.components:
         check_species_name(sp.name)
         if not is_real("mass", sp.mass) or not np.isfinite(sp.mass) or sp.mass <= 0:
@@ -135,9 +162,8 @@ def check_fields(scene: Scene) -> None:
         if 2 * sp.radius >= scene.length:
             raise field_error(f"a {sp.name} particle (diameter {2 * sp.radius:g} m) does not fit in "
                               f"the box of side {scene.length:g} m; raise `length`")
-    check_one_of("boundary", scene.boundary, BOUNDARIES)
-    check_one_of("record", scene.record, RECORD_LEVELS)
-    check_unit_interval("restitution", scene.restitution, "particle collisions")
+    for name in ("boundary", "record", "restitution"):
+        check_option(name, getattr(scene, name))
     check_number("gravity", scene.gravity, "m/s^2")
     if not np.isfinite(scene.gravity) or scene.gravity < 0:
         raise field_error(f"`gravity` {scene.gravity} must be >= 0 (m/s^2, pulling towards -axis {scene.dim - 1})")
@@ -148,9 +174,9 @@ def check_fields(scene: Scene) -> None:
             raise field_error(f"`seed` {scene.seed!r} is not a whole number")
         if not 0 <= scene.seed < 2 ** 63:
             raise field_error(f"`seed` {scene.seed} must be between 0 and 2^63 - 1")
-    check_at_least_zero("tc", scene.tc, "s")
-    if not isinstance(scene.force, bool):
-        raise field_error(f"`force` {scene.force!r} is not true or false")
+    for name, row in OPTIONS.items():  # the rest, in the table's order (a new option is checked here)
+        if row.engines == ALL:
+            check_option(name, getattr(scene, name))
 
 
 # --- the checks validate() composes --------------------------------------------------------------

@@ -42,41 +42,40 @@ from dataclasses import fields, replace
 from importlib import resources
 from pathlib import Path
 
-from gaz_cli.engines.registry import CHOICES as ENGINE_CHOICES
 from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME, packing_fraction
 from gaz_cli.engines.event.search import SEARCH
 from gaz_cli.model.checks import field_error, render
 from gaz_cli.model.estimates import default_tc
-from gaz_cli.model.scene import Scene
+from gaz_cli.model.scene import ALL, OPTIONS, Scene
 from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import BUILTIN, Species, lookup
 
 REAL, INT, STR, BOOL = "a number", "a whole number", "a string", "true or false"
 
-SCALARS = {
-    # key: (type, unit or allowed values, for the comment beside it)
-    "dim": (INT, "1, 2 or 3"),
-    "length": (REAL, "m, box side"),
-    "packing": (REAL, "packing fraction; the box side follows from it (instead of length)"),
-    "duration": (REAL, "simulated s"),
-    "temperature": (REAL, "K"),
-    "seed": (INT, "same seed, same rows"),
-    "boundary": (STR, "walls | periodic"),
-    "gravity": (REAL, "m/s^2, towards 0 along the last axis"),
-    "restitution": (REAL, "particle collisions, 1 = elastic"),
-    "tc": (REAL, "s, TC-model contact time"),
-    "engine": (STR, " | ".join(ENGINE_CHOICES)),
-    "placement": (STR, "auto | rejection | rapid | lattice | grow"),
-    "record": (STR, "none | bounces | all"),
-    "force": (BOOL, "run beyond the work bounds"),
-    "dt": (REAL, "s, time step (step engine)"),
-    "drag": (REAL, "1/s, linear friction (step engine)"),
-    "pair_gravity": (REAL, "m^3/(kg s^2), G between bodies (step engine)"),
-    "softening": (REAL, "m, Plummer softening (step engine)"),
-    "wall_restitution": (REAL, "walls, 1 = elastic (step engine)"),
-    "print_every": (INT, "steps between diagnostics (step engine)"),
-}
+KIND_WORDS = {"real": REAL, "int": INT, "str": STR, "bool": BOOL}
+"""A scene option's kind (:class:`gaz_cli.model.scene.Option`) in a message's words."""
+
+PACKING = (REAL, "packing fraction; the box side follows from it (instead of length)")
+"""The one top-level key that is not a Scene field: the box side follows from it."""
+
+
+def _scalars() -> dict:
+    """Top-level key -> (type, the comment beside it): the scene options of every engine in the
+    Scene's order (``packing`` after ``length``), then the step engine's; ``planes`` is a table."""
+    rows = [o for o in OPTIONS.values() if o.engines == ALL] + [o for o in OPTIONS.values() if o.engines != ALL]
+    out = {}
+    for o in rows:
+        if o.kind in KIND_WORDS:
+            out[o.name] = (KIND_WORDS[o.kind], o.unit)
+        if o.name == "length":
+            out["packing"] = PACKING
+    return out
+
+
+SCALARS = _scalars()
+"""Top-level key -> (type, unit or allowed values, for the comment beside it): from the table of
+scene options, :data:`gaz_cli.model.scene.OPTIONS`."""
 SPECIES_KEYS = {"name": STR, "count": INT, "mass": REAL, "radius": REAL}
 PLANE_KEYS = {"point": "an array of numbers", "normal": "an array of numbers", "restitution": REAL}
 OUTPUT_KEYS = {"db": STR, "trajectory": STR, "every": REAL, "save_state": STR}
@@ -84,7 +83,8 @@ SEARCH_KEYS = {key: (REAL if key == "skin" else STR) for key in SEARCH}
 TABLES = ("species", "planes", "initial", "search", "output")
 _TABLE_HEADERS = {"species": "[[species]]", "planes": "[[planes]]", "initial": "[initial]",
                   "search": "[search]", "output": "[output]"}
-STEP_KEYS = ("dt", "drag", "pair_gravity", "softening", "wall_restitution", "print_every")
+STEP_KEYS = tuple(name for name, o in OPTIONS.items() if o.engines == ("step",) and o.kind in KIND_WORDS)
+"""The step engine's top-level keys, written only with ``engine = "step"``."""
 
 
 # --- reading ---------------------------------------------------------------------------------
@@ -234,8 +234,7 @@ def build(doc: dict, where: str = "") -> tuple[Scene, dict]:
         raise SceneError(f"{where}missing length (or packing)")
     planes = tuple((tuple(p.get("point", ())), tuple(p.get("normal", ())), p.get("restitution", 1.0))
                    for p in doc.get("planes", []))
-    for key in ("length", "duration", "temperature", "gravity", "restitution", "tc", "dt", "drag",
-                "pair_gravity", "softening", "wall_restitution"):
+    for key in (name for name, o in OPTIONS.items() if o.kind == "real"):
         if key in values:
             values[key] = float(values[key])
     initial = doc.get("initial")

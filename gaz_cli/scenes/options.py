@@ -16,25 +16,17 @@ import math
 from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
 from gaz_cli.model.checks import render
-from gaz_cli.model.scene import Scene
+from gaz_cli.model.scene import OPTIONS, Scene
 from gaz_cli.model.species import DEFAULT_SPECIES, parse_mixture
 
-FLAGS = {
-    "dim": "--dim", "n": "--n", "length": "--length", "packing": "--packing", "duration": "--duration",
-    "temperature": "--temperature", "seed": "--seed", "boundary": "--boundary", "gravity": "--gravity",
-    "restitution": "--restitution", "tc": "--tc", "engine": "--engine", "placement": "--method",
-    "record": "--record", "dt": "--dt", "drag": "--drag", "pair_gravity": "--pair-gravity",
-    "softening": "--softening", "wall_restitution": "--wall-restitution", "planes": "--plane",
-    "print_every": "--print-every", "force": "--force", "species": "--species", "radius": "--radius",
-    "mass": "--mass", "trajectory": "--trajectory", "every": "--every",
-}
-"""Scene field -> ``gaz simulate`` flag (the one place the CLI names fields its own way)."""
+FLAGS = {**{name: row.flag for name, row in OPTIONS.items()},
+         "n": "--n", "packing": "--packing", "species": "--species", "radius": "--radius", "mass": "--mass",
+         "trajectory": "--trajectory", "every": "--every"}
+"""Scene field -> ``gaz simulate`` flag (the one place the CLI names fields its own way): the
+table of scene options (:data:`gaz_cli.model.scene.OPTIONS`), and the keys that are not Scene fields."""
 
-SCALAR_FLAGS = ("dim", "length", "packing", "duration", "temperature", "seed", "boundary", "gravity", "restitution",
-                "tc", "engine", "placement", "record", "dt", "drag", "pair_gravity", "softening",
-                "wall_restitution", "print_every")
-"""Flags that set the scene key of the same name."""
-
+SCALAR_FLAGS = tuple(name for name in scenefile.SCALARS if name != "force")
+"""Flags that set the scene key of the same name (``--force`` and ``--plane`` are passed apart)."""
 
 def message(err: BaseException, given=None) -> str:
     """An error's one line in the CLI's words: each marked field as its flag.

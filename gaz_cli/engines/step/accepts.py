@@ -6,13 +6,11 @@ extra planes. Pure Python: no compiled code is loaded.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 
-from gaz_cli.model.checks import (check_at_least_zero, check_positive, check_unit_interval, field_error,
-                                  is_real)
-from gaz_cli.model.scene import Scene
+from gaz_cli.model.checks import check_option, field_error, is_real
+from gaz_cli.model.scene import STEP_ONLY, Scene
 
 
 def check_step_scene(scene: Scene) -> None:
@@ -22,20 +20,15 @@ def check_step_scene(scene: Scene) -> None:
     the largest particle."""
     if scene.dt is None:
         raise field_error("`engine` step needs a time step `dt` (seconds)")
-    check_positive("dt", scene.dt, " (seconds)")
+    check_option("dt", scene.dt)
     if scene.dt > scene.duration:
         raise field_error(f"`dt` {scene.dt:g} s is longer than `duration` {scene.duration:g} s; "
                           "lower `dt` or raise `duration`")
     if scene.boundary != "walls":
         raise field_error("`engine` step works with hard walls only; drop `boundary` periodic "
                           "or use `engine` event")
-    check_at_least_zero("drag", scene.drag, "1/s")
-    check_at_least_zero("pair_gravity", scene.pair_gravity, "m^3/(kg s^2)")
-    check_at_least_zero("softening", scene.softening, "m")
-    check_unit_interval("wall_restitution", scene.wall_restitution, "the walls")
-    if isinstance(scene.print_every, bool) or not isinstance(scene.print_every, numbers.Integral) \
-            or scene.print_every < 0:
-        raise field_error(f"`print_every` {scene.print_every!r} is not a whole number >= 0 (steps)")
+    for name in STEP_ONLY:  # drag, pair_gravity, softening, wall_restitution, print_every... by their rules
+        check_option(name, getattr(scene, name))
     rmax = max(float(sp.radius) for sp, _ in scene.components)
     for plane in scene.planes:
         check_plane(plane, scene.dim)
