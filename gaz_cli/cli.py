@@ -20,7 +20,8 @@ from gaz_cli import __version__, interrupts
 from gaz_cli.model.scene import OPTIONS
 from gaz_cli.errors import GazError, GazWarning
 
-FORMATS = ("table", "csv", "json")
+TABLE_FORMATS = ("table", "csv", "json")
+"""What --format prints: a table, CSV or JSON (data on stdout)."""
 
 
 # --- shared options -----------------------------------------------------------
@@ -65,7 +66,7 @@ def scene_option(name: str):
 
 
 def format_option(f):
-    return click.option("--format", "fmt", type=click.Choice(FORMATS), default="table",
+    return click.option("--format", "fmt", type=click.Choice(TABLE_FORMATS), default="table",
                         show_default=True, help="Output format.")(f)
 
 
