@@ -22,7 +22,7 @@ engine applies; its pressure is compared with the finest dt (0.001 tau) from
 the same initial state, and its kinetic energy with the exact decay
 E0 exp(-2 gamma T) (collisions and walls are elastic).
 
-Writes docs/run_time_vs_error.png and docs/run_time_vs_error.md.
+Writes docs/explanation/run_time_vs_error.png and docs/explanation/run_time_vs_error.md.
 
     python benchmarks/run_time_vs_error.py            # about 3 minutes on 2 cores
     python benchmarks/run_time_vs_error.py --quick --out /tmp/rt   # about 15 s
@@ -49,7 +49,7 @@ from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import lookup
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = ROOT / "docs"
+DOCS = ROOT / "docs" / "explanation"
 
 
 def exact_engine():
@@ -142,7 +142,7 @@ def median(values):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer seeds, shorter runs, fewer dt (about 15 s)")
-    parser.add_argument("--out", default=str(DOCS), help="folder for the figure and the table (default: docs/)")
+    parser.add_argument("--out", default=str(DOCS), help="folder for the figure and the table (default: docs/explanation/)")
     args = parser.parse_args(argv)
     out_dir = Path(args.out)
     exact_run, exact_name = exact_engine()

@@ -1,12 +1,12 @@
-"""The stress scenes of the event engine, long variants: the table of docs/stability.md (issue 12).
+"""The stress scenes of the event engine, long variants: the table of docs/explanation/stability.md (issue 12).
 
 Not a test: it runs every scene of ``tests/stress_scenes.py`` at its "long" size once, with
 the same checks as the stress suite made as measurements instead of assertions, prints one
-row a scene and writes the table into docs/stability.md between the markers
+row a scene and writes the table into docs/explanation/stability.md between the markers
 ``<!-- stress:begin -->`` and ``<!-- stress:end -->`` (the file and the section are created
 if absent; the rest of the file is left alone). Run from the repository root:
 
-    python benchmarks/stress.py             # every scene, writes docs/stability.md
+    python benchmarks/stress.py             # every scene, writes docs/explanation/stability.md
     python benchmarks/stress.py --only dense --no-write   # the scenes whose name has 'dense'
 
 Columns: scene; N particles; events (collisions + wall bounces); energy drift, the largest
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 import stress_scenes as S  # noqa: E402
 
 BEGIN, END = "<!-- stress:begin -->", "<!-- stress:end -->"
-DOC = ROOT / "docs" / "stability.md"
+DOC = ROOT / "docs" / "explanation" / "stability.md"
 HEADER = """# Numerical stability of the event engine
 
 What was tried to break the exact (event-driven) engine, and what it gave. The stress table is
@@ -180,7 +180,7 @@ def write(doc: Path, section: str) -> None:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", help="run only the scenes whose name contains this text")
-    ap.add_argument("--no-write", action="store_true", help="print, do not write docs/stability.md")
+    ap.add_argument("--no-write", action="store_true", help="print, do not write docs/explanation/stability.md")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     rows = []

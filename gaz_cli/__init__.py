@@ -1,6 +1,6 @@
 """gaz: hard-sphere gases in a box, every wall bounce in a SQL database.
 
-The Python API (README "From Python"): :func:`make_scene`, :func:`load_scene`,
+The Python API (docs/tutorials/python.md): :func:`make_scene`, :func:`load_scene`,
 :func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, :func:`sweep`,
 :func:`versus`, the types
 :class:`Scene`, :class:`Species`, :class:`State`, :class:`Run`, and the exceptions of

@@ -1,6 +1,6 @@
 """The Python API: what the command line calls, for notebooks and scripts.
 
-Exposed at the package's top level (``import gaz_cli as gaz``; see README "From Python")::
+Exposed at the package's top level (``import gaz_cli as gaz``; see docs/tutorials/python.md)::
 
     scene = gaz.make_scene(dim=2, species={"Ar": 100}, length=1e-7, duration=1e-10, seed=1)
     run = gaz.simulate(scene, keep_state=True, keep_bounces=True)    # no database
@@ -22,7 +22,7 @@ __all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", 
 
 
 def make_scene(*, species, **keys) -> Scene:
-    """A validated Scene from the keys of a scene file (docs/scenes.md), SI units.
+    """A validated Scene from the keys of a scene file (docs/reference/scene-file.md), SI units.
 
     ``species``: ``{"Ar": 500, "He": 500}`` (built-in gases and counts), ``"Ar:500,He:500"``,
     or a list of scene-file tables (``[{"name": "bead", "count": 10, "mass": 1e-3,

@@ -294,7 +294,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
-    The scene comes from the options, or from SCENE.toml (a scene file, docs/scenes.md) or
+    The scene comes from the options, or from SCENE.toml (a scene file, docs/reference/scene-file.md) or
     --preset NAME with the options given overriding it.
 
     \b

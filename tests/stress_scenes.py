@@ -1,7 +1,7 @@
 """Stress scenes of the event engine and the checks every one of them must pass.
 
 Shared by ``tests/test_stress.py`` (short variants, in the default suite) and
-``benchmarks/stress.py`` (long variants, the table of docs/stability.md): one
+``benchmarks/stress.py`` (long variants, the table of docs/explanation/stability.md): one
 builder per scene takes a size ("ci" or "long") and returns a :class:`Case`;
 :func:`run_checked` runs it through :func:`gaz_cli.engines.event.run` with a
 :class:`Checker` recorder that asserts, while the run goes on,
@@ -166,7 +166,7 @@ class Case:
 
 @dataclass
 class Result:
-    """What a checked run measured: a row of docs/stability.md."""
+    """What a checked run measured: a row of docs/explanation/stability.md."""
 
     name: str
     n: int

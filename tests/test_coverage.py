@@ -11,7 +11,7 @@ Why 60 seeds: the fraction within 1 sigma over k seeds has a binomial
 spread sqrt(0.683 x 0.317/k): 0.085 for 30 seeds, where [0.5, 0.85] is
 +-2 spreads and a correct estimator fails one of the ~30 checks below about
 four times in five; 0.060 for 60, where the bounds are 2.8 and 3.0 spreads
-away. Measured on 100 seeds per class (README, 'what the physics says'),
+away. Measured on 100 seeds per class (docs/explanation/error-bars.md),
 the fractions sit within 1.5 spreads of 0.683 except the collisionless
 box's mean pressure (0.78: its error, the closed form of the run's ends, is
 right in rms, 0.97, but the deviation is not Gaussian: lighter tails); with

@@ -3,7 +3,7 @@ exit, no traceback, the database untouched (byte for byte) and no file written.
 
 Each case runs ``gaz`` in-process (click's CliRunner, through the real entry point ``main``)
 with ``--db`` on a copy of a database that already holds one simulation; the copy's SHA-256
-is compared before and after. The same cases make the table of docs/stability.md::
+is compared before and after. The same cases make the table of docs/explanation/stability.md::
 
     GAZ_WRITE_STABILITY=1 python -m pytest tests/test_hostile_inputs.py -k table
 
@@ -277,9 +277,9 @@ def test_a_run_staged_in_a_scratch_file_counts_it_in_the_free_space_asked(tmp_pa
             check_database_space([scene], disk / "gaz.db")
 
 
-# --- the table of docs/stability.md -------------------------------------------------------------
+# --- the table of docs/explanation/stability.md -------------------------------------------------------------
 BEGIN, END = "<!-- hostile-inputs:begin -->", "<!-- hostile-inputs:end -->"
-DOC = Path(__file__).resolve().parent.parent / "docs" / "stability.md"
+DOC = Path(__file__).resolve().parent.parent / "docs" / "explanation" / "stability.md"
 
 
 def _cell(text: str) -> str:

@@ -8,7 +8,7 @@ centre inside the box, energy conserved to 1e-12 per 10^6 events (elastic), and 
 engine's count of collisions found overlapping zero. Each test also runs its scene twice
 and asserts byte-identical REBOND rows (and collisions) for the same seed. These are the
 short variants (about a minute in all, warm JIT cache); ``benchmarks/stress.py`` runs the
-long ones and writes docs/stability.md.
+long ones and writes docs/explanation/stability.md.
 
 The grazing pairs from 1000 sigma, the late clocks (10^7 and 10^9 mean free times), the
 settled inelastic bed, the disk at rest on the floor and the 1D rods under gravity at late

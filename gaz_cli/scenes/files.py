@@ -1,6 +1,6 @@
 """Scene files: a run described in TOML, read and written; the packaged presets.
 
-A scene file holds everything ``gaz simulate`` takes (docs/scenes.md)::
+A scene file holds everything ``gaz simulate`` takes (docs/reference/scene-file.md)::
 
     dim = 2
     length = 1e-7          # m (or: packing = 0.3, the length then follows)
@@ -394,7 +394,7 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
     """The scene file of ``scene`` (and its outputs), units in comments."""
     require_scene(scene)
     doc = to_doc(scene, outputs)
-    lines = [f"# {line}" for line in (comment or "gaz scene file (docs/scenes.md)").splitlines()]
+    lines = [f"# {line}" for line in (comment or "gaz scene file (docs/reference/scene-file.md)").splitlines()]
     lines.append(f"# packing fraction {scene.packing_fraction:.6g}, {scene.n} particles")
     for key, value in doc.items():
         if key in TABLES:
@@ -475,5 +475,5 @@ def without_builtin_clash(text: str) -> str:
     said = "; ".join(renamed)
     warnings.warn(f"{said}: a custom species may no longer bear a built-in name (the run is the same)",
                   GazWarning, stacklevel=2)
-    return dumps(scene, outputs, comment=f"gaz scene file (docs/scenes.md)\n{said}: stored by an older gaz "
+    return dumps(scene, outputs, comment=f"gaz scene file (docs/reference/scene-file.md)\n{said}: stored by an older gaz "
                                          "under a built-in name, which a custom species may no longer bear")

@@ -79,7 +79,7 @@ the step); 'swept' also catches the pairs that touched during the step and alrea
 (grazing contacts the overlap rule misses), at the price of a wider neighbour search."""
 
 DEFAULT_DETECTION = "overlap"
-"""Seed 002's rule: on the benchmark scene (docs/run_time_vs_error.md) halving dt with it
+"""Seed 002's rule: on the benchmark scene (docs/explanation/run_time_vs_error.md) halving dt with it
 buys more accuracy per second than switching to 'swept'."""
 
 MAX_PASSES = 100
