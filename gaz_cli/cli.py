@@ -634,6 +634,7 @@ def main(argv=None) -> None:
         sys.exit(3)
     finally:
         # the objects left (Numba's compiler state, mostly) live until exit: a last garbage
-        # collection over them cost ~0.05 s of every run's exit (measured)
+        # collection over them slowed every run's exit (measurements:
+        # docs/explanation/engine_measurements.md#cli)
         gc.freeze()
     sys.exit(0)

@@ -31,8 +31,8 @@ from gaz_cli.model.scene import Scene, State
 
 CHUNK = 1 << 16
 """About this many bounces are generated, sorted and recorded at a time, or 2 N D if more
-(a window costs O(N D) to set up): small enough to sort in cache (measured, 3D, N = 10^4,
-1.2 M bounces: 1.7 M bounces/s with windows of 2^20, 4.4 M/s with 2^17, 4.8 M/s with 2^15)."""
+(a window costs O(N D) to set up): small enough to sort in cache; larger windows ran far
+slower (measurements: docs/explanation/engine_measurements.md#ideal-engine)."""
 
 
 def reason_not(scene: Scene) -> str | None:

@@ -129,8 +129,9 @@ def _tiny_work(scene) -> float | None:
     """The reference engine's work for the run (events x particles + particles^2, its initial
     catalogue: :func:`gaz_cli.model.estimates.work_estimate`), if at most TINY_WORK; else None.
 
-    Without the catalogue's N^2, 3010 particles for 5 events counted as tiny: the reference
-    engine took 2.2 s where the event engine takes about 0.5 s with its start-up."""
+    Without the catalogue's N^2, a few thousand particles over a few events counted as tiny
+    and ran slower on the reference engine than on the event engine with its start-up
+    (measurements: docs/explanation/engine_measurements.md#engine-registry)."""
     from gaz_cli.engines.reference import reference_refusal
     from gaz_cli.model.estimates import work_estimate
 

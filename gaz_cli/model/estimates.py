@@ -1,7 +1,8 @@
 """What a run will cost, estimated from theory before it starts: its events, rows, steps and
 memory, and the bounds past which the door refuses it without ``force``.
 
-Figures measured for the constants here are in docs/explanation/performance.md.
+Figures measured for the constants here are in
+docs/explanation/engine_measurements.md#model-estimates.
 """
 
 from __future__ import annotations
@@ -41,11 +42,8 @@ is 0.5 TB of H5MD)."""
 BYTES_PER_PARTICLE = {"event": 480, "step": 370, "reference": 700, "ideal": 200, "place": 90}
 """Peak memory per particle of a run (placement, state and the engine's arrays), bytes.
 
-Measured as the growth of the peak resident memory between two runs (3D, packing 0.05,
-walls, --record none; one process each): event engine 473 B (N = 2e5 -> 1e6: 230.5 ->
-591.3 MiB), step engine 369 B (208.7 -> 490.1 MiB), placement alone 85 B (184.9 -> 249.7
-MiB); reference engine about 700 B (N = 100 -> 1000: 126.8 -> 127.4 MiB). 1D and 2D need
-less."""
+Measured as the growth of the peak resident memory between two runs in 3D, rounded up;
+1D and 2D need less (measurements: docs/explanation/engine_measurements.md#model-estimates)."""
 
 
 def physical_memory() -> int | None:
@@ -92,9 +90,8 @@ def work_estimate(scene: Scene) -> dict:
     reference engine: events x N + N^2 (its initCat). Returns a dict: events_per_s, events
     (of which bounces and collisions), work, limit, what (the estimate in words), fix.
 
-    Measured against the event engine (one run each): argon 3D, N = 1000, the README's scene
-    0.99 of the events counted; reduced units 3D eta 0.3 walls 0.83, 2D 0.5 0.97, 1D 0.8 0.96,
-    3D periodic 0.45 0.96; 2D eta 0.1 under gravity (g = 30, m = k_B T = 1, L = 1) 0.38.
+    An estimate, checked against the events the event engine counts: it falls short of them,
+    most under gravity (measurements: docs/explanation/engine_measurements.md#model-estimates).
     """
     from gaz_cli import theory
 

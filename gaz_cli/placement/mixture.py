@@ -4,9 +4,8 @@ ones around them, held fixed.
 Random sequential addition and growth test a particle against those of the 3^D cells
 around it, cells at least one largest diameter wide: with large particles ten times wider
 than the small ones, each test of a small particle scans the small particles of cells a
-thousand times too large (3D). Measured before this module (CPU s): 4000 small and 40 large spheres
-1:10 at packing 0.4, walls, 13 s of growth; 10^4 small and 4 large, 725 s; 8000 small and 8
-large 1:5 at packing 0.45, periodic, 160 s. Here:
+thousand times too large (3D; measurements before this module:
+docs/explanation/engine_measurements.md#placement-mixtures). Here:
 
 1. :func:`split`: a particle is small when its radius is at most rmax / :data:`SPLIT_RATIO`
    (or :data:`CLOSE_RATIO`, when the large ones are not dense);
@@ -39,8 +38,8 @@ CLOSE_RATIO = 3.0
 """From this ratio on, two steps when the large particles alone fill at most the packing
 below which they would be added at random (:data:`gaz_cli.placement.RSA_COMFORT`): denser,
 their pockets are too narrow for small particles only a few times smaller, which, grown
-from points in them, jam (measured: 2000 + 2000 spheres 1:3 at packing 0.5, the large ones
-alone 0.48, growth jammed at 0.01 of the small ones' 0.018); all grow together then, on one
+from points in them, jam (measurements:
+docs/explanation/engine_measurements.md#placement-mixtures); all grow together then, on one
 grid (cells ~3^D times too large, a cost that stays moderate)."""
 
 

@@ -6,12 +6,8 @@ times come from the stable quadratic forms of physics.md section 10.
 
 Off the gravity axis, :func:`_crossing` picks the face ahead and its time by selects,
 not by branches on the sign of the velocity (a coin toss for the predictor, three times
-an event); the same values. 2026-11-23, 2 shared cores, load 1.3-4.9, 3D N = 10^4
-packing 0.05 with cells, CPU time per queue event, 5 alternating pairs, same events:
-against the pair-time change alone (interactions.py) 0.921 0.919 0.929 0.877 0.954
-(median 0.921, periodic); both changes against main de31f65, periodic 0.833 0.844 0.868
-0.821 0.838 (0.838), walls (argon) 0.838 0.775 0.831 0.855 0.860 (0.838). A perf
-profile had _crossing 10.6 % of the loop's samples before, 5.2 % after.
+an event); the same values, in less time (measurements:
+docs/explanation/engine_measurements.md#event-engine-boundaries).
 """
 
 from __future__ import annotations

@@ -9,9 +9,7 @@ The queue's operations, :func:`_next_bucket` included, are inlined (``_inline``)
 the event loop, where the arrays are borrowed: as separate functions (``_helper``,
 which LLVM left as calls) each call paid Numba's reference counting, two indirect calls
 (NRT_incref, NRT_decref) per array argument, no-ops on borrowed arrays but calls all the
-same: with the calls themselves, 15 % of the loop's samples in a perf profile of the
-N = 10^4 dense fluid of benchmarks/smallenburg.py, and 1.8 % of the process's in the
-NRT functions alone.
+same (measurements: docs/explanation/engine_measurements.md#event-engine-calendar).
 """
 
 from __future__ import annotations
@@ -133,8 +131,8 @@ def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
     calendar the overflow list is dealt out again. Returns (cur, heap size,
     overflow head, buckets stepped). Called once per bucket (every 3-4 events in a
     dense fluid), inlined all the same: as a call (njit) it paid the reference counting
-    of its five arrays and, with them, ran 1.06x slower (benchmarks/smallenburg.py's
-    fluid, 6 alternating rounds: 1.025 1.070 1.003 1.063 1.051 1.091).
+    of its five arrays and ran slower (measurements:
+    docs/explanation/engine_measurements.md#event-engine-calendar).
     """
     mask = nbk - 1
     hsize = 0

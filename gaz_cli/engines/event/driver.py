@@ -47,12 +47,10 @@ BUFFER_ROWS = 1 << 14
 """Rows of each record buffer (bounces, collisions), handed to the recorder when full: memory
 stays bounded on any run. 16384 rather than 65536: a run into a SQLite file inserts each
 chunk from a thread while the engine computes the next (gaz_cli.results.sqlite._EarlyInsert),
-so the user waits for the last chunk's insert; on the README example (idle 2-core host,
-benchmarks/recording.py --in-process --rounds 5, sessions alternating) the wall recording
-adds fell from 32.1 % and 30.7 % of the engine to 23.4 % and 17.4 %, with the same CPU in
-all (0.26 s); measured again later the same day, with a faster engine (0.09 s): 62.9 % and
-64.6 % with 65536, 42.9 % and 46.2 % with 16384 (--buffer-rows, sessions alternating, the
-same CPU). A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
+so the user waits for the last chunk's insert: smaller chunks cut the wall time recording
+adds, at the same CPU (measurements:
+docs/explanation/engine_measurements.md#event-engine-driver).
+A kernel return costs tens of microseconds: ~1 % at 16384 bounces a chunk."""
 
 TAIL_ROWS = 1 << 11
 """The smallest chunk the buffers are tapered to near the run's end (:meth:`_Simulation._chunk_cap`):
@@ -62,22 +60,21 @@ for (~1 ms of SQLite inserts), for a few more kernel returns (~4, tens of micros
 RESTART_FROM_N = 20_000
 RESTART_EVERY = 20
 """Systems of RESTART_FROM_N particles or more are renumbered in space order every
-RESTART_EVERY events per particle (memory locality; small systems fit in cache). From
-5000 instead, 3D N = 10^4 packing 0.05 with cells ran 1.07-1.12x slower per queue event
-(median 1.09, 5 alternating pairs, 2026-11-23)."""
+RESTART_EVERY events per particle (memory locality; small systems fit in cache): from 5000
+instead, a 3D gas of 10^4 ran slower (measurements:
+docs/explanation/engine_measurements.md#event-engine-driver)."""
 
 PREFETCH_FROM_N = 20_000
 """Systems of this many particles or more prefetch the cells and rows of each scan, and
 the partners and cells of the next events (their data no longer fits in the caches; every
 run requests the next events' own rows, :mod:`.prefetch`; below, the other hints
-cost more than they save: from 5000 instead, 3D N = 10^4 packing 0.05 with cells ran
-1.07-1.12x slower, median 1.09, 5 alternating pairs, 2026-11-23; the block prefetch of
-the gather alone, neighbours/cells.py, gained nothing there either)."""
+cost more than they save; measurements:
+docs/explanation/engine_measurements.md#event-engine-driver)."""
 
 PREFETCH_LISTS_FROM_N = 5_000
-"""The same with neighbour lists, whose scans read the rows of a list at random (3D,
-packing 0.45, prefetch on/off, CPU time, alternating: 1.20x at N = 10^4, 1.00x at 4000,
-0.95x at 2000)."""
+"""The same with neighbour lists, whose scans read the rows of a list at random: the prefetch
+pays from about this size on (measurements:
+docs/explanation/engine_measurements.md#event-engine-driver)."""
 
 FIRST_CHUNK = 50_000
 CHUNK = 1 << 22
@@ -130,9 +127,10 @@ def _search(scene: Scene, radii: np.ndarray, PP: tuple) -> tuple:
     Cells with crossing events, neighbour lists or the dilute scan, sized on the
     interaction's reach; radii far apart: cells per size class (extras 'classes': 'off'
     forces one grid), never neighbour lists unless forced (they would be sized by the
-    largest reach: a 3D 1:100 mixture at packing 0.4 ran 7.5x slower with them), and in a
-    box with walls without gravity the cheapest of size classes, wide cells and the dilute
-    scan by the model of :mod:`.mixture_cost`."""
+    largest reach, far slower; measurements:
+    docs/explanation/engine_measurements.md#event-engine-driver), and in a box with walls
+    without gravity the cheapest of size classes, wide cells and the dilute scan by the
+    model of :mod:`.mixture_cost`."""
     D, n, L = int(scene.dim), radii.size, float(scene.length)
     periodic = scene.boundary == "periodic"
     gravity = float(scene.gravity) > 0.0

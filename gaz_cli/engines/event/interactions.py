@@ -5,19 +5,11 @@ Part. Mech. 1, 191, 2014): max(0, c / (-b + sqrt(b^2 - a c))) and only for b < 0
 an overlapping pair that approaches collides at once and one that separates is left
 alone.
 
-The root is taken only for a hit (:func:`_contact_dt`; 2026-11-23, 2 shared cores,
-load 1.6-4.9, benchmarks: 3D N = 10^4 packing 0.05 with cells, CPU time per queue
-event, 5 alternating pairs against main de31f65, same events): periodic 0.986 1.011
-0.939 0.972 0.952 (median 0.972), walls (argon) 0.948 0.942 0.962 0.920 0.975 (0.948);
-the dense fluid's lists (packing 0.45, whose scan calls it behind its own rejection)
-are not slower. Before, the root of every pair was computed and the hit chosen by a
-select: a perf profile of that periodic scene had the cell scan 40 % of the loop's
-samples, most of them waiting on the square root and the division. Tried and dropped:
-the hit as two comparisons (b < 0 and disc > 0), which LLVM made two branches, the
-first on the sign of b: 1.07-1.14x slower than main (3 pairs); a sure-miss filter before
-the cross products (b >= 0, or b^2 - a c below -1e-12 a (|dx|^2 + sig^2), far beyond the
-round-off of either discriminant): 0.962-0.991 (median 0.978, 5 pairs, load 0.7), not
-kept for 2 %: a second discriminant formula beside the stable one.
+The root is taken only for a hit (:func:`_contact_dt`): computed for every pair, the hit
+chosen by a select, it left the cell scan waiting on the square root and the division; the
+hit is one comparison, not two branches, and there is no second discriminant formula as a
+sure-miss filter beside the stable one (measurements:
+docs/explanation/engine_measurements.md#event-engine-interactions).
 """
 
 from __future__ import annotations
@@ -69,7 +61,8 @@ def _contact_dt(dx0, dx1, dx2, dv0, dv1, dv2, sig, s, D):
     root (a square root, a division) is taken only for a hit, b < 0 and disc > 0 tested
     as the one comparison max(b, -disc) < 0 (a hit is rare in a dilute cell scan; the
     sign of b alone is a coin toss that a branch predictor loses half the time, so the
-    two tests must not be two branches). See the module docstring for the figures.
+    two tests must not be two branches). The figures:
+    docs/explanation/engine_measurements.md#event-engine-interactions.
     """
     b = dx0 * dv0
     c = dx0 * dx0

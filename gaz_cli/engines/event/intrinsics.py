@@ -114,8 +114,8 @@ def _kept8(typingctx, arr, row, col):
     """The bits i < 8 (an int64) for which arr[row, col + i] is not > 0 (<= 0, or NaN), of a
     C-contiguous 2D float32 array whose row holds at least col + 8 columns: one vector
     load, compare and mask move (vcmpleps, vmovmskps), where testing each column costs a
-    branch (the survivors of the float32 rejection pass, eight at a time: the README
-    example 1.17x, scene (b) of benchmarks/engine.py 1.015x; same events)."""
+    branch (the survivors of the float32 rejection pass, eight at a time; measurements:
+    docs/explanation/engine_measurements.md#event-engine-intrinsics)."""
     if not (isinstance(arr, types.Array) and arr.ndim == 2 and arr.dtype == types.float32
             and arr.layout == "C" and isinstance(row, types.Integer)
             and isinstance(col, types.Integer)):
@@ -188,8 +188,9 @@ def kernel_sources(root: pathlib.Path | None = None, start: str = "gaz_cli.engin
     globals, hence through module-level imports (an import inside a Python function is not
     seen by Numba); so the set is the closure of the module-level ``import`` / ``from ...
     import`` lines (:data:`_IMPORT`, read as text: nothing is imported, and a regular
-    expression costs a few ms at each start where :mod:`ast` cost 50 ms), whatever package each module
-    lives in: engine/, its sub-packages at any depth, gaz_cli/numba_config.py (the
+    expression costs far less at each start than :mod:`ast`; measurements:
+    docs/explanation/engine_measurements.md#event-engine-intrinsics), whatever package each
+    module lives in: engine/, its sub-packages at any depth, gaz_cli/numba_config.py (the
     decorators' options, which Numba's key leaves out). ``from package import name`` counts
     ``package/name.py`` when name is a module. ``root`` is the directory holding the
     ``gaz_cli`` package (default: this installation's). Sorted paths.

@@ -24,11 +24,9 @@ WIDE_LANES = 16
 """The float32 pass over a wide cell's block (:mod:`.neighbours.wide`) covers its count
 rounded up to this many slots. LLVM's vector loop of the pass steps 16 slots at a time (8
 lanes, unrolled twice) and leaves the rest to a scalar loop: rounded to 8, a block of 8
-particles or fewer ran all scalar, and scene (b) of benchmarks/engine.py fell from 0.54 to
-0.31 M events/s of CPU between 11 and 12 wide cells an axis (7.5 to 5.8 particles a cell;
-2026-11-23, cells an axis forced, 2 runs each); rounded to 16, 0.41-0.46 at 12. (Groups of
-exactly 8 slots, a loop each for LLVM to make one vector step of, ran slower still: 0.25 at
-9 cells an axis against 0.55-0.59.)"""
+particles or fewer ran all scalar, and a dilute scene slowed sharply as its cells thinned;
+groups of exactly 8 slots, a loop each, ran slower still (measurements:
+docs/explanation/engine_measurements.md#event-engine-layout)."""
 
 
 # --- row layouts ------------------------------------------------------------

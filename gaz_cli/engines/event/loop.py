@@ -237,9 +237,8 @@ def build(D: int, PER: bool, GRAV: bool, PAIRS: bool, NL: bool, IMG: bool = Fals
                 hsize = _heap_remove(HK, HI, Q, hsize, 0)
                 Q[k, QB] = NONE
                 done += 1
-                # the next events' rows, at any size (hints only): scene (b) of
-                # benchmarks/engine.py 1.035x, the README example 1.09x, dense scenes
-                # 0.99-1.03x (CPU, in-process alternating runs, 2026-11-25)
+                # the next events' rows, at any size (hints only; measurements:
+                # docs/explanation/engine_measurements.md#event-engine-loop)
                 _prefetch_next_events(M, P, I, EV, Q, NN, NB, HI, hsize, NL)
                 tnow = t
 

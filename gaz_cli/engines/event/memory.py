@@ -22,8 +22,8 @@ def _alloc(shape, dtype=np.float64, fill=None) -> np.ndarray:
     """A C-contiguous array; large ones on huge pages where the system offers them.
 
     The event loop reads particle rows at random: on 4 KB pages nearly every
-    read of a system of 10^4 particles or more missed the TLB (measured: 3D
-    N = 19,000, 0.32 M events/s on numpy's own allocation, 0.56 M/s here).
+    read of a system of 10^4 particles or more missed the TLB (measurements:
+    docs/explanation/engine_measurements.md#event-engine-memory).
     The values are those of np.empty / np.full; only the placement differs.
     """
     dtype = np.dtype(dtype)

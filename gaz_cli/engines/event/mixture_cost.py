@@ -28,7 +28,9 @@ tests) follow from those rates and the search's sizes; :data:`COST` turns them i
 The constants are fitted (non-negative least squares, relative error) to the CPU time per
 physical event of 16 mixtures measured with each search forced, and checked on 12 others
 (see :data:`COST`), when wide cells scanned all 3^D blocks around a particle; the work model
-now counts the blocks along its path (2026-11-25), the unit costs kept. :func:`cheapest` names the search of least cost.
+now counts the blocks along its path, the unit costs kept (measurements:
+docs/explanation/engine_measurements.md#event-engine-mixture-cost). :func:`cheapest` names
+the search of least cost.
 """
 
 from __future__ import annotations
@@ -47,18 +49,17 @@ COST = {
     "wide": {"scan": 650.0, "block": 0.74, "slot": 0.42, "pair": 3.24},
     "dilute": {"slot": 0.59, "pair": 4.08},
 }
-"""CPU ns of each unit of work (2 cores, shared host, 2026-11-24): size classes, a crossing
+"""CPU ns of each unit of work: size classes, a crossing
 of a fine face (its queue event), a cell visited (fine or coarse), a pair test; wide cells,
 a full scan (the event that changes a course: collision or bounce, and its set-up), a block
 visited, a slot of a block, an exact pair test of a pair the float32 pass kept; the dilute
 scan, a particle of the float32 pass, an exact pair test. Fitted to 16 mixtures (2D and 3D,
-radius ratios 10-100, 0.1-1 % large by number, packing 0.05-0.5), each search forced, the
-median of 2 alternating runs: ``python benchmarks/mixture_choice.py --only FIT --fit``. An
-empirical fit: correlated units share their cost (the fit puts a wide crossing's queue event
-in its blocks, a full scan of size classes in its cells and pairs), and the times it
-predicts are within 20-30 % (rms of log 0.16-0.18); what it is for is ranking the searches:
-'auto' within 8 % of the fastest in 28 of the script's 30 mixtures (11 of the 12 it was not
-fitted on)."""
+radius ratios 10-100, 0.1-1 % large by number, packing 0.05-0.5), each search forced:
+``python benchmarks/mixture_choice.py --only FIT --fit``. An empirical fit: correlated units
+share their cost (the fit puts a wide crossing's queue event in its blocks, a full scan of
+size classes in its cells and pairs); what it is for is ranking the searches, not predicting
+times (the fit's errors and the ranking's record:
+docs/explanation/engine_measurements.md#event-engine-mixture-cost)."""
 
 Rates = namedtuple("Rates", ["n", "vd", "vrel", "speed", "rescans", "collisions", "physical",
                              "density", "reach"])

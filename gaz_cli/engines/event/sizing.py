@@ -1,7 +1,9 @@
 """How big the engine's structures are: cells, neighbour lists, the calendar's buckets.
 
 Functions of the scene and of the pending events only; each constant is a tuning, with
-what it was measured on. The driver calls them at set-up and when it retunes the calendar.
+what it was measured on (the figures:
+docs/explanation/engine_measurements.md#event-engine-sizing). The driver calls them at
+set-up and when it retunes the calendar.
 """
 
 from __future__ import annotations
@@ -18,10 +20,8 @@ from gaz_cli.engines.event.search import PERIODIC_WIDE_CELLS
 
 CELLS_PER_PARTICLE = 2.0
 """At most this many cells per particle (dilute gases); cells stay at least one diameter wide.
-After the cheaper pair tests and crossings of 2026-11-23 (interactions.py, boundaries.py), 3
-a particle against 2 on 3D N = 10^4 packing 0.05 (periodic): CPU time per collision
-0.885-1.013, median 0.986 (5 alternating pairs; noise, not worth a change of the cost
-model); 1 and 1.4 no faster (1.01-1.05x and 0.97-1.00x, one run each)."""
+1, 1.4 and 3 ran no faster (measurements:
+docs/explanation/engine_measurements.md#event-engine-sizing)."""
 
 NEIGHBOUR_SKIN = 0.25
 """Neighbour lists: a particle may move this many largest diameters from its list's centre."""
@@ -37,8 +37,8 @@ MAX_BUCKETS = 1 << 13
 """Calendar tuning: at most this many buckets (their heads, 64 KB, stay in the cache; larger
 systems get wider buckets, hence more events a bucket). Every event inserts into a bucket
 at random: with one bucket per particle, as EVENTS_PER_BUCKET alone gives, each insertion
-of a system of 10^5-10^6 particles missed the cache (measured: 12% of the event loop's
-time at 10^6; capped, 10^5 and 10^6 run 11-12% faster, 10^4 the same)."""
+of a system of 10^5-10^6 particles missed the cache (measurements:
+docs/explanation/engine_measurements.md#event-engine-sizing)."""
 
 
 def use_neighbour_lists(choice: str, D: int, periodic: bool, L: float, pairs: bool,
@@ -66,14 +66,10 @@ keep their cells, and their events, whatever the cost model says)."""
 WIDE_BELOW = {2: 0.05, 3: 0.08}
 """'auto' considers wide cells below this packing fraction only (by dimension; walls or
 periodic). Since the scans follow the particles' paths (:mod:`.neighbours.wide`), wide cells
-run faster than cells up to packing 0.05-0.1 (argon, N = 10^4 unless said, CPU a physical
-event, cells / wide both forced, 2 alternating runs each, 2026-11-25, /tmp/s34/wc.py): 3D
-walls, packing 0.01 / 0.02 / 0.03 / 0.05 / 0.08 / 0.12 / 0.2: 1.87, 1.72, 1.52, 1.30, 1.12,
-0.91, 0.83; N = 2000, 0.01 / 0.05: 1.69, 1.24; 3D periodic, 0.004 / 0.01 / 0.02 / 0.05 /
-0.1: 2.29, 1.91, 1.75, 1.38, 1.09; 2D walls, 0.01 / 0.02 / 0.05 / 0.1: 1.72, 1.39, 1.06,
-0.86; 2D periodic, 0.02 / 0.05: 1.38, 1.05. Below these the models (:data:`WIDE_COST`,
-:data:`DILUTE_COST`) decide; they rate wide cells too cheap in 2D (the model's ratio 1.30
-at 2D packing 0.1, measured 0.86), hence the thresholds."""
+run faster than cells up to packing 0.05-0.1 (by dimension and boundary). Below these the
+models (:data:`WIDE_COST`, :data:`DILUTE_COST`) decide; they rate wide cells too cheap in 2D,
+hence the thresholds (measurements:
+docs/explanation/engine_measurements.md#event-engine-sizing)."""
 
 
 def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravity: bool,
@@ -97,16 +93,13 @@ def use_dilute_scan(choice: str, D: int, n: int, L: float, periodic: bool, gravi
 
 DILUTE_COST = {"event": 1.0, "pair": 0.027, "scanned": 0.0025}
 """Relative CPU cost of a queue event (pop, apply, next wall or face, push), of a pair test
-in a cell scan, and of a particle in the dilute scan's rejection pass (vectorised); event
-and pair fitted on the README example (3D, N = 1000) run with 1 to 13 cells an axis (CPU
-time, shared host): 466 ns, 12.4 ns. 'scanned' refitted for the float32 pass (about
-0.75 ns a particle on the README example, 0.0016): the one value that best fits (least
-squares in log) the measured cost ratios cells / dilute, both forced, argon 3D at the
-README's density (N = 1000, 4000, 10^4: 4.0, 1.79, 1.22) and at scene (b)'s, packing 0.01
-(N = 2000, 4000, 10^4: 0.75, 0.36, 0.30); the model then puts the crossover at N = 7000 at
-the README's density (measured: above 10^4) and N = 2150 at scene (b)'s
-(measured: below 2000), rms error of the ratios 0.33 in log. The model's cells term is the
-one to refine (it overrates cells at the lower density, underrates them at the higher)."""
+in a cell scan, and of a particle in the dilute scan's rejection pass (vectorised), in units
+of a queue event; event and pair fitted on the README example (3D, N = 1000) run with 1 to
+13 cells an axis (CPU time); 'scanned' refitted for the float32 pass: the one value that
+best fits (least squares in log) the measured cost ratios cells / dilute, both forced, argon
+3D at the README's density and at scene (b)'s. The model's cells term is the one to refine
+(it overrates cells at the lower density, underrates them at the higher). The figures and
+the fit's errors: docs/explanation/engine_measurements.md#event-engine-sizing."""
 
 
 def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> bool:
@@ -126,12 +119,9 @@ def dilute_scan_pays(D: int, n: int, L: float, sigma: float, packing: float) -> 
     few large spheres among many small ones must not count as n large ones, which gave
     packings above 1 and the contact value's refusal).
 
-    Weighed against cells alone (until 2026-11-23) it took the dilute scan where wide cells
-    run faster: benchmarks/search_choice.py (argon 3D, walls; events a second of CPU, medians
-    of 3 alternating runs), the fastest forced search over the one 'auto' took: at the
-    README's density, N = 4000 and 6000, 1.17x and 1.48x; at packing 0.01, N = 1500 and
-    2000, 1.16x and 1.55x; now 'auto' takes them (with WIDE_BELOW and WIDE_LANES it takes
-    the fastest search in all 12 of that script's scenes).
+    It weighs wide cells as well as cells: against cells alone it took the dilute scan where
+    wide cells run faster (measurements:
+    docs/explanation/engine_measurements.md#event-engine-sizing).
     """
     path = _path(D, n, L, packing)
     dilute = DILUTE_COST["event"] + DILUTE_COST["scanned"] * n
@@ -207,12 +197,11 @@ def _most_wide_cells(L: float, sigma: float) -> int:
 WIDE_COST = {"event": 1.43, "slot": 0.0043}
 """Relative CPU cost, with wide cells, of a queue event (the event, its scan's set-up) and of
 a slot of a block in the float32 pass, in the units of DILUTE_COST. Fitted on scene (b) of
-benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls; CPU time, 2 runs each) with 5
-to 11 cells an axis forced (2026-11-25, /tmp/s34/nc.py and fit.py): 202 ns a queue event,
-0.61 ns a slot, the model within 5 % of the seven runs (1000-1080 ns a physical event from
-5 to 10 cells an axis, 1200 at 11); then scaled to DILUTE_COST's units by the one factor
-(141 ns a unit) that best fits the measured cost ratios cells / wide of :data:`WIDE_BELOW`'s
-20 scenes (least squares in log; rms error 0.24 in log, the 2D ratios overrated)."""
+benchmarks/engine.py (argon, N = 10^4, packing 0.01, walls; CPU time) with 5 to 11 cells an
+axis forced; then scaled to DILUTE_COST's units by the one factor that best fits the
+measured cost ratios cells / wide of :data:`WIDE_BELOW`'s 20 scenes (least squares in log;
+the 2D ratios overrated). The figures:
+docs/explanation/engine_measurements.md#event-engine-sizing."""
 
 PATH_BLOCKS = {
     2: ((0.0, 0.01, 0.03, 0.1, 0.2, 0.4, 0.7, 1.0),

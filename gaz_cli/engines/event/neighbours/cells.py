@@ -6,23 +6,9 @@ times of the gathered particles (no branch on a cell's count in either).
 
 The gather copies a cell's slots with unsigned indices (``_U1``...): Numba wraps a
 negative signed index around (a compare and a select per index), which it cannot rule
-out for a computed one. 2026-11-23, 2 shared cores, load 1.6-1.9, 3D N = 10^4 packing
-0.05, CPU time per queue event, 5 alternating pairs against the commit before (same
-events): periodic 0.909 0.928 0.933 0.903 0.913 (median 0.913), walls (argon) 0.952
-0.893 0.924 0.959 0.974 (0.952). A perf profile (periodic) had the gather 27 % of the
-loop's samples before, 21 % after, a third of it the first read of a cell's row (a cache
-miss: 22,000 cells of 32 bytes beside 10^4 rows, more than the 1 MB of L2). Tried and
-dropped: the scan's read of a partner's row by an unsigned index too (0.963-1.006,
-median 0.988: noise); prefetching the block's cell rows at the start of every gather
-at N = 10^4 (0.967-1.084, median 0.993).
-
-With the pair-time and crossing changes of the same day (interactions.py,
-boundaries.py), against main de31f65, 5 alternating pairs, load 2.0, same events:
-periodic 0.793 0.797 0.784 0.775 0.783 (median 0.784), walls (argon) 0.778 0.809 0.785
-0.774 0.798 (0.785), the dense fluid's lists (packing 0.45) 0.980 0.998 0.984 0.979
-0.976 (0.980). benchmarks/smallenburg.py --variant Cell --gaz-search auto --packing
-0.05 --per-particle 20 --equilibrate 5 --pairs 3 --baseline (main): gaz/C CPU 1.129
-1.124 1.050 (median 1.124; main 0.857 0.853 0.864, 0.857); gaz/main 1.317.
+out for a computed one. The scan reads a partner's row by a signed index, and the gather
+prefetches no cell rows below the large systems' threshold: neither paid (measurements:
+docs/explanation/engine_measurements.md#event-engine-cells).
 """
 
 from __future__ import annotations
@@ -85,8 +71,9 @@ def _gather_cells(P, I, cells, GB, GS, base, c0, c1, c2, lo0, hi0, lo1, hi1, lo2
     moves on by the cell's count, so this pass has no branch that depends on
     how many particles a cell holds (looping cell by cell, particle by
     particle, the branch predictor missed about once a cell: cells hold 0, 1
-    or 2 particles at random; measured on the standard scene, gathering first
-    runs 14% more collisions a second). PF (large systems): the rows of the
+    or 2 particles at random; measurements:
+    docs/explanation/engine_measurements.md#event-engine-cells). PF (large systems): the
+    rows of the
     block's cells, then those of the gathered particles, are requested from
     memory before they are read.
     """

@@ -33,11 +33,8 @@ Here (a two-level hierarchical grid, after Ogarko & Luding, Comput. Phys. Commun
   cell has in the block scanned (the loop's IMG), for the nearest image need not be it (two
   large spheres 16 apart in the block of a box 30 wide are 14 apart the other way); with two
   coarse cells an axis, the block holds the same cell at two images, each scanned (one
-  coarse cell an axis keeps one grid). Measured: 4000 small and 40 large spheres 1:10 at
-  packing 0.4, a box 3.9 large reaches wide (three coarse cells), 4.2 us an event, against
-  67 us on one grid of three cells (the same 14,577 events); 8000 small and 8 large, a box
-  2.76 large reaches wide (two), 2.15 us against 405 us on one grid of two cells (the same
-  31,074 events; benchmarks/periodic_mixture.py --n-small 8000 --n-large 8 --duration 1).
+  coarse cell an axis keeps one grid); far faster than one grid of so few cells (measurements:
+  docs/explanation/engine_measurements.md#event-engine-size-classes).
 
 A large particle's full scan costs the fine cells of its ball, ~(2 reach / a)^D, instead of
 the small particles of 3^D coarse cells; its crossings, ~(2 reach / a)^(D-1) cells; a small

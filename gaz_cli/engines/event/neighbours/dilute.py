@@ -55,43 +55,18 @@ infinite at rest) keeps every particle. The tests' adversarial cases are in
 tests/test_engine_dilute.py (grazing pairs, contacts just inside the horizon, coordinates
 at the walls, boxes 10^4 diameters wide, tiny SI radii).
 
-**Measured** (README example, 1000 argon atoms, 10 ns: 210 thousand queue events, 240
-thousand scans of all 1000 particles; CPU time on the shared 2-core host, load 6-15): in
-float64 the rejection pass took 1.3-1.5 ns a particle, about 75 % of the engine's 0.41 s
-(the rest, ~480 ns a queue event: the queue, the mirror, the exact roots). Float32, 8
-lanes: the engine takes 0.33 s against 0.45 s (medians of 7 alternating runs), 3.43x
-faster than 8b6e7d9 (pairs 2.39-3.69). Kept: the float32 pass; its verdict as an or (an
-int64 count of the survivors held LLVM to 4 lanes: 1.8 ns a particle, slower than
-float64); the particle itself out of reach during its own pass (within reach of itself,
-it made every scan run the second pass: 0.44-0.60 s in 6 runs, no faster than float64);
-a pair within reach kept only when not surely receding (a collision's partner is
-receding). The exact roots (pair_tests): 43 thousand, 0.18 a scan. Not tried: one fused
-pass for both particles of a collision (a quarter of the scans; it would save the second
-read of XS, not the arithmetic).
-
-**Measured again** (2026-11-23, 17:00-17:20 UTC, shared host, load 3.7-4.9): callgrind on
-e7fa32c (the README example's engine, 10 ns, the difference of runs with and without
-it: 1.60 G instructions, 7.6 thousand a queue event) put the pass's vectorised loop at
-95 % of them (101 instructions per 16 particles, 240 M particles). This layout (the
-positions at the epoch t0 instead of stamped rows, the radii pre-widened, the within-reach
-clause folded into the other three tests, the verdict stored as their max, ``near`` one
-fma, the third axis left out in 2D) takes 68: the README engine 1.185x faster than
-e7fa32c (5 alternating pairs, CPU s: 1.33, 1.12, 1.06, 1.19, 1.29), 3.86x faster than
-8b6e7d9 (benchmarks/issue15.py --only 2 --pairs 5: 3.97, 3.88, 3.62, 3.86, 3.82); scene
-(b) on wide cells 1.11x faster than e7fa32c (1.11, 1.09, 1.11, 1.11, 1.18). Not kept:
-the pass in chunks of 256 particles, each chunk's exact roots before the next (a scan
-that keeps a pair then looks for it in 256 verdicts, not 1000): the engine 2x slower
-(0.50-0.52 of this layout's speed in 5 pairs), though the pass alone, compiled apart,
-kept its 8 lanes; AVX-512 (16 lanes, LLVM's prefer-256-bit tuning turned off through
-NUMBA_CPU_FEATURES): the pass alone about 10 % faster on this host, not pursued (measured
-again 2026-11-25 on wide cells: the pass alone 0.46 -> 0.29 ns a slot in L1, the whole
-loop of scene (b) 0.94x in 8 process pairs).
-Kept: the survivors looked for eight verdicts at a time (one min of eight, most groups
-none kept), instead of one by one through all n in a scan that keeps any: the README
-engine 1.05x faster (5 pairs: 1.05, 1.08, 1.11, 1.05, 1.04; load 1.4); since 2026-11-25
-the eight verdicts are one bit mask (:func:`.intrinsics._kept8`, one vector compare) whose
-set bits are visited (:func:`.intrinsics._lowest`): the README engine 1.17x faster again
-(in-process alternating runs, 11 each; same events).
+**Why this layout** (the rejection pass is most of the engine's time on the README example;
+measurements: docs/explanation/engine_measurements.md#event-engine-dilute-scan): the pass in
+float32, 8 lanes; its verdict stored as the max of the tests (a count of the survivors held
+LLVM to 4 lanes); the particle itself out of reach during its own pass (within reach of
+itself, it made every scan run the exact pass); a pair within reach kept only when not
+surely receding (a collision's partner is receding); the positions at the epoch t0 instead
+of stamped rows, the radii pre-widened, ``near`` one fma, the third axis left out in 2D;
+the survivors looked for eight verdicts at a time, as one bit mask
+(:func:`.intrinsics._kept8`, one vector compare) whose set bits are visited
+(:func:`.intrinsics._lowest`). Not kept: the pass in chunks of 256 particles, each chunk's
+exact roots before the next (the engine slower though the pass kept its 8 lanes); AVX-512
+(16 lanes: the pass alone faster, the whole loop not).
 
 Chosen by :func:`.sizing.use_dilute_scan` (a cost model of both searches); scenes with
 gravity or a periodic box keep cells.

@@ -15,7 +15,7 @@ the few pairs kept: the exact root decides, as in :mod:`.dilute`. The pairs kept
 found eight verdicts at a time (:func:`.intrinsics._kept8`, a bit mask from one vector
 compare, instead of a branch a slot), gathered first (``GB``, and their images' shifts in
 ``GS``), their rows requested, and timed once every cell is passed over: the rows arrive
-meanwhile (scene (b) 1.035-1.04x against timing each as the pass keeps it; same events).
+meanwhile (measurements: docs/explanation/engine_measurements.md#event-engine-wide-cells).
 
 **Which cells a scan covers: those along the particle's path.** A particle scans at each
 of its events (a collision, a wall bounce, a cell crossing, a stale prediction it cannot
@@ -25,13 +25,11 @@ stays in its cell on a straight path. A partner that touches it before tx is wit
 reach (the two radii, at most the particle's plus the largest) of a point of that path, so
 it lies in a cell that meets the path's bounding box widened by the reach
 (:func:`_path_block`): the particle's own cell, the one it leaves by, and those whose faces
-the path comes within reach of, instead of all 3^D cells around it (scene (b) of
-benchmarks/engine.py: about 5 cells a scan instead of 27 after a course change, 9 at a
-crossing; 349 slots a physical event instead of 1105, 1.6x faster). Measured and left
-(2026-11-25): a finer choice, the cells the path is within reach of on every axis at the
-same time, scans 12 % fewer slots on scene (b), 8.6 % when only the cells behind the face
-just crossed are pruned; worked out before each scan, it made the loop 6-8 % slower in
-every form tried (in-process alternating runs). A collision is never missed: for a pair
+the path comes within reach of, instead of all 3^D cells around it. A finer choice (the
+cells the path is within reach of on every axis at the same time) scans fewer slots but
+costs more to work out before each scan than it saves (measurements:
+docs/explanation/engine_measurements.md#event-engine-wide-cells). A collision is never
+missed: for a pair
 that touches at tc, take the later of the two particles' last events before tc, at t*;
 that particle's scan at t* covers the cells along its path up to its next event (after
 tc), and the other is in the cell it occupies at tc (it has no event in between), within
@@ -55,10 +53,8 @@ through its image (:func:`.cells._beside`): the particle is moved by minus the i
 + 2 REBASE V) and for the exact root. With 3 cells an axis or more each of the 3^D cells
 around a particle is a different cell, scanned once; a particle wraps at a crossing, an
 event of its own, so a pair that touches is within reach of the scanning particle's path
-through the image it touches in. Measured before the scans followed the paths (argon 3D, N =
-10^4, CPU per collision, forced against cells, 2 rounds): wide cells 1.75x faster at packing
-0.0005 (argon at 1 atm), 1.44x at 0.001, 1.18x at 0.003, 0.89x at 0.01; 2D, packing 0.002:
-1.55x (:func:`.sizing.use_wide_cells` takes them where they pay).
+through the image it touches in (:func:`.sizing.use_wide_cells` takes them where they pay;
+measurements: docs/explanation/engine_measurements.md#event-engine-wide-cells).
 
 Chosen by :func:`.sizing.use_wide_cells`, its cells per axis by
 :func:`.sizing.wide_cells_per_axis`; no gravity, no size classes.
