@@ -14,6 +14,7 @@ from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
 from gaz_cli.model.scene import initial_state
+from gaz_cli.model.species import BUILTIN
 
 @pytest.fixture(params=["may skip triggers", "ordinary role"])
 def role_db(request, postgres_url):
@@ -73,7 +74,7 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
     assert rows.RE_NUM.tolist() == list(range(1, k + 1))
     for column, expected in (("RE_T", t), ("RE_DIR", wall), ("RE_VIT", speed), ("RE_VP", vperp)):
         assert np.array_equal(rows[column].to_numpy(), expected), column
-    assert set(rows.PA_NUM) == {list(st.BUILTIN).index("Ar") + 1}
+    assert set(rows.PA_NUM) == {list(BUILTIN).index("Ar") + 1}
     assert np.array_equal(chocs.CH_I.to_numpy(), ci) and np.array_equal(chocs.CH_J.to_numpy(), cj)
     assert np.array_equal(chocs.CH_IMP.to_numpy(), impulse)
     assert keys == {"simulation", "particule"}

@@ -46,15 +46,12 @@ import time
 from importlib import resources
 from pathlib import Path
 
-import numpy as np
-
-from gaz_cli import __version__, interrupts
-from gaz_cli.scenes import files as scenefile
-from gaz_cli.results import staging
+from gaz_cli import interrupts
+from gaz_cli.results import rows, staging
 from gaz_cli.errors import Interrupted, StoreError
 from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.model.scene import Scene
-from gaz_cli.model.species import BUILTIN, Species
+from gaz_cli.model.species import Species
 
 BUSY_TIMEOUT_S = 60.0
 """How long a SQLite writer waits for another one's commit before giving up, s, unless a URL
@@ -378,8 +375,8 @@ class SqliteFile(RunStore):
                 for statement in layout().statements:
                     conn.execute(statement)
                 if not conn.execute("SELECT COUNT(*) FROM particule").fetchone()[0]:
-                    conn.executemany("INSERT INTO particule (pa_nom, pa_m, pa_r) VALUES (?, ?, ?)",
-                                     [(s.name, s.mass_g, s.radius) for s in BUILTIN.values()])
+                    for row in rows.builtin_particule_rows():
+                        _insert(conn, "particule", row)
 
     def publish(self) -> bool:
         """After a commit into the private file of a new database: give it its real name. True
@@ -899,45 +896,34 @@ class _EarlyInsert:
 
 
 def _simulation_rows(conn: sqlite3.Connection, scene: Scene, started: _dt.datetime) -> tuple[int, list[int]]:
-    """SIMULATION, COMPOSITION and SCENE rows of one run (the rows of gaz_cli.results.store's
-    ``_write_simulation_rows``); returns SI_NUM and each species' PA_NUM."""
-    si_num = conn.execute(
-        "INSERT INTO simulation (si_deb, si_dur, si_dim, si_n, si_l) VALUES (?, ?, ?, ?, ?)",
-        # SQLAlchemy's DATETIME text on SQLite
-        (started.isoformat(" ", "microseconds"), float(scene.duration), int(scene.dim), int(scene.n),
-         float(scene.length))).lastrowid
+    """SIMULATION, COMPOSITION and SCENE rows of one run (:mod:`gaz_cli.results.rows`); returns
+    SI_NUM and each species' PA_NUM."""
+    si_num = _insert(conn, "simulation", rows.simulation_row(scene, started))
     nums = [_pa_num(conn, sp) for sp in scene.species]
-    conn.executemany("INSERT INTO composition (si_num, pa_num, co_n, co_rank) VALUES (?, ?, ?, ?)",
-                     [(si_num, num, int(k), rank)
-                      for rank, (num, (_, k)) in enumerate(zip(nums, scene.components))])
-    row = {"si_num": si_num, "sc_seed": int(scene.seed), "sc_temperature": float(scene.temperature),
-           "sc_engine": scene.engine, "sc_boundary": scene.boundary, "sc_gravity": float(scene.gravity),
-           "sc_restitution": float(scene.restitution), "sc_tc": float(scene.tc),
-           "sc_wall_restitution": float(scene.wall_restitution),
-           "sc_dt": None if scene.dt is None else float(scene.dt), "sc_drag": float(scene.drag),
-           "sc_pair_gravity": float(scene.pair_gravity), "sc_placement": scene.placement,
-           "sc_record": scene.record, "sc_version": __version__, "sc_file": scenefile.dumps(scene)}
-    _insert(conn, "scene", row)
+    for row in rows.composition_rows(si_num, nums, scene):
+        _insert(conn, "composition", row)
+    _insert(conn, "scene", rows.scene_row(si_num, scene))
     return si_num, nums
 
 
 def _pa_num(conn: sqlite3.Connection, sp: Species) -> int:
-    """PA_NUM of a species; custom species get a row of their own on first use."""
-    for num, m_g, r in conn.execute("SELECT pa_num, pa_m, pa_r FROM particule WHERE pa_nom = ? "
-                                    "ORDER BY pa_num", (sp.name,)):
-        if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
-            return int(num)
-    return conn.execute("INSERT INTO particule (pa_nom, pa_m, pa_r) VALUES (?, ?, ?)",
-                        (sp.name, sp.mass_g, sp.radius)).lastrowid
+    """PA_NUM of a species (:func:`gaz_cli.results.rows.species_number`); custom species get a
+    row of their own on first use."""
+    found = conn.execute("SELECT pa_num, pa_m, pa_r FROM particule WHERE pa_nom = ? ORDER BY pa_num",
+                         (sp.name,)).fetchall()
+    num = rows.species_number(sp, found)
+    return num if num is not None else _insert(conn, "particule", rows.particule_row(sp))
 
 
 def _result_row(conn: sqlite3.Connection, si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> None:
-    _insert(conn, "resultat", {
-        "si_num": si_num, "rs_events": int(stats.events), "rs_bounces": int(stats.wall_bounces),
-        "rs_collisions": int(stats.collisions), "rs_ke_start": float(ke_start), "rs_ke_end": float(ke_end),
-        "rs_virial": float(stats.virial), "rs_wall_time": float(stats.wall_time_s)})
+    _insert(conn, "resultat", rows.result_row(si_num, stats, ke_start, ke_end))
 
 
-def _insert(conn: sqlite3.Connection, table: str, row: dict) -> None:
-    conn.execute(f"INSERT INTO {table} ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
-                 tuple(row.values()))
+def _insert(conn: sqlite3.Connection, table: str, row: dict) -> int:
+    """One row into ``table``; returns its rowid (SIMULATION's SI_NUM, PARTICULE's PA_NUM). A
+    ``datetime`` is written as SQLAlchemy writes a DATETIME on SQLite (text, to the microsecond),
+    so that either reads it back."""
+    values = tuple(v.isoformat(" ", "microseconds") if isinstance(v, _dt.datetime) else v
+                   for v in row.values())
+    return conn.execute(f"INSERT INTO {table} ({', '.join(row)}) VALUES ({', '.join('?' * len(row))})",
+                        values).lastrowid

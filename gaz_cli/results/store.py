@@ -72,12 +72,12 @@ import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
 from gaz_cli import __version__, interrupts
+from gaz_cli.results import rows
 from gaz_cli.results import sqlite as sqlite_writer
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.model.scene import Scene, check_row_numbers
-from gaz_cli.scenes import files as scenefile
-from gaz_cli.model.species import BUILTIN, NAME_MAX, Species
+from gaz_cli.model.species import NAME_MAX, Species
 
 metadata = sa.MetaData()
 
@@ -586,8 +586,7 @@ class Store(RunStore):
                 _pg_default_partition(conn)
             if not conn.execute(sa.select(sa.func.count()).select_from(particule)).scalar():
                 # no explicit ids: the database numbers them, so its sequence stays in step
-                conn.execute(particule.insert(), [
-                    {"pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius} for s in BUILTIN.values()])
+                conn.execute(particule.insert(), rows.builtin_particule_rows())
             conn.execute(schema_version.insert().values(sv_version=latest))
             return
         for step in range(version, latest):
@@ -852,40 +851,29 @@ def _write_transaction(engine: sa.Engine):
 # --- one simulation's rows --------------------------------------------------------
 def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime, si_num: int | None = None,
                            nums: list[int] | None = None) -> tuple[int, list[int]]:
-    """SIMULATION, COMPOSITION and SCENE rows of one run; returns SI_NUM and each species' PA_NUM.
+    """SIMULATION, COMPOSITION and SCENE rows of one run (:mod:`gaz_cli.results.rows`); returns
+    SI_NUM and each species' PA_NUM.
 
     ``si_num``, ``nums``: numbers drawn before (PostgreSQL's attach path); by default the
     database numbers the run, and species are looked up (or added) here."""
     res = conn.execute(simulation.insert().values(
-        si_deb=started, si_dur=float(scene.duration), si_dim=int(scene.dim),
-        si_n=int(scene.n), si_l=float(scene.length), **({} if si_num is None else {"si_num": si_num})))
+        **rows.simulation_row(scene, started), **({} if si_num is None else {"si_num": si_num})))
     si_num = int(res.inserted_primary_key[0])
     nums = [_pa_num(conn, sp) for sp in scene.species] if nums is None else nums
-    conn.execute(composition.insert(), [
-        {"si_num": si_num, "pa_num": num, "co_n": int(k), "co_rank": rank}
-        for rank, (num, (_, k)) in enumerate(zip(nums, scene.components))])
-    conn.execute(scene_table.insert().values(
-        si_num=si_num, sc_seed=int(scene.seed), sc_temperature=float(scene.temperature),
-        sc_engine=scene.engine, sc_boundary=scene.boundary, sc_gravity=float(scene.gravity),
-        sc_restitution=float(scene.restitution), sc_tc=float(scene.tc),
-        sc_wall_restitution=float(scene.wall_restitution),
-        sc_dt=None if scene.dt is None else float(scene.dt), sc_drag=float(scene.drag),
-        sc_pair_gravity=float(scene.pair_gravity), sc_placement=scene.placement,
-        sc_record=scene.record, sc_version=__version__, sc_file=scenefile.dumps(scene)))
+    conn.execute(composition.insert(), rows.composition_rows(si_num, nums, scene))
+    conn.execute(scene_table.insert().values(rows.scene_row(si_num, scene)))
     return si_num, nums
 
 
 def _pa_num(conn, sp: Species, insert: bool = True) -> int | None:
-    """PA_NUM of a species; custom species get a row of their own on first use (None
-    instead if not ``insert``)."""
-    rows = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
-                        .where(particule.c.pa_nom == sp.name).order_by(particule.c.pa_num)).all()
-    for num, m_g, r in rows:
-        if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
-            return int(num)
-    if not insert:
-        return None
-    res = conn.execute(particule.insert().values(pa_nom=sp.name, pa_m=sp.mass_g, pa_r=sp.radius))
+    """PA_NUM of a species (:func:`gaz_cli.results.rows.species_number`); custom species get a
+    row of their own on first use (None instead if not ``insert``)."""
+    found = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
+                         .where(particule.c.pa_nom == sp.name).order_by(particule.c.pa_num)).all()
+    num = rows.species_number(sp, found)
+    if num is not None or not insert:
+        return num
+    res = conn.execute(particule.insert().values(rows.particule_row(sp)))
     return int(res.inserted_primary_key[0])
 
 
@@ -904,13 +892,6 @@ def _register_species(engine: sa.Engine, species: list[Species]) -> None:
         conn.exec_driver_sql("SELECT pg_advisory_xact_lock(hashtext('gaz: new species'))")
         for sp in species:
             _pa_num(conn, sp)
-
-
-def _result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> dict:
-    return dict(si_num=si_num, rs_events=int(stats.events), rs_bounces=int(stats.wall_bounces),
-                rs_collisions=int(stats.collisions), rs_ke_start=float(ke_start),
-                rs_ke_end=float(ke_end), rs_virial=float(stats.virial),
-                rs_wall_time=float(stats.wall_time_s))
 
 
 class _Run(TableRecorder):
@@ -1118,7 +1099,7 @@ class _DirectRun(_Run):
         # alone is held, so that the run is known stored or not
         if self._attach:
             self._attach_rows()
-        self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
+        self.conn.execute(resultat.insert().values(rows.result_row(self._si, *self._result)))
         with interrupts.held():
             self.trans.commit()
             self.si_num = self._si

@@ -1,0 +1,90 @@
+"""One run's rows: the mapping from a run to the rows of every table, used by both writers.
+
+A run is its :class:`~gaz_cli.model.scene.Scene`, the time it started, the numbers its
+database gives it (SI_NUM; each species' PA_NUM), the engine's arrays (REBOND and CHOC
+columns, :class:`gaz_cli.model.recording.TableRecorder`) and its summary (the engine's
+:class:`~gaz_cli.model.recording.RunStats`, the kinetic energy at start and end, J).
+
+Each function returns one table's rows as plain Python values (int, float, str, None, a
+``datetime``), keyed by lower-case column name in the table's order
+(:mod:`gaz_cli.results.store`'s metadata). The writers insert them as given: the SQLite
+writer through ``sqlite3`` (:mod:`gaz_cli.results.sqlite`, which writes a ``datetime`` as
+SQLAlchemy's DATETIME text), the PostgreSQL writer through SQLAlchemy and COPY. Units are
+converted here and nowhere else: the exam's PA_M in grams (:attr:`Species.mass_g`), every
+other value SI. No database, no SQLAlchemy is imported.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+from gaz_cli import __version__
+from gaz_cli.model.recording import RunStats
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import BUILTIN, Species
+from gaz_cli.scenes import files as scenefile
+
+SAME_SPECIES_RTOL = 1e-12
+"""Two species of one name are one PARTICULE row when their masses (g) and radii (m) agree
+to this relative tolerance: the row's floats round-trip, a value typed again does too."""
+
+
+def simulation_row(scene: Scene, started: _dt.datetime) -> dict:
+    """SIMULATION's row but SI_NUM (the database numbers it): start, simulated duration s,
+    dimension, N, box side m."""
+    return {"si_deb": started, "si_dur": float(scene.duration), "si_dim": int(scene.dim),
+            "si_n": int(scene.n), "si_l": float(scene.length)}
+
+
+def composition_rows(si_num: int, pa_nums: list[int], scene: Scene) -> list[dict]:
+    """COMPOSITION's rows: one per species of the scene, in its order (CO_RANK 0 first, the
+    order of the particles' blocks), with its count. ``pa_nums``: each species' PA_NUM."""
+    return [{"si_num": si_num, "pa_num": num, "co_n": int(k), "co_rank": rank}
+            for rank, (num, (_, k)) in enumerate(zip(pa_nums, scene.components))]
+
+
+def scene_row(si_num: int, scene: Scene) -> dict:
+    """SCENE's row: the options that made the run, this gaz's version, and the scene file that
+    runs it again with the same rows (SC_FILE, :func:`gaz_cli.scenes.files.dumps`)."""
+    return {"si_num": si_num, "sc_seed": int(scene.seed), "sc_temperature": float(scene.temperature),
+            "sc_engine": scene.engine, "sc_boundary": scene.boundary, "sc_gravity": float(scene.gravity),
+            "sc_restitution": float(scene.restitution), "sc_tc": float(scene.tc),
+            "sc_wall_restitution": float(scene.wall_restitution),
+            "sc_dt": None if scene.dt is None else float(scene.dt), "sc_drag": float(scene.drag),
+            "sc_pair_gravity": float(scene.pair_gravity), "sc_placement": scene.placement,
+            "sc_record": scene.record, "sc_version": __version__, "sc_file": scenefile.dumps(scene)}
+
+
+def result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> dict:
+    """RESULTAT's row: event counts, kinetic energy at start and end (J), the collisional
+    virial (kg m^2/s) and the engine's wall-clock time (s)."""
+    return {"si_num": si_num, "rs_events": int(stats.events), "rs_bounces": int(stats.wall_bounces),
+            "rs_collisions": int(stats.collisions), "rs_ke_start": float(ke_start),
+            "rs_ke_end": float(ke_end), "rs_virial": float(stats.virial),
+            "rs_wall_time": float(stats.wall_time_s)}
+
+
+def particule_row(species: Species) -> dict:
+    """PARTICULE's row of a species but PA_NUM (the database numbers it): name, mass in grams
+    (the exam's unit), radius m."""
+    return {"pa_nom": species.name, "pa_m": species.mass_g, "pa_r": species.radius}
+
+
+def builtin_particule_rows() -> list[dict]:
+    """PARTICULE's rows of a new database: the built-in species, in their order."""
+    return [particule_row(sp) for sp in BUILTIN.values()]
+
+
+def species_number(species: Species, rows) -> int | None:
+    """PA_NUM of ``species`` among ``rows`` of PARTICULE bearing its name, as
+    ``(pa_num, pa_m g, pa_r m)`` in PA_NUM order: the first whose mass and radius are its
+    own (:data:`SAME_SPECIES_RTOL`); None when none is (the writer then adds its row)."""
+    for num, m_g, r in rows:
+        if _close(m_g, species.mass_g) and _close(r, species.radius):
+            return int(num)
+    return None
+
+
+def _close(found: float, wanted: float) -> bool:
+    """numpy's ``isclose(found, wanted, rtol=SAME_SPECIES_RTOL, atol=0)``, without numpy."""
+    return abs(found - wanted) <= SAME_SPECIES_RTOL * abs(wanted)
