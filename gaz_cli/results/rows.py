@@ -2,24 +2,30 @@
 
 A run is its :class:`~gaz_cli.model.scene.Scene`, the time it started, the numbers its
 database gives it (SI_NUM; each species' PA_NUM), the engine's arrays (REBOND and CHOC
-columns, :class:`gaz_cli.model.recording.TableRecorder`) and its summary (the engine's
+columns, :class:`TableRecorder`) and its summary (the engine's
 :class:`~gaz_cli.model.recording.RunStats`, the kinetic energy at start and end, J).
+:class:`RunStore` is what both front ends share: the ``simulation()`` block that hands
+out a run's writer and commits it whole.
 
 Each function returns one table's rows as plain Python values (int, float, str, None, a
 ``datetime``), keyed by lower-case column name in the table's order
 (:mod:`gaz_cli.results.store`'s metadata). The writers insert them as given: the SQLite
 writer through ``sqlite3`` (:mod:`gaz_cli.results.sqlite`, which writes a ``datetime`` as
-SQLAlchemy's DATETIME text), the PostgreSQL writer through SQLAlchemy and COPY. Units are
-converted here and nowhere else: the exam's PA_M in grams (:attr:`Species.mass_g`), every
-other value SI. No database, no SQLAlchemy is imported.
+SQLAlchemy's DATETIME text), the PostgreSQL writer through SQLAlchemy and COPY. REBOND and CHOC
+come as columns (numpy arrays, one per column, in the table's order). Units are converted
+here and nowhere else: the exam's PA_M in grams (:attr:`Species.mass_g`), every other value
+SI. No database, no SQLAlchemy is imported.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 
+import numpy as np
+
 from gaz_cli import __version__
-from gaz_cli.model.recording import RunStats
+from gaz_cli.model.recording import Recorder, RunStats
 from gaz_cli.model.scene import Scene
 from gaz_cli.model.species import BUILTIN, Species
 from gaz_cli.scenes import files as scenefile
@@ -88,3 +94,89 @@ def species_number(species: Species, rows) -> int | None:
 def _close(found: float, wanted: float) -> bool:
     """numpy's ``isclose(found, wanted, rtol=SAME_SPECIES_RTOL, atol=0)``, without numpy."""
     return abs(found - wanted) <= SAME_SPECIES_RTOL * abs(wanted)
+
+
+class RunStore:
+    """What both database front ends share (:class:`gaz_cli.results.store.Store`,
+    :class:`gaz_cli.results.sqlite.SqliteFile`): a context manager (``close`` at the end)
+    whose :meth:`simulation` hands out one run's writer and commits it at the block's end.
+    A front end provides ``close()``, ``_errors()`` (a context turning its database's
+    failures into one StoreError line) and ``_writer(scene, started)`` (a
+    :class:`TableRecorder` with ``commit()`` and ``abort()``)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    @contextlib.contextmanager
+    def simulation(self, scene, started: _dt.datetime | None = None):
+        """One simulation's writer (a :class:`Recorder`), committed at the end.
+
+        Call ``finish(stats, ke_start, ke_end)`` inside the block; the block's
+        normal end commits in one short transaction and sets ``si_num``; an
+        exception (KeyboardInterrupt included) discards everything.
+        """
+        started = started or _dt.datetime.now().replace(microsecond=0)
+        with self._errors():
+            run = self._writer(scene, started)
+        try:
+            yield run
+            if not run.finished:
+                raise RuntimeError("the simulation's finish() was not called")
+            with self._errors():
+                run.commit()
+        except BaseException:
+            run.abort()
+            raise
+
+
+class TableRecorder(Recorder):
+    """What every database writer shares: which rows it keeps (the scene's ``record``),
+    the REBOND and CHOC columns in table order from the engine's arrays, row numbers
+    from 1, and the results kept for the commit.
+
+    A writer provides ``_add(table_name, columns)``, ``_errors()`` (a context turning its
+    database's failures into one line), ``_si`` (the SI_NUM its rows carry while they
+    wait) and ``_pa_of_particle`` (each particle's PA_NUM, or species index). ``si_num``
+    is None until the commit has succeeded.
+    """
+
+    def __init__(self, scene, started):
+        self.scene = scene
+        self.started = started
+        self.want_bounces = scene.record in ("bounces", "all")
+        self.want_collisions = scene.record == "all"
+        self.finished = False
+        self.si_num = None
+        self._n = {"rebond": 0, "choc": 0}
+        self._result = None
+
+    def _numbers(self, table: str, k: int) -> np.ndarray:
+        """The next ``k`` row numbers of ``table`` (RE_NUM, CH_NUM: 1, 2, ... in each run)."""
+        start = self._n[table] + 1
+        self._n[table] += k
+        return np.arange(start, start + k)
+
+    def add_bounces(self, t, particle, wall, speed, vperp):
+        k = len(t)
+        if k:
+            with self._errors():
+                self._add("rebond", [np.full(k, self._si, dtype=np.int64), self._numbers("rebond", k),
+                                     self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
+                                     np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
+                                     np.asarray(vperp, dtype=float)])
+
+    def add_collisions(self, t, i, j, impulse):
+        k = len(t)
+        if k:
+            with self._errors():
+                self._add("choc", [np.full(k, self._si, dtype=np.int64), self._numbers("choc", k),
+                                   np.asarray(t, dtype=float), np.asarray(i, dtype=np.int64),
+                                   np.asarray(j, dtype=np.int64), np.asarray(impulse, dtype=float)])
+
+    def finish(self, stats: RunStats, ke_start: float, ke_end: float) -> None:
+        """Keep the run's results for the commit."""
+        self._result = (stats, ke_start, ke_end)
+        self.finished = True

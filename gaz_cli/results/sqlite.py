@@ -49,7 +49,8 @@ from pathlib import Path
 from gaz_cli import interrupts
 from gaz_cli.results import rows, staging
 from gaz_cli.errors import Interrupted, StoreError
-from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
+from gaz_cli.model.recording import RunStats
+from gaz_cli.results.rows import RunStore, TableRecorder
 from gaz_cli.model.scene import Scene
 from gaz_cli.model.species import Species
 

@@ -75,7 +75,7 @@ from gaz_cli import __version__, interrupts
 from gaz_cli.results import rows
 from gaz_cli.results import sqlite as sqlite_writer
 from gaz_cli.errors import StoreError
-from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
+from gaz_cli.results.rows import RunStore, TableRecorder
 from gaz_cli.model.scene import Scene, check_row_numbers
 from gaz_cli.model.species import NAME_MAX, Species
 
