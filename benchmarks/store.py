@@ -48,6 +48,7 @@ from dataclasses import replace
 import numpy as np
 import sqlalchemy as sa
 
+from gaz_cli.results import postgres as pg
 from gaz_cli.results import store as st
 from gaz_cli.model.recording import RunStats
 from gaz_cli.model.scene import Scene, initial_state
@@ -93,8 +94,8 @@ def describe(db: str) -> str:
         with store.engine.connect() as conn:
             version = conn.exec_driver_sql("SHOW server_version").scalar()
             superuser = conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on"
-            attach = st._may_attach(conn)
-            fast = st._may_skip_key_triggers(conn)
+            attach = pg._may_attach(conn)
+            fast = pg._may_skip_key_triggers(conn)
     role = "superuser" if superuser else "ordinary role"
     if attach:
         how = (f"{role}: COPY into the run's own table, attached as REBOND's partition at the commit "

@@ -10,6 +10,7 @@ import pytest
 import sqlalchemy as sa
 
 from backends import postgres_url  # noqa: F401 - fixture
+from gaz_cli.results import postgres as pg
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
@@ -61,7 +62,7 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
     impulse = rng.random(k) * 1e-23
     with st.Store(db) as store:
         with store.engine.connect() as conn:
-            assert st._may_skip_key_triggers(conn) == (kind == "may skip triggers")
+            assert pg._may_skip_key_triggers(conn) == (kind == "may skip triggers")
         with store.simulation(scene) as w:
             for part in np.array_split(np.arange(k), 3):
                 w.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
@@ -83,4 +84,4 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
 def test_a_value_beyond_int4_is_refused_not_wrapped():
     """A COPY block never wraps an integer silently (numpy's cast would)."""
     with pytest.raises(StoreError, match="does not fit PostgreSQL's int4"):
-        st._copy_block([np.array([1, 2 ** 31])], ["int4"])
+        pg._copy_block([np.array([1, 2 ** 31])], ["int4"])

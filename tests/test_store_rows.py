@@ -20,7 +20,7 @@ from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
 from gaz_cli.model.scene import Scene
 from gaz_cli.model.species import Species, lookup
 from gaz_cli.results import rows
-from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import writer
 from gaz_cli.results import store as st
 from gaz_cli.run.runner import run_scene
 
@@ -88,10 +88,10 @@ def test_the_runs_cover_what_the_writers_map(runs):
 def test_sqlite_rows_are_the_mapping_of_the_runs(runs, tmp_path):
     db = str(tmp_path / "gaz.db")
     st.Store(db).close()  # an existing file: the staged path
-    with sqlite_writer.open_for_writing(db) as store:
+    with writer.open_for_writing(db) as store:
         numbers = _write(store, runs)
     fresh = str(tmp_path / "fresh.db")  # a new file: its first run's early insert, private file
-    with sqlite_writer.open_for_writing(fresh) as store:
+    with writer.open_for_writing(fresh) as store:
         assert _write(store, runs) == numbers
     tables = _tables(db)
     for name, frame in _tables(fresh).items():
@@ -133,7 +133,7 @@ def test_postgres_rows_are_the_sqlite_rows(runs, tmp_path, postgres_db):
     """The same runs through both writers: every table equal, row for row, column for column
     (the PostgreSQL writer's partitions attached at the commit, its COPY blocks built by numpy)."""
     db = str(tmp_path / "gaz.db")
-    with sqlite_writer.open_for_writing(db) as store:
+    with writer.open_for_writing(db) as store:
         numbers = _write(store, runs)
     with st.Store(postgres_db) as store:
         assert _write(store, runs) == numbers

@@ -149,7 +149,7 @@ def _check_simulation(params: dict, store) -> None:
 def _check_columns(query: Query, store) -> None:
     """Refuse, in one line, a query that reads a column the database's (older) schema
     version lacks, rather than let the database say "no such column"."""
-    from gaz_cli.results.store import metadata
+    from gaz_cli.results.schema import metadata
 
     version = store.schema_version()
     code = re.sub(r"--[^\n]*", "", query.sql).lower()
