@@ -34,6 +34,8 @@ table, attached whole to the partitioned REBOND at the commit (schema 4+, a
 role owning REBOND: the commit builds its index and checks its keys in bulk,
 and is timed), or into REBOND itself, with or without the per-row key
 triggers (session_replication_role).
+
+Figures it gave, with their dates and hosts: docs/explanation/storage.md.
 """
 
 from __future__ import annotations

@@ -139,8 +139,9 @@ def _copy_block(columns: list, types: list[str]) -> bytes:
     ``columns``: one array per column (k rows each, no NULL); ``types``: their
     PostgreSQL types (:data:`_COPY_TYPES`). Each tuple is its field count (int16)
     then, per field, its byte length (int32) and its big-endian value: a record
-    of fixed width, so numpy fills all of them at once (~3 M rows/s, against
-    ~0.5 M for psycopg's ``write_row`` over Python tuples).
+    of fixed width, so numpy fills all of them at once (several times psycopg's
+    ``write_row`` over Python tuples: docs/explanation/storage.md). StoreError for a
+    value beyond an int4 column.
     """
     fields = [("count", ">i2")]
     for j, kind in enumerate(types):
@@ -164,11 +165,9 @@ def _may_skip_key_triggers(conn) -> bool:
     with a query of their own; the writer gives the same guarantee by construction:
     the PA_NUM it writes are the species rows it has locked, SI_NUM is its own row.
     Without it (an ordinary role) those checks bound the rate, whatever the client
-    sends: ``benchmarks/store.py --explain`` measured 16 us per row for each of the
-    two triggers on a loaded 2-core host (an INSERT ... SELECT of 200,000 rows: 27
-    thousand rows/s into REBOND, 212 thousand into a copy without the keys); a bulk
-    INSERT ... SELECT from a staging table runs the same per-row triggers, so it does
-    not help. A database owner can grant an ordinary role the fast path without
+    sends (``benchmarks/store.py --explain``; figures in docs/explanation/storage.md); a
+    bulk INSERT ... SELECT from a staging table runs the same per-row triggers, so it
+    does not help. A database owner can grant an ordinary role the fast path without
     making it a superuser (PostgreSQL 15+):
     ``GRANT SET ON PARAMETER session_replication_role TO role``.
     """

@@ -460,7 +460,7 @@ class Store(RunStore):
     @contextlib.contextmanager
     def session(self):
         """One connection for many small reads: yields ``run(name, **params)``, which runs a
-        packaged SQL file and returns its rows as tuples (no DataFrame: ~50 us a query on SQLite)."""
+        packaged SQL file and returns its rows as tuples (no DataFrame: docs/explanation/storage.md)."""
         with self._errors(), self.engine.connect() as conn:
             texts = {}
 

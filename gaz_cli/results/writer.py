@@ -2,7 +2,7 @@
 
 A SQLite file that is new, or exactly at this gaz's layout and version, is written by
 :mod:`gaz_cli.results.sqlite` alone (the standard library's sqlite3: a tiny run does not pay
-SQLAlchemy's import, ~0.2 s); anything else -- an older gaz database to migrate, a foreign
+SQLAlchemy's import, docs/explanation/storage.md); anything else -- an older gaz database to migrate, a foreign
 one to refuse, a PostgreSQL URL, a SQLite URL with options -- by
 :class:`gaz_cli.results.store.Store`, imported only then. Both are
 :class:`gaz_cli.results.rows.RunStore`: ``simulation(scene)`` hands out a run's writer and
