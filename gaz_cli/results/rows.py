@@ -9,12 +9,13 @@ out a run's writer and commits it whole.
 
 Each function returns one table's rows as plain Python values (int, float, str, None, a
 ``datetime``), keyed by lower-case column name in the table's order
-(:mod:`gaz_cli.results.store`'s metadata). The writers insert them as given: the SQLite
-writer through ``sqlite3`` (:mod:`gaz_cli.results.sqlite`, which writes a ``datetime`` as
-SQLAlchemy's DATETIME text), the PostgreSQL writer through SQLAlchemy and COPY. REBOND and CHOC
-come as columns (numpy arrays, one per column, in the table's order). Units are converted
-here and nowhere else: the exam's PA_M in grams (:attr:`Species.mass_g`), every other value
-SI. No database, no SQLAlchemy is imported.
+(:mod:`gaz_cli.results.schema`). The writers insert them as given: the SQLite writer
+through ``sqlite3`` (:mod:`gaz_cli.results.sqlite`, which writes a ``datetime`` as
+SQLAlchemy's DATETIME text), the PostgreSQL writer through SQLAlchemy and COPY
+(:mod:`gaz_cli.results.postgres`). REBOND and CHOC come as columns (numpy arrays, one per
+column, in the table's order). Units are converted here and nowhere else: the exam's PA_M
+in grams (:attr:`Species.mass_g`), every other value SI. No database, no SQLAlchemy is
+imported.
 """
 
 from __future__ import annotations

@@ -13,12 +13,12 @@ first read).
 Opening a database for writing checks it before writing anything: tables
 with gaz's names but other columns are refused (a foreign database), so is a gaz
 database without one of its tables (dropped by hand), a newer schema version is
-refused, an older one is migrated forward (:mod:`gaz_cli.results.migrations`), a new one is created. Creation is safe when several
-processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
-``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
-transaction). A new PostgreSQL database whose store's runs all failed is left as
-it was found, without a table (:func:`gaz_cli.results.postgres.unmake`), unless another store is
-open for writing on it. A process killed (SIGKILL) cannot do that: it leaves the
+refused, an older one is migrated forward (:mod:`gaz_cli.results.migrations`), a new
+one is created. Creation is safe when several processes create the same database at
+once (SQLite: ``BEGIN IMMEDIATE`` and ``IF NOT EXISTS``; PostgreSQL: an advisory lock,
+and DDL inside the transaction). A new PostgreSQL database whose store's runs all failed
+is left as it was found, without a table (:func:`gaz_cli.results.postgres.unmake`),
+unless another store is open for writing on it. A process killed (SIGKILL) cannot do that: it leaves the
 whole schema, created in one transaction at opening, which the next run uses. (Not
 the schema created in the first run's own transaction instead: any other first run
 would wait for that one's end to see or create a table, as long as the run lasts.)
@@ -263,7 +263,8 @@ class Store(RunStore):
 
     def close(self) -> None:
         """Release every connection; idempotent. A PostgreSQL database this store created, into
-        which it began runs and stored none, is left as it was found (:func:`gaz_cli.results.postgres.unmake`); so is a
+        which it began runs and stored none, is left as it was found
+        (:func:`gaz_cli.results.postgres.unmake`); so is a
         new SQLite file (never named); a new SQLite file into which no run was begun takes its
         name (the store made a database)."""
         try:
