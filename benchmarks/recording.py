@@ -79,7 +79,7 @@ from pathlib import Path
 
 from gaz_cli.run import runner
 from gaz_cli.results import sqlite as sqlite_writer
-from gaz_cli.model.recording import TableRecorder
+from gaz_cli.results.rows import TableRecorder
 from gaz_cli.model.scene import Scene
 from gaz_cli.model.species import lookup
 

@@ -34,6 +34,8 @@ table, attached whole to the partitioned REBOND at the commit (schema 4+, a
 role owning REBOND: the commit builds its index and checks its keys in bulk,
 and is timed), or into REBOND itself, with or without the per-row key
 triggers (session_replication_role).
+
+Figures it gave, with their dates and hosts: docs/explanation/storage.md.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from dataclasses import replace
 import numpy as np
 import sqlalchemy as sa
 
+from gaz_cli.results import postgres as pg
 from gaz_cli.results import store as st
 from gaz_cli.model.recording import RunStats
 from gaz_cli.model.scene import Scene
@@ -94,8 +97,8 @@ def describe(db: str) -> str:
         with store.engine.connect() as conn:
             version = conn.exec_driver_sql("SHOW server_version").scalar()
             superuser = conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on"
-            attach = st._may_attach(conn)
-            fast = st._may_skip_key_triggers(conn)
+            attach = pg._may_attach(conn)
+            fast = pg._may_skip_key_triggers(conn)
     role = "superuser" if superuser else "ordinary role"
     if attach:
         how = (f"{role}: COPY into the run's own table, attached as REBOND's partition at the commit "

@@ -343,9 +343,9 @@ def scene_command(si_num, db):
       gaz scene 1 --db gaz.db > again.toml
       gaz simulate again.toml --db again.db
     """
-    from gaz_cli.scenes import files as scenefile
+    from gaz_cli.results.queries import stored_scene_file
 
-    click.echo(scenefile.stored(db, si_num), nl=False)
+    click.echo(stored_scene_file(db, si_num), nl=False)
 
 
 def _print_diagnostic(values: dict) -> None:

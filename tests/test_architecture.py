@@ -26,10 +26,7 @@ MAX_TOP_LEVEL = 14
 """Modules at gaz_cli's top level (the faces and the ground floor; the rest lives in folders)."""
 
 ALLOWED_CIRCLES = [{"gaz_cli.placement", "gaz_cli.placement.growth", "gaz_cli.placement.mixture",
-                    "gaz_cli.placement.overlaps"},
-                   # the store and its SQLite writer, until results/ is split (issue 37, item 2)
-                   {"gaz_cli.results.queries", "gaz_cli.results.sqlite", "gaz_cli.results.store",
-                    "gaz_cli.scenes.files"}]
+                    "gaz_cli.placement.overlaps"}]
 """Placement's own recursion: a mixture places its large particles, then the small among them."""
 
 
@@ -192,3 +189,10 @@ def test_each_rule_refuses_its_out_of_range_value_naming_the_field(name):
 def test_a_valid_scene_passes_every_rule():
     scene = validate(_scene(engine="step", dt=1e-14, drag=0.5, wall_restitution=0.9, print_every=2))
     assert scene.engine == "step" and math.isclose(scene.drag, 0.5)
+
+
+def test_the_scene_rows_columns_are_the_tables_stored_options():
+    from gaz_cli.results.schema import scene_table
+
+    columns = {c.name for c in scene_table.columns} - {"si_num", "sc_version", "sc_file"}
+    assert columns == {f"sc_{name}" for name, row in OPTIONS.items() if row.column}

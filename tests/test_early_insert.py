@@ -16,6 +16,7 @@ from test_sqlite_writer import STARTED, content, runs, write
 
 from gaz_cli.run import runner
 from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import writer
 from gaz_cli.results import staging
 from gaz_cli.engines.event import driver
 from gaz_cli.errors import Interrupted, StoreError
@@ -74,12 +75,12 @@ def test_early_and_staged_give_the_same_database(tmp_path, monkeypatch):
     early, staged = str(tmp_path / "early.db"), str(tmp_path / "staged.db")
     with monkeypatch.context() as m:
         forbid(m, staging, "move_in")  # the staged commit's insert: not taken
-        with sqlite_writer.open_for_writing(early) as opened:
+        with writer.open_for_writing(early) as opened:
             assert [write(opened, scene) for scene in runs()] == [1, 2]
     with monkeypatch.context() as m:
         m.setattr(sqlite_writer, "LOCK_BOUND_S", 0)
         forbid(m, sqlite_writer, "_EarlyInsert")
-        with sqlite_writer.open_for_writing(staged) as opened:
+        with writer.open_for_writing(staged) as opened:
             assert [write(opened, scene) for scene in runs()] == [1, 2]
     found, expected = content(early), content(staged)
     assert len(found["rebond"]) == 6000 and len(found["choc"]) == 3000
@@ -135,7 +136,7 @@ def test_a_run_past_the_bound_gives_the_lock_back_to_another_writer(tmp_path, mo
     monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0.3)
     db = existing(tmp_path / "g.db")
     slow, other = runs()
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         with opened.simulation(slow, started=STARTED) as w:
             first, second = two_chunks(slow)
             w.add_bounces(*first)
@@ -146,7 +147,7 @@ def test_a_run_past_the_bound_gives_the_lock_back_to_another_writer(tmp_path, mo
             assert early.si_num == 1 and not lock_is_free(db)
             done = []
             def rival_run():
-                with sqlite_writer.open_for_writing(db) as rival_file:
+                with writer.open_for_writing(db) as rival_file:
                     done.append(write(rival_file, other))
 
             rival = threading.Thread(target=rival_run)
@@ -168,7 +169,7 @@ def test_a_held_lock_sends_the_run_the_staged_way(tmp_path, monkeypatch):
     gives up after TRY_LOCK_S, and the run is committed the staged way once the lock is free."""
     db = existing(tmp_path / "g.db")
     scene = runs()[1]
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         holder = sqlite3.connect(db, isolation_level=None)
         holder.execute("BEGIN IMMEDIATE")
         with opened.simulation(scene, started=STARTED) as w:
@@ -206,7 +207,7 @@ def test_a_failure_in_the_thread_is_raised_and_leaves_nothing(tmp_path, monkeypa
         insert(self, table, columns)
 
     monkeypatch.setattr(sqlite_writer._EarlyInsert, "_insert", failing)
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         with pytest.raises(StoreError if isinstance(error, sqlite3.Error) else Full, match=says):
             with opened.simulation(scene, started=STARTED) as w:
                 for chunk in two_chunks(scene):
@@ -225,7 +226,7 @@ def test_an_interrupt_mid_run_rolls_back_and_frees_the_lock(tmp_path):
     unwinds, the thread rolls back and ends, no row is left and the lock is free."""
     db = existing(tmp_path / "g.db")
     scene = runs()[0]
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         with pytest.raises(KeyboardInterrupt):
             with opened.simulation(scene, started=STARTED) as w:
                 w.add_bounces(*two_chunks(scene)[0])
@@ -288,7 +289,7 @@ def test_a_long_run_starts_its_early_insert_near_its_end(tmp_path, monkeypatch):
     parts = [slice(0, cut), slice(cut, end)]
 
     def run(db):
-        with sqlite_writer.open_for_writing(db) as opened:
+        with writer.open_for_writing(db) as opened:
             with opened.simulation(scene, started=STARTED) as w:
                 w.progress(0.0, 0)
                 time.sleep(0.3)
@@ -316,12 +317,12 @@ def test_a_new_files_first_run_goes_in_from_its_first_chunk_and_keeps_no_copy(tm
     monkeypatch.setattr(staging, "MEMORY_ROWS", 700)  # 3000 rows in 3 chunks: dropped at the first
     forbid(monkeypatch, staging, "_ScratchWriter")
     forbid(monkeypatch, staging, "move_in")
-    with sqlite_writer.open_for_writing(str(tmp_path / "direct.db")) as opened:
+    with writer.open_for_writing(str(tmp_path / "direct.db")) as opened:
         assert write(opened, scene) == 1
     monkeypatch.undo()
     monkeypatch.setattr(staging, "MEMORY_ROWS", 700)
     monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0)  # the staged way: a scratch file, moved in
-    with sqlite_writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
+    with writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
         assert write(opened, scene) == 1
     direct, staged = content(str(tmp_path / "direct.db")), content(str(tmp_path / "staged.db"))
     assert len(direct["rebond"]) == 3000 and direct == staged
@@ -338,13 +339,13 @@ def test_two_new_files_first_runs_past_the_memory_bound_both_land(tmp_path, monk
     forbid(monkeypatch, staging, "_ScratchWriter")
     first_scene, second_scene = runs()[1], replace(runs()[1], seed=5, components=((Species("Y", 4e-26, 2e-10), 30),))
     db = tmp_path / "new.db"
-    first, second = sqlite_writer.open_for_writing(str(db)), sqlite_writer.open_for_writing(str(db))
+    first, second = writer.open_for_writing(str(db)), writer.open_for_writing(str(db))
     with first:
         assert write(first, first_scene) == 1
     with second:
         assert write(second, second_scene) == 2
     monkeypatch.undo()
-    with sqlite_writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
+    with writer.open_for_writing(str(tmp_path / "staged.db")) as opened:
         assert [write(opened, s) for s in (first_scene, second_scene)] == [1, 2]
     found, expected = content(str(db)), content(str(tmp_path / "staged.db"))
     assert len(found["rebond"]) == 6000 and found == expected

@@ -368,13 +368,14 @@ def test_a_run_left_on_auto_stores_the_search_it_took_and_reruns_to_its_rows_und
     scene file to the same rows, while a new run on 'auto' takes the other search."""
     from gaz_cli import api
     from gaz_cli.engines.event import sizing
+    from gaz_cli.results.queries import stored_scene_file
 
     keys = dict(dim=2, length=1.0, duration=1.0, temperature=1.0 / 1.380649e-23, seed=5,
                 engine="event")
     species = [{"name": "X", "count": 200, "mass": 1.0, "radius": 0.005}]
     db, again, other = tmp_path / "a.db", tmp_path / "b.db", tmp_path / "c.db"
     assert api.simulate(api.make_scene(species=species, **keys), db=str(db)).stats.extras["dilute_scan"]
-    stored = scenefile.stored(str(db), 1)
+    stored = stored_scene_file(str(db), 1)
     assert '[search]\nneighbours = "dilute"\nclasses = "off"\n' in stored, stored
     # a refitted cost model: cells (the wide cells' float32 pass keeps the dilute scan's exact
     # roots, hence its rows, so it is refused too)

@@ -16,6 +16,7 @@ import pytest
 from conftest import random_rows
 
 from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results import writer
 from gaz_cli.results import staging
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
@@ -85,7 +86,7 @@ def test_both_writers_give_the_same_database(tmp_path, monkeypatch, where):
     a, b = tmp_path / "sqlalchemy.db", tmp_path / "sqlite3.db"
     with st.Store(str(a)) as store:
         assert [write(store, scene) for scene in runs()] == [1, 2]
-    with sqlite_writer.open_for_writing(str(b)) as light:
+    with writer.open_for_writing(str(b)) as light:
         assert isinstance(light, sqlite_writer.SqliteFile)
         assert [write(light, scene) for scene in runs()] == [1, 2]
     found, expected = content(b), content(a)
@@ -102,7 +103,7 @@ def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_stor
     db = str(tmp_path / "g.db")
     with st.Store(db):
         pass
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         assert isinstance(opened, sqlite_writer.SqliteFile)
     con = sqlite3.connect(db)
     con.execute("ALTER TABLE scene DROP COLUMN sc_file")  # version 2's layout
@@ -110,9 +111,9 @@ def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_stor
     con.execute("UPDATE schema_version SET sv_version = 2")
     con.commit()
     con.close()
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         assert isinstance(opened, st.Store) and opened.schema_version() == st.SCHEMA_VERSION
-    with sqlite_writer.open_for_writing(db) as opened:
+    with writer.open_for_writing(db) as opened:
         assert isinstance(opened, sqlite_writer.SqliteFile)
         assert write(opened, runs()[0]) == 1
     con = sqlite3.connect(db)
@@ -120,7 +121,7 @@ def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_stor
     con.commit()
     con.close()
     with pytest.raises(StoreError, match="newer than this gaz"):
-        sqlite_writer.open_for_writing(db)
+        writer.open_for_writing(db)
     foreign = tmp_path / "foreign.db"
     con = sqlite3.connect(foreign)
     con.execute("CREATE TABLE rebond (x INTEGER)")
@@ -128,7 +129,7 @@ def test_a_current_file_is_written_in_place_an_older_one_is_migrated_by_the_stor
     con.close()
     before = foreign.read_bytes()
     with pytest.raises(StoreError, match="not a gaz database: its table REBOND has columns"):
-        sqlite_writer.open_for_writing(str(foreign))
+        writer.open_for_writing(str(foreign))
     assert foreign.read_bytes() == before
 
 
@@ -145,7 +146,7 @@ def test_a_failed_commit_leaves_nothing(tmp_path, monkeypatch, path):
     def full(*args, **kwargs):
         raise sqlite3.OperationalError("database or disk is full")
 
-    with sqlite_writer.open_for_writing(str(db)) as opened:
+    with writer.open_for_writing(str(db)) as opened:
         if path == "staged":
             monkeypatch.setattr(sqlite_writer, "LOCK_BOUND_S", 0)
             monkeypatch.setattr(staging, "move_in", full)

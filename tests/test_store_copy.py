@@ -10,10 +10,12 @@ import pytest
 import sqlalchemy as sa
 
 from backends import postgres_url  # noqa: F401 - fixture
+from gaz_cli.results import postgres as pg
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
 from gaz_cli.placement.initial import initial_state
+from gaz_cli.model.species import BUILTIN
 
 @pytest.fixture(params=["may skip triggers", "ordinary role"])
 def role_db(request, postgres_url):
@@ -60,7 +62,7 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
     impulse = rng.random(k) * 1e-23
     with st.Store(db) as store:
         with store.engine.connect() as conn:
-            assert st._may_skip_key_triggers(conn) == (kind == "may skip triggers")
+            assert pg._may_skip_key_triggers(conn) == (kind == "may skip triggers")
         with store.simulation(scene) as w:
             for part in np.array_split(np.arange(k), 3):
                 w.add_bounces(t[part], particle[part], wall[part], speed[part], vperp[part])
@@ -73,7 +75,7 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
     assert rows.RE_NUM.tolist() == list(range(1, k + 1))
     for column, expected in (("RE_T", t), ("RE_DIR", wall), ("RE_VIT", speed), ("RE_VP", vperp)):
         assert np.array_equal(rows[column].to_numpy(), expected), column
-    assert set(rows.PA_NUM) == {list(st.BUILTIN).index("Ar") + 1}
+    assert set(rows.PA_NUM) == {list(BUILTIN).index("Ar") + 1}
     assert np.array_equal(chocs.CH_I.to_numpy(), ci) and np.array_equal(chocs.CH_J.to_numpy(), cj)
     assert np.array_equal(chocs.CH_IMP.to_numpy(), impulse)
     assert keys == {"simulation", "particule"}
@@ -82,4 +84,4 @@ def test_rows_and_collisions_arrive_bit_for_bit(role_db, argon_scene):
 def test_a_value_beyond_int4_is_refused_not_wrapped():
     """A COPY block never wraps an integer silently (numpy's cast would)."""
     with pytest.raises(StoreError, match="does not fit PostgreSQL's int4"):
-        st._copy_block([np.array([1, 2 ** 31])], ["int4"])
+        pg._copy_block([np.array([1, 2 ** 31])], ["int4"])

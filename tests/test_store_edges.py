@@ -434,7 +434,7 @@ def test_a_gaz_sqlite_file_without_one_of_its_tables_is_refused_before_the_run(t
 
 @pytest.mark.postgres
 def test_a_first_run_killed_mid_run_leaves_a_whole_schema_that_the_next_run_uses(postgres_db):
-    """SIGKILL leaves no time for the cleanup of a failed first run (Store._unmake): a first run
+    """SIGKILL leaves no time for the cleanup of a failed first run (postgres.unmake): a first run
     into a new PostgreSQL database killed mid-run leaves gaz's tables. All of them (created in one
     transaction at opening, with the version row and PARTICULE's rows; the run's own rows and
     partition in its transaction, rolled back by the server): the next run uses them and is

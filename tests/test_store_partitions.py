@@ -11,6 +11,7 @@ import pytest
 import sqlalchemy as sa
 
 from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
+from gaz_cli.results import postgres as pg
 from gaz_cli.results import store as st
 from gaz_cli.errors import StoreError
 from gaz_cli.model.recording import RunStats
@@ -162,7 +163,7 @@ def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
     with st.Store(postgres_db) as store:
         assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 6
         with store.engine.connect() as conn:  # its rows keep their 32-bit numbers (not rewritten)
-            assert st.narrow_row_numbers(conn) == ("REBOND", "CHOC")
+            assert pg.narrow_row_numbers(conn) == ("REBOND", "CHOC")
         si = write(store, argon_scene(dim=3, n=20), 50, collisions=20)
         with store.engine.connect() as conn:
             assert partitions(conn) == {"rebond_v3", "rebond_default", f"rebond_{si}"}
@@ -195,7 +196,7 @@ def test_a_role_that_does_not_own_rebond_writes_row_by_row(postgres_db, postgres
     try:
         with st.Store(guest) as store:
             with store.engine.connect() as conn:
-                assert not st._may_attach(conn)
+                assert not pg._may_attach(conn)
             si = write(store, argon_scene(dim=3, n=20), 300, collisions=40)
             with pytest.raises(StoreError, match="foreign key"):
                 write(store, argon_scene(dim=3, n=20), 10, pa_of_particle=np.full(20, 9999))

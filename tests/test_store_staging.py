@@ -13,7 +13,7 @@ from gaz_cli.results import store as st
 from gaz_cli.model.recording import RunStats
 from gaz_cli.model.scene import Scene
 from gaz_cli.placement.initial import initial_state
-from gaz_cli.model.species import lookup
+from gaz_cli.model.species import BUILTIN, lookup
 
 
 def mixture(record="all"):
@@ -51,7 +51,7 @@ def test_memory_and_scratch_file_give_the_same_rows(tmp_path, monkeypatch, speci
         assert len(a) == 5000 and a.equals(b)
     rows, _, kinds = in_memory
     names = [s.name for s in scene.species]
-    pa = {n: list(st.BUILTIN).index(n) + 1 for n in names}
+    pa = {n: list(BUILTIN).index(n) + 1 for n in names}
     assert np.array_equal(rows.PA_NUM.to_numpy(), np.array([pa[names[k]] for k in kinds]))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.db", "b.db"]  # no scratch file left
 

@@ -11,8 +11,6 @@ the wall at coordinate L and ``-(d+1)`` the wall at 0.
 
 from __future__ import annotations
 
-import contextlib
-import datetime as _dt
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -87,92 +85,6 @@ def hand_snapshot(recorder: Recorder, t: float, positions: np.ndarray, velocitie
         recorder.add_snapshot(t, positions, velocities, images=images)
     else:
         recorder.add_snapshot(t, positions, velocities)
-
-
-class RunStore:
-    """What both database front ends share (:class:`gaz_cli.results.store.Store`,
-    :class:`gaz_cli.results.sqlite.SqliteFile`): a context manager (``close`` at the end)
-    whose :meth:`simulation` hands out one run's writer and commits it at the block's end.
-    A front end provides ``close()``, ``_errors()`` (a context turning its database's
-    failures into one StoreError line) and ``_writer(scene, started)`` (a
-    :class:`TableRecorder` with ``commit()`` and ``abort()``)."""
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    @contextlib.contextmanager
-    def simulation(self, scene, started: _dt.datetime | None = None):
-        """One simulation's writer (a :class:`Recorder`), committed at the end.
-
-        Call ``finish(stats, ke_start, ke_end)`` inside the block; the block's
-        normal end commits in one short transaction and sets ``si_num``; an
-        exception (KeyboardInterrupt included) discards everything.
-        """
-        started = started or _dt.datetime.now().replace(microsecond=0)
-        with self._errors():
-            run = self._writer(scene, started)
-        try:
-            yield run
-            if not run.finished:
-                raise RuntimeError("the simulation's finish() was not called")
-            with self._errors():
-                run.commit()
-        except BaseException:
-            run.abort()
-            raise
-
-
-class TableRecorder(Recorder):
-    """What every database writer shares: which rows it keeps (the scene's ``record``),
-    the REBOND and CHOC columns in table order from the engine's arrays, row numbers
-    from 1, and the results kept for the commit.
-
-    A writer provides ``_add(table_name, columns)``, ``_errors()`` (a context turning its
-    database's failures into one line), ``_si`` (the SI_NUM its rows carry while they
-    wait) and ``_pa_of_particle`` (each particle's PA_NUM, or species index). ``si_num``
-    is None until the commit has succeeded.
-    """
-
-    def __init__(self, scene, started):
-        self.scene = scene
-        self.started = started
-        self.want_bounces = scene.record in ("bounces", "all")
-        self.want_collisions = scene.record == "all"
-        self.finished = False
-        self.si_num = None
-        self._n = {"rebond": 0, "choc": 0}
-        self._result = None
-
-    def _numbers(self, table: str, k: int) -> np.ndarray:
-        """The next ``k`` row numbers of ``table`` (RE_NUM, CH_NUM: 1, 2, ... in each run)."""
-        start = self._n[table] + 1
-        self._n[table] += k
-        return np.arange(start, start + k)
-
-    def add_bounces(self, t, particle, wall, speed, vperp):
-        k = len(t)
-        if k:
-            with self._errors():
-                self._add("rebond", [np.full(k, self._si, dtype=np.int64), self._numbers("rebond", k),
-                                     self._pa_of_particle[np.asarray(particle)], np.asarray(t, dtype=float),
-                                     np.asarray(wall, dtype=np.int64), np.asarray(speed, dtype=float),
-                                     np.asarray(vperp, dtype=float)])
-
-    def add_collisions(self, t, i, j, impulse):
-        k = len(t)
-        if k:
-            with self._errors():
-                self._add("choc", [np.full(k, self._si, dtype=np.int64), self._numbers("choc", k),
-                                   np.asarray(t, dtype=float), np.asarray(i, dtype=np.int64),
-                                   np.asarray(j, dtype=np.int64), np.asarray(impulse, dtype=float)])
-
-    def finish(self, stats: "RunStats", ke_start: float, ke_end: float) -> None:
-        """Keep the run's results for the commit."""
-        self._result = (stats, ke_start, ke_end)
-        self.finished = True
 
 
 class MemoryRecorder(Recorder):

@@ -122,6 +122,22 @@ def run(db: str, name: str, pairs=()) -> tuple[Query, "pd.DataFrame"]:  # noqa: 
         return query, store.read_sql(query.sql, **params)
 
 
+def stored_scene_file(db: str, si_num: int) -> str:
+    """The scene file stored with simulation ``si_num`` in ``db`` (SCENE.SC_FILE, the packaged
+    query ``scene``), made runnable by today's gaz
+    (:func:`gaz_cli.scenes.files.without_builtin_clash`). QueryError for an ``si_num`` not
+    stored; StoreError for a run stored without its scene file."""
+    from gaz_cli.errors import StoreError
+    from gaz_cli.scenes.files import without_builtin_clash
+
+    _, frame = run(db, "scene", [f"si_num={int(si_num)}"])  # refuses an si_num not stored
+    text = frame.iloc[0, 1]
+    if not isinstance(text, str) or not text:
+        raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
+                         "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
+    return without_builtin_clash(text)
+
+
 def _check_simulation(params: dict, store) -> None:
     """Refuse, in one line, an ``si_num`` the database does not hold: the query would answer
     with no row and exit 0, a mistyped number looking like a run without bounces."""
@@ -133,7 +149,7 @@ def _check_simulation(params: dict, store) -> None:
 def _check_columns(query: Query, store) -> None:
     """Refuse, in one line, a query that reads a column the database's (older) schema
     version lacks, rather than let the database say "no such column"."""
-    from gaz_cli.results.store import metadata
+    from gaz_cli.results.schema import metadata
 
     version = store.schema_version()
     code = re.sub(r"--[^\n]*", "", query.sql).lower()

@@ -2,8 +2,8 @@
 SQLite file beside the database.
 
 A run into a SQLite database hands its REBOND (and CHOC) rows here while the
-engine runs, outside the database's write lock; at the end the store moves
-them in inside one short transaction (:meth:`gaz_cli.results.store.Store.simulation`).
+engine runs, outside the database's write lock; at the end the SQLite writer moves
+them in inside one short transaction (:class:`gaz_cli.results.sqlite.StagedRun`).
 Several runs can thus write one file at once, and a run that fails or is
 interrupted only drops its rows. (While the engine runs, a thread may also insert
 the chunks kept in memory straight into the database, under a bounded hold of the
@@ -24,56 +24,10 @@ scratch file left by a process killed with SIGKILL is removed by the next
 writer whose process id differs (:func:`remove_stale`). Memory stays bounded
 by MEMORY_ROWS rows plus :data:`SCRATCH_QUEUE` of the engine's chunks.
 
-Why this shape (the README example, 178 thousand bounces, CPU seconds on a
-loaded 2-core host; benchmarks/recording.py): binding rows one statement each
-(``executemany``) costs ~2.7 us a row, twice over when rows went to a scratch
-file first and then moved in; :data:`ROWS_PER_STATEMENT` rows per INSERT, bound
-from one flat list, cost ~1.3 us a row, paid once; RE_NUM written in the SQL rather
-than bound (:data:`COUNTERS`), 128 rows a statement, each statement's values bound from a
-memoryview of one float64 row (no list of Python floats), ~0.8 us a row. Of that,
-SQLite's own insert into REBOND's key (a WITHOUT ROWID table) is ~0.6 us a row (the
-rows fed from C arrays through APSW's carray, measured: 105 ms for the example; APSW
-cannot zip several carrays into rows without a join), the rest is binding.
-Measured and left: page size, cache size and ``synchronous`` (no gain beyond the
-noise); staging the rows in a second SQLite table while the engine runs (the move
-by ``INSERT ... SELECT`` costs as much as the direct insert).
-
-No writer that starts after the engine can go below SQLite's own insert (~35 % of the
-example's engine), hence the early insert (:mod:`gaz_cli.results.sqlite`): the chunks
-inserted by a thread while the engine computes the next ones. benchmarks/recording.py
---in-process, 2026-11-23, 7 rounds a session, early and ``--staged`` sessions alternating,
-2 cores (the engine alone 0.18-0.30 s wall, 0.17-0.20 s CPU): the main thread waits for
-recording 61-65 ms = 26-30 % of the engine's wall at load 2.7 (72-85 ms = 25-29 % at load
-3.5-4), against 122-136 ms = 66-67 % staged (172-183 ms = 61-73 %); the wall the database
-adds to the run, the pairs' difference, falls from 66-67 % to 37-48 % at load 2.7, and not
-at 3.5-4 (46-76 % both ways: no core is free, the thread's CPU delays the engine as much as
-it saves). Every thread's CPU for recording is the same both ways (0.10-0.12 s). What the
-user still waits for: the last chunk (~30 ms: 47 thousand of the 178 thousand rows), the
-COMMIT (~10 ms CPU and ~10 ms of fsync) and the close (~5 ms). The engine's chunk
-(driver.BUFFER_ROWS, then 65536) bounds the first: chunks of 16384 (``--buffer-rows``) cut
-the wait to 35-46 ms = 19-20 %. On an idle host, with the faster engine of 2026-11-23
-evening (0.15 s), the wall added was 32.1 % / 30.7 % with chunks of 65536 and 23.4 % / 17.4 %
-with 16384 (two sessions each, alternating, 5 rounds a session): BUFFER_ROWS is now 16384. Measured and left: fsync of the WAL from
-the thread after each chunk (the COMMIT ~4 ms shorter), a smaller page cache (no gain).
-Since 2026-11-24 a new database's first run goes into a private file in SQLite's rollback
-journal (sqlite_writer.SqliteFile): its pages are written once, into the file, and there the
-thread's flush after each chunk does pay (the commit 13-15 ms against 31-54 ms in WAL).
-
-A spilled run into an existing file (the README scene run ten times longer, 1.78 million
-rows; benchmarks/recording.py --in-process --longer 10 --existing: the user waits 108-152 %
-of the engine) waits, measured statement by statement (2026-11-25, 3 alternating rounds a
-variant, 2 cores at load 2-4): at the commit ~1.7-2.0 s, of which the ``INSERT ... SELECT``
-1.0-1.5 s (reading the scratch file alone 0.29-0.35 s, the same rows into a plain table
-without key 0.48-0.79 s: the rest is REBOND's key), the COMMIT 0.25-0.57 s (another writer
-has the lock after 0.11-0.16 s, the WAL's fsync; the rest is the checkpoint of the 82 MB WAL
-into the file, outside the lock, which with ``wal_autocheckpoint = 0`` the close does
-instead, 0.22-0.34 s), the scratch thread's last chunks 0.03-0.22 s, the close 0.03 s; and,
-while the engine runs, 0.5-0.7 s for room in the scratch thread's queue (no core free).
-Measured and left: a 200 MB page cache; the scratch file's columns typed, RE_NUM its rowid
-(70 MB instead of 126 MB: the move no faster, the thread's inserts 0.90-0.93 s CPU against
-0.71-0.73 s); PA_NUM without the CASE: nothing beyond the noise. What would cut the wait is
-policy: the write lock held while the engine runs (as a new file's first run), or the move
-begun before the engine's end under a longer bound on the lock (LOCK_BOUND_S).
+Why this shape: rows bound many to a statement from one flat row of floats (the binding
+is most of a row's cost beyond SQLite's own insert into REBOND's key), the early insert
+while the engine runs, a new file's first run in its private file; the measurements that
+chose it, and those of the variants left, are in docs/explanation/storage.md.
 """
 
 from __future__ import annotations

@@ -1,36 +1,24 @@
-"""The results database, through SQLAlchemy Core.
+"""The results database, through SQLAlchemy Core: open one by path or URL, check, create or
+migrate its schema, hand out a run's writer, read it back.
 
-The exam's three tables (figure 4) exactly, never changed:
-
-- SIMULATION(SI_NUM pk, SI_DEB, SI_DUR s, SI_DIM, SI_N, SI_L m)
-- PARTICULE(PA_NUM pk, PA_NOM, PA_M g, PA_R m)
-- REBOND(SI_NUM fk, RE_NUM, PA_NUM fk, RE_T s, RE_DIR, RE_VIT m/s, RE_VP m/s),
-  primary key (SI_NUM, RE_NUM)
-
-and extra tables keyed by SI_NUM for everything else:
-
-- SCENE: seed, temperature, engine, boundary, forces, restitution, placement...
-- COMPOSITION(SI_NUM, PA_NUM, CO_N): the mixture.
-- RESULTAT: events, collisions, kinetic energy at start and end, virial,
-  wall time, events per second.
-- CHOC(SI_NUM, CH_NUM, CH_T, CH_I, CH_J, CH_J_IMP): particle-particle
-  collisions, written only with ``--record all``.
-- SCHEMA_VERSION(SV_VERSION): one row, the version of this layout
-  (:data:`SCHEMA_VERSION`); a database without it is version 1.
-
-Table and column names are created in lower case, so that the SQL files,
-written in upper case as in the exam, run unchanged on SQLite and on
-PostgreSQL (which folds unquoted names to lower case).
+The layout is :mod:`gaz_cli.results.schema`'s (the exam's three tables, exactly, and the
+extra tables keyed by SI_NUM); a run's rows are :mod:`gaz_cli.results.rows`'s. A SQLite
+file's runs are written by :mod:`gaz_cli.results.sqlite` (the standard library's sqlite3, no
+SQLAlchemy), a PostgreSQL server's by :mod:`gaz_cli.results.postgres` (binary COPY);
+``gaz simulate`` opens its writer through :func:`gaz_cli.results.writer.open_for_writing`,
+which takes the first for a SQLite file it can write as it is and this store otherwise.
+The store's readers return DataFrames with upper-case columns (pandas imported on the
+first read).
 
 Opening a database for writing checks it before writing anything: tables
 with gaz's names but other columns are refused (a foreign database), so is a gaz
 database without one of its tables (dropped by hand), a newer schema version is
-refused, an older one is migrated forward (:data:`MIGRATIONS`), a new one is created. Creation is safe when several
-processes create the same database at once (SQLite: ``BEGIN IMMEDIATE`` and
-``IF NOT EXISTS``; PostgreSQL: an advisory lock, and DDL inside the
-transaction). A new PostgreSQL database whose store's runs all failed is left as
-it was found, without a table (:meth:`Store._unmake`), unless another store is
-open for writing on it. A process killed (SIGKILL) cannot do that: it leaves the
+refused, an older one is migrated forward (:mod:`gaz_cli.results.migrations`), a new
+one is created. Creation is safe when several processes create the same database at
+once (SQLite: ``BEGIN IMMEDIATE`` and ``IF NOT EXISTS``; PostgreSQL: an advisory lock,
+and DDL inside the transaction). A new PostgreSQL database whose store's runs all failed
+is left as it was found, without a table (:func:`gaz_cli.results.postgres.unmake`),
+unless another store is open for writing on it. A process killed (SIGKILL) cannot do that: it leaves the
 whole schema, created in one transaction at opening, which the next run uses. (Not
 the schema created in the first run's own transaction instead: any other first run
 would wait for that one's end to see or create a table, as long as the run lasts.)
@@ -44,9 +32,10 @@ its end (:meth:`Store.simulation`):
   from the scratch file); the database's write lock is held for that only, so
   several runs write one file at once and readers read while they do.
 - PostgreSQL (psycopg 3): REBOND is partitioned by RANGE (SI_NUM) (schema 4,
-  :data:`POSTGRES_SCHEMA_VERSION`); a run's rows stream by ``COPY`` into a table of
-  its own inside the run's open transaction, attached whole as REBOND's partition
-  at the commit, which checks the foreign keys in bulk (:class:`_DirectRun`);
+  :data:`gaz_cli.results.schema.POSTGRES_SCHEMA_VERSION`); a run's rows stream by ``COPY``
+  into a table of its own inside the run's open transaction, attached whole as REBOND's
+  partition at the commit, which checks the foreign keys in bulk
+  (:class:`gaz_cli.results.postgres.PostgresRun`);
   concurrent runs take turns only for their commits.
 
 SIGINT and SIGTERM arriving during the commit itself are held until it ends
@@ -67,156 +56,28 @@ import urllib.parse
 from importlib import resources
 from pathlib import Path
 
-import numpy as np
 import sqlalchemy as sa
 from sqlalchemy import exc as sa_exc
 
 from gaz_cli import __version__, interrupts
-from gaz_cli.results import sqlite as sqlite_writer
 from gaz_cli.errors import StoreError
-from gaz_cli.model.recording import RunStats, RunStore, TableRecorder
 from gaz_cli.model.scene import Scene
+from gaz_cli.results import postgres, rows
 from gaz_cli.results.budgets import check_row_numbers
-from gaz_cli.scenes import files as scenefile
-from gaz_cli.model.species import BUILTIN, NAME_MAX, Species
-
-metadata = sa.MetaData()
-
-ROW_NUMBER = sa.Integer().with_variant(sa.BigInteger(), "postgresql")
-"""RE_NUM, CH_NUM: a run's rows numbered 1, 2, ...; past 2^31 - 1 in a long run (the README
-example's gas records ~1.8e13 wall bounces a second of simulated time: 2^31 after 1.2e-4 s, minutes
-of engine), so BIGINT on PostgreSQL (schema 6); INTEGER on SQLite, whose integers are 64-bit (and
-the SQLite schema stays as it was)."""
-
-simulation = sa.Table(
-    "simulation", metadata,
-    sa.Column("si_num", sa.Integer, primary_key=True, autoincrement=True),
-    sa.Column("si_deb", sa.DateTime, nullable=False),
-    sa.Column("si_dur", sa.Float, nullable=False),
-    sa.Column("si_dim", sa.Integer, nullable=False),
-    sa.Column("si_n", sa.Integer, nullable=False),
-    sa.Column("si_l", sa.Float, nullable=False),
-)
-
-particule = sa.Table(
-    "particule", metadata,
-    sa.Column("pa_num", sa.Integer, primary_key=True, autoincrement=True),
-    sa.Column("pa_nom", sa.String(NAME_MAX), nullable=False),
-    sa.Column("pa_m", sa.Float, nullable=False),
-    sa.Column("pa_r", sa.Float, nullable=False),
-)
-
-rebond = sa.Table(
-    "rebond", metadata,
-    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("re_num", ROW_NUMBER, primary_key=True, autoincrement=False),
-    sa.Column("pa_num", sa.Integer, sa.ForeignKey("particule.pa_num"), nullable=False),
-    sa.Column("re_t", sa.Float, nullable=False),
-    sa.Column("re_dir", sa.Integer, nullable=False),
-    sa.Column("re_vit", sa.Float, nullable=False),
-    sa.Column("re_vp", sa.Float, nullable=False),
-    sqlite_with_rowid=False,  # the primary key is the storage order: one B-tree, not two
-    # PostgreSQL (schema 4): one partition per run, attached whole at its commit (_DirectRun);
-    # the same columns and keys, the exam's queries unchanged
-    postgresql_partition_by="RANGE (si_num)",
-)
-
-scene_table = sa.Table(
-    "scene", metadata,
-    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("sc_seed", sa.BigInteger, nullable=False),
-    sa.Column("sc_temperature", sa.Float, nullable=False),
-    sa.Column("sc_engine", sa.String(32), nullable=False),
-    sa.Column("sc_boundary", sa.String(16), nullable=False),
-    sa.Column("sc_gravity", sa.Float, nullable=False),
-    sa.Column("sc_restitution", sa.Float, nullable=False),
-    sa.Column("sc_tc", sa.Float, nullable=False),
-    sa.Column("sc_wall_restitution", sa.Float, nullable=False),
-    sa.Column("sc_dt", sa.Float),
-    sa.Column("sc_drag", sa.Float, nullable=False),
-    sa.Column("sc_pair_gravity", sa.Float, nullable=False),
-    sa.Column("sc_placement", sa.String(16), nullable=False),
-    sa.Column("sc_record", sa.String(16), nullable=False),
-    sa.Column("sc_version", sa.String(16), nullable=False),
-    sa.Column("sc_file", sa.Text, info={"since": 3}),
-)
-
-composition = sa.Table(
-    "composition", metadata,
-    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("pa_num", sa.Integer, sa.ForeignKey("particule.pa_num"), primary_key=True),
-    sa.Column("co_n", sa.Integer, nullable=False),
-    sa.Column("co_rank", sa.Integer, info={"since": 3}),
-)
-
-resultat = sa.Table(
-    "resultat", metadata,
-    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("rs_events", sa.BigInteger, nullable=False),
-    sa.Column("rs_bounces", sa.BigInteger, nullable=False),
-    sa.Column("rs_collisions", sa.BigInteger, nullable=False),
-    sa.Column("rs_ke_start", sa.Float, nullable=False),
-    sa.Column("rs_ke_end", sa.Float, nullable=False),
-    sa.Column("rs_virial", sa.Float, nullable=False),
-    sa.Column("rs_wall_time", sa.Float, nullable=False),
-)
-
-choc = sa.Table(
-    "choc", metadata,
-    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
-    sa.Column("ch_num", ROW_NUMBER, primary_key=True, autoincrement=False),
-    sa.Column("ch_t", sa.Float, nullable=False),
-    sa.Column("ch_i", sa.Integer, nullable=False),
-    sa.Column("ch_j", sa.Integer, nullable=False),
-    sa.Column("ch_imp", sa.Float, nullable=False),
-    postgresql_partition_by="RANGE (si_num)",  # as REBOND (schema 5)
-)
-
-
-schema_version = sa.Table(
-    "schema_version", metadata,
-    sa.Column("sv_version", sa.Integer, nullable=False),
-)
-
-EXAM_TABLES = ("simulation", "particule", "rebond")
-
-SCHEMA_VERSION = 3
-"""Version of the layout this gaz writes into SQLite. 1: the tables above but SCHEMA_VERSION
-(rollback journal, PostgreSQL's PARTICULE sequence left at 1 by seeding); 2: adds
-SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows; 3: adds SCENE.SC_FILE
-(the scene file that re-runs the simulation) and COMPOSITION.CO_RANK (the species'
-place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
-indices map to species). A column added in version v carries ``info={"since": v}``."""
+from gaz_cli.results import sqlite as sqlite_writer
+from gaz_cli.results.migrations import MIGRATIONS
+from gaz_cli.results.postgres import narrow_row_numbers
+from gaz_cli.results.rows import RunStore
+from gaz_cli.results.schema import (  # noqa: F401 - the tables and versions, read through the store too
+    EXAM_TABLES, PARTITIONED, POSTGRES_SCHEMA_VERSION, SCHEMA_VERSION, choc, composition, latest_version,
+    metadata, particule, rebond, resultat, scene_table, schema_version, simulation)
 
 BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s, unless the URL
 says otherwise (``?timeout=30``; the one figure is sqlite_writer's, which its messages quote)."""
 
-POSTGRES_SCHEMA_VERSION = 6
-"""Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
-RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
-(``rebond_default``) for rows written any other way; same columns, same keys. 5: CHOC
-partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). 6: RE_NUM and CH_NUM
-BIGINT (:data:`ROW_NUMBER`) in a new database; one migrated from 5 keeps its 32-bit
-columns (widening them rewrites every row), and a run whose rows would number past them is
-refused at its start (:meth:`Store.check_row_numbers`), the ALTER TABLE that widens them
-named. SQLite has no version 4 to 6 (nothing changed there)."""
-
-PARTITIONED = ("rebond", "choc")
-"""PostgreSQL: the tables of one row per event, partitioned by run (schema 4 and 5)."""
-
-
-def latest_version(dialect_name: str) -> int:
-    """The schema version this gaz writes for a backend ('sqlite', 'postgresql', ...)."""
-    return POSTGRES_SCHEMA_VERSION if dialect_name == "postgresql" else SCHEMA_VERSION
-
-
 CONNECT_TIMEOUT_S = 10
 """How long to wait for a database server to answer, s (psycopg's connect_timeout)."""
-
-_PG_SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
-_PG_WRITER_LOCK = 0x67617A57  # 'gazW': held shared by every writing store while open (see Store._unmake)
-
 
 def _pandas():
     """pandas, imported when a read needs it: a run that only writes does not pay its import
@@ -354,9 +215,9 @@ class Store(RunStore):
         self._reading = None  # a new SQLite file's private name, where the engine reads it until published
         self._opened = False
         self._file = None  # the SQLite file's writer (sqlite_writer.SqliteFile), opened at the first run
-        self._made = False  # PostgreSQL: this store created gaz's tables (see _unmake)
+        self._made = False  # PostgreSQL: this store created gaz's tables (see postgres.unmake)
         self._tried = self._stored = False  # a run was begun, committed through this store
-        self._writing = None  # PostgreSQL: the connection holding _PG_WRITER_LOCK while open for writing
+        self._writing = None  # PostgreSQL: the connection holding postgres.WRITER_LOCK while open for writing
         try:
             with self._errors():
                 self.engine = _make_engine(url, self.shown)
@@ -403,7 +264,8 @@ class Store(RunStore):
 
     def close(self) -> None:
         """Release every connection; idempotent. A PostgreSQL database this store created, into
-        which it began runs and stored none, is left as it was found (:meth:`_unmake`); so is a
+        which it began runs and stored none, is left as it was found
+        (:func:`gaz_cli.results.postgres.unmake`); so is a
         new SQLite file (never named); a new SQLite file into which no run was begun takes its
         name (the store made a database)."""
         try:
@@ -417,39 +279,12 @@ class Store(RunStore):
                 writing, self._writing = self._writing, None
                 with writing, contextlib.suppress(sa_exc.DBAPIError):  # (best effort: the run's error is the one to tell)
                     if self._made and self._tried and not self._stored:
-                        self._unmake(writing)
+                        postgres.unmake(writing)
         finally:
             if self._file is not None:
                 self._file.close()
             if self._engine is not None:
                 self._engine.dispose()
-
-    def _unmake(self, conn) -> None:
-        """PostgreSQL: drop the tables this store created (a new database) when none of its runs
-        was stored (refused, failed, interrupted): the database is left as it was found.
-
-        Unless another process may use them: another store open for writing (it holds
-        :data:`_PG_WRITER_LOCK` shared from before it looks at the schema until it closes: the
-        try-lock fails), a reader's transaction holding them past a short lock timeout, or
-        a run stored meanwhile (a SIMULATION row). ``conn``: this store's connection holding
-        the lock. Interrupts are held over it (a short transaction)."""
-        with interrupts.held():
-            conn.execute(sa.select(sa.func.pg_advisory_unlock_shared(_PG_WRITER_LOCK)))
-            conn.commit()
-            with conn.begin():
-                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
-                if not conn.execute(sa.select(sa.func.pg_try_advisory_xact_lock(_PG_WRITER_LOCK))).scalar():
-                    return  # another store is open for writing: the tables are its too
-                conn.exec_driver_sql("SET LOCAL lock_timeout = '2s'")
-                names = [t.name for t in metadata.sorted_tables]
-                try:
-                    with conn.begin_nested():
-                        conn.exec_driver_sql(f"LOCK TABLE {', '.join(names)} IN ACCESS EXCLUSIVE MODE")
-                except sa_exc.OperationalError:
-                    return  # a reader's transaction holds them
-                if conn.execute(sa.select(sa.func.count()).select_from(simulation)).scalar():
-                    return
-                conn.exec_driver_sql(f"DROP TABLE {', '.join(names)} CASCADE")
 
     # --- errors -----------------------------------------------------------------
     @contextlib.contextmanager
@@ -497,13 +332,13 @@ class Store(RunStore):
             return
         if self.engine.dialect.name == "postgresql" and self._writing is None:
             # before the schema is looked at: while this store is open, a first run failing
-            # elsewhere does not drop the tables (_unmake); released by close()
+            # elsewhere does not drop the tables (postgres.unmake); released by close()
             self._writing = self.engine.connect()
-            self._writing.execute(sa.select(sa.func.pg_advisory_lock_shared(_PG_WRITER_LOCK)))
+            self._writing.execute(sa.select(sa.func.pg_advisory_lock_shared(postgres.WRITER_LOCK)))
             self._writing.commit()
         with self.engine.begin() as conn:
             if self.engine.dialect.name == "postgresql":
-                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(_PG_SCHEMA_LOCK)))
+                conn.execute(sa.select(sa.func.pg_advisory_xact_lock(postgres.SCHEMA_LOCK)))
             version = self._writable_state(conn)
             self._create_or_migrate(conn, version)
             self._made = self._made or (version == 0 and self.engine.dialect.name == "postgresql")
@@ -584,11 +419,10 @@ class Store(RunStore):
         if version == 0:
             metadata.create_all(conn)  # checkfirst: IF NOT EXISTS
             if conn.dialect.name == "postgresql":
-                _pg_default_partition(conn)
+                postgres.default_partitions(conn)
             if not conn.execute(sa.select(sa.func.count()).select_from(particule)).scalar():
                 # no explicit ids: the database numbers them, so its sequence stays in step
-                conn.execute(particule.insert(), [
-                    {"pa_nom": s.name, "pa_m": s.mass_g, "pa_r": s.radius} for s in BUILTIN.values()])
+                conn.execute(particule.insert(), rows.builtin_particule_rows())
             conn.execute(schema_version.insert().values(sv_version=latest))
             return
         for step in range(version, latest):
@@ -599,10 +433,10 @@ class Store(RunStore):
     def _writer(self, scene: Scene, started: _dt.datetime):
         """The run's writer: a SQLite file's runs go through the one SQLite writer
         (:mod:`gaz_cli.results.sqlite`; the schema was created or migrated on opening), a
-        server's through COPY (:class:`_DirectRun`)."""
+        server's through COPY (:class:`gaz_cli.results.postgres.PostgresRun`)."""
         self._tried = True
         if self.path is None:
-            return _DirectRun(self, scene, started)
+            return postgres.PostgresRun(self, scene, started)
         if self._file is None:
             try:
                 url = url_for(self.db)
@@ -628,7 +462,7 @@ class Store(RunStore):
     @contextlib.contextmanager
     def session(self):
         """One connection for many small reads: yields ``run(name, **params)``, which runs a
-        packaged SQL file and returns its rows as tuples (no DataFrame: ~50 us a query on SQLite)."""
+        packaged SQL file and returns its rows as tuples (no DataFrame: docs/explanation/storage.md)."""
         with self._errors(), self.engine.connect() as conn:
             texts = {}
 
@@ -648,9 +482,9 @@ class Store(RunStore):
             if not (insp.has_table(scene_table.name) and scene_table.c.sc_file.name in
                     {c["name"].lower() for c in insp.get_columns(scene_table.name)}):
                 return {}
-            rows = conn.execute(sa.select(scene_table.c.sc_file, scene_table.c.si_num)
-                                .where(scene_table.c.sc_file.is_not(None)).order_by(scene_table.c.si_num.desc()))
-            return {text: int(si_num) for text, si_num in rows}
+            found = conn.execute(sa.select(scene_table.c.sc_file, scene_table.c.si_num)
+                                 .where(scene_table.c.sc_file.is_not(None)).order_by(scene_table.c.si_num.desc()))
+            return {text: int(si_num) for text, si_num in found}
 
     def simulation_numbers(self) -> list[int]:
         with self._errors(), self.engine.connect() as conn:
@@ -685,95 +519,6 @@ class Store(RunStore):
         """The database's schema version (1 for a database written before versions existed)."""
         with self._errors(), self.engine.connect() as conn:
             return self._schema_state(conn)
-
-
-# --- migrations -----------------------------------------------------------------
-def _v1_to_v2(conn) -> None:
-    """1 -> 2: the SCHEMA_VERSION table (and any extra table the database lacks); on
-    PostgreSQL, the id sequences moved past the rows seeded with explicit ids (version 1
-    left PARTICULE's at 1, so the first custom species collided with PA_NUM 1). SQLite's
-    WAL mode is switched on before, outside the transaction."""
-    metadata.create_all(conn)
-    conn.execute(schema_version.insert().values(sv_version=2))
-    if conn.dialect.name == "postgresql":
-        for table, column in ((particule, particule.c.pa_num), (simulation, simulation.c.si_num)):
-            top = conn.execute(sa.select(sa.func.max(column))).scalar()
-            seq = sa.func.pg_get_serial_sequence(table.name, column.name)
-            conn.execute(sa.select(sa.func.setval(seq, top or 1, top is not None)))
-
-
-def _v2_to_v3(conn) -> None:
-    """2 -> 3: the columns added in version 3 (SCENE.SC_FILE, COMPOSITION.CO_RANK), NULL
-    in the rows already there (their scene file and species order were not stored)."""
-    _add_columns(conn, since=3)
-
-
-def _add_columns(conn, since: int) -> None:
-    """ALTER TABLE ... ADD COLUMN for each column of version ``since`` the database lacks."""
-    insp = sa.inspect(conn)
-    for table in metadata.sorted_tables:
-        found = {c["name"].lower() for c in insp.get_columns(table.name)}
-        for col in table.columns:
-            if col.info.get("since", 1) == since and col.name not in found:
-                kind = col.type.compile(dialect=conn.dialect)
-                conn.exec_driver_sql(f"ALTER TABLE {table.name} ADD COLUMN {col.name} {kind}")
-
-
-def _v3_to_v4(conn) -> None:
-    """3 -> 4, PostgreSQL only: REBOND becomes partitioned (:func:`_partition`)."""
-    _partition(conn, rebond, since=3)
-
-
-def _v4_to_v5(conn) -> None:
-    """4 -> 5, PostgreSQL only: CHOC becomes partitioned (:func:`_partition`)."""
-    _partition(conn, choc, since=4)
-
-
-def _partition(conn, table: sa.Table, since: int) -> None:
-    """PostgreSQL: ``table`` becomes a table partitioned by RANGE (SI_NUM); the rows already
-    there stay where they are, as its partition ``<table>_v<since>`` for every SI_NUM up to
-    the largest in SIMULATION (attaching it checks them against that range once); a
-    default partition takes rows written any other way. Nothing on other backends."""
-    if conn.dialect.name != "postgresql":
-        return
-    name = table.name
-    conn.exec_driver_sql(f"LOCK TABLE {name} IN ACCESS EXCLUSIVE MODE")  # older writers wait
-    kind, pkey = conn.exec_driver_sql(
-        "SELECT c.relkind, i.relname FROM pg_class c "
-        "JOIN pg_constraint k ON k.conrelid = c.oid AND k.contype = 'p' "
-        f"JOIN pg_class i ON i.oid = k.conindid WHERE c.oid = '{name}'::regclass").one()
-    if kind == "p":
-        return
-    old = f"{name}_v{since}"
-    conn.exec_driver_sql(f"ALTER TABLE {name} RENAME TO {old}")
-    conn.exec_driver_sql(f'ALTER INDEX "{pkey}" RENAME TO {old}_pkey')  # index names are the schema's
-    table.create(conn)
-    for column, kind in _pg_types(conn, old).items():
-        if kind == "int4" and _pg_types(conn, name)[column] == "int8":
-            # the row number as wide as in the rows it partitions (a partition has its table's columns)
-            conn.exec_driver_sql(f"ALTER TABLE {name} ALTER COLUMN {column} TYPE integer")
-    top = conn.exec_driver_sql(
-        f"SELECT greatest((SELECT max(si_num) FROM simulation), (SELECT max(si_num) FROM {old}))").scalar()
-    conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {old} "
-                         f"FOR VALUES FROM (MINVALUE) TO ({int(top or 0) + 1})")
-    _pg_default_partition(conn)
-
-
-def _pg_default_partition(conn) -> None:
-    """PostgreSQL: the partitioned tables' default partitions, where rows land that no run's
-    partition holds (an INSERT by hand, a role that may not attach partitions: see _DirectRun)."""
-    for name in PARTITIONED:
-        if conn.exec_driver_sql(f"SELECT relkind = 'p' FROM pg_class WHERE oid = '{name}'::regclass").scalar():
-            conn.exec_driver_sql(f"CREATE TABLE IF NOT EXISTS {name}_default PARTITION OF {name} DEFAULT")
-
-
-def _v5_to_v6(conn) -> None:
-    """5 -> 6, PostgreSQL only: nothing rewritten; the writer reads each row number's width
-    from the database (:func:`_copy_types`)."""
-
-
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6}
-"""Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""
 
 
 # --- connections ----------------------------------------------------------------
@@ -850,299 +595,3 @@ def _write_transaction(engine: sa.Engine):
             yield conn
 
 
-# --- one simulation's rows --------------------------------------------------------
-def _write_simulation_rows(conn, scene: Scene, started: _dt.datetime, si_num: int | None = None,
-                           nums: list[int] | None = None) -> tuple[int, list[int]]:
-    """SIMULATION, COMPOSITION and SCENE rows of one run; returns SI_NUM and each species' PA_NUM.
-
-    ``si_num``, ``nums``: numbers drawn before (PostgreSQL's attach path); by default the
-    database numbers the run, and species are looked up (or added) here."""
-    res = conn.execute(simulation.insert().values(
-        si_deb=started, si_dur=float(scene.duration), si_dim=int(scene.dim),
-        si_n=int(scene.n), si_l=float(scene.length), **({} if si_num is None else {"si_num": si_num})))
-    si_num = int(res.inserted_primary_key[0])
-    nums = [_pa_num(conn, sp) for sp in scene.species] if nums is None else nums
-    conn.execute(composition.insert(), [
-        {"si_num": si_num, "pa_num": num, "co_n": int(k), "co_rank": rank}
-        for rank, (num, (_, k)) in enumerate(zip(nums, scene.components))])
-    conn.execute(scene_table.insert().values(
-        si_num=si_num, sc_seed=int(scene.seed), sc_temperature=float(scene.temperature),
-        sc_engine=scene.engine, sc_boundary=scene.boundary, sc_gravity=float(scene.gravity),
-        sc_restitution=float(scene.restitution), sc_tc=float(scene.tc),
-        sc_wall_restitution=float(scene.wall_restitution),
-        sc_dt=None if scene.dt is None else float(scene.dt), sc_drag=float(scene.drag),
-        sc_pair_gravity=float(scene.pair_gravity), sc_placement=scene.placement,
-        sc_record=scene.record, sc_version=__version__, sc_file=scenefile.dumps(scene)))
-    return si_num, nums
-
-
-def _pa_num(conn, sp: Species, insert: bool = True) -> int | None:
-    """PA_NUM of a species; custom species get a row of their own on first use (None
-    instead if not ``insert``)."""
-    rows = conn.execute(sa.select(particule.c.pa_num, particule.c.pa_m, particule.c.pa_r)
-                        .where(particule.c.pa_nom == sp.name).order_by(particule.c.pa_num)).all()
-    for num, m_g, r in rows:
-        if np.isclose(m_g, sp.mass_g, rtol=1e-12, atol=0) and np.isclose(r, sp.radius, rtol=1e-12, atol=0):
-            return int(num)
-    if not insert:
-        return None
-    res = conn.execute(particule.insert().values(pa_nom=sp.name, pa_m=sp.mass_g, pa_r=sp.radius))
-    return int(res.inserted_primary_key[0])
-
-
-def _register_species(engine: sa.Engine, species: list[Species]) -> None:
-    """PostgreSQL: give each new species its PARTICULE row before the run, in a short
-    transaction of its own, one such transaction at a time (an advisory lock).
-
-    Inside the run's transaction, two runs started together with the same new species
-    would each see no row and each add one (READ COMMITTED): two PA_NUM for one
-    species. Committed first and in turn, the second finds the first's row. A run that
-    fails afterwards leaves its species in the catalogue, as the built-in ones are."""
-    with engine.connect() as conn:
-        if all(_pa_num(conn, sp, insert=False) is not None for sp in species):
-            return
-    with engine.begin() as conn:
-        conn.exec_driver_sql("SELECT pg_advisory_xact_lock(hashtext('gaz: new species'))")
-        for sp in species:
-            _pa_num(conn, sp)
-
-
-def _result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> dict:
-    return dict(si_num=si_num, rs_events=int(stats.events), rs_bounces=int(stats.wall_bounces),
-                rs_collisions=int(stats.collisions), rs_ke_start=float(ke_start),
-                rs_ke_end=float(ke_end), rs_virial=float(stats.virial),
-                rs_wall_time=float(stats.wall_time_s))
-
-
-class _Run(TableRecorder):
-    """Both SQLAlchemy writers: the store whose failures are turned into one line."""
-
-    def __init__(self, store: Store, scene: Scene, started: _dt.datetime):
-        super().__init__(scene, started)
-        self.store = store
-
-    def _errors(self):
-        return self.store._errors()
-
-
-_COPY_TYPES = {"int4": ">i4", "int8": ">i8", "float8": ">f8"}
-"""PostgreSQL type -> its binary COPY representation (big-endian, fixed width), numpy dtype."""
-
-_COPY_SIGNATURE = b"PGCOPY\n\xff\r\n\0" + bytes(8)  # signature, flags 0, no header extension
-_COPY_TRAILER = b"\xff\xff"
-
-
-def _copy_types(conn, table: sa.Table) -> list[str]:
-    """The PostgreSQL types of ``table``'s columns in the database, in the metadata's order, for
-    binary COPY (which needs them exact): a database migrated from schema 5 keeps 32-bit row
-    numbers where a new one has 64-bit ones (:data:`POSTGRES_SCHEMA_VERSION`)."""
-    found = _pg_types(conn, table.name)
-    return [found[c.name] for c in table.columns]
-
-
-def _pg_types(conn, name: str) -> dict[str, str]:
-    """PostgreSQL: column name -> type name (int4, int8, float8...) of the table ``name``."""
-    return dict(conn.exec_driver_sql(
-        "SELECT a.attname, t.typname FROM pg_attribute a JOIN pg_type t ON t.oid = a.atttypid "
-        f"WHERE a.attrelid = '{name}'::regclass AND a.attnum > 0 AND NOT a.attisdropped").all())
-
-
-def narrow_row_numbers(conn) -> tuple[str, ...]:
-    """PostgreSQL: the tables among REBOND and CHOC whose row number (RE_NUM, CH_NUM) is a 32-bit
-    integer in this database (one made before schema 6); () where they do not exist yet."""
-    tables = {n.lower() for n in sa.inspect(conn).get_table_names()}
-    return tuple(t.upper() for t, c in (("rebond", "re_num"), ("choc", "ch_num"))
-                 if t in tables and _pg_types(conn, t)[c] == "int4")
-
-
-def _copy_block(columns: list, types: list[str]) -> bytes:
-    """Rows in PostgreSQL's binary COPY format, whole: signature, tuples, trailer.
-
-    ``columns``: one array per column (k rows each, no NULL); ``types``: their
-    PostgreSQL types (:data:`_COPY_TYPES`). Each tuple is its field count (int16)
-    then, per field, its byte length (int32) and its big-endian value: a record
-    of fixed width, so numpy fills all of them at once (~3 M rows/s, against
-    ~0.5 M for psycopg's ``write_row`` over Python tuples).
-    """
-    fields = [("count", ">i2")]
-    for j, kind in enumerate(types):
-        fields += [(f"size{j}", ">i4"), (f"value{j}", _COPY_TYPES[kind])]
-    block = np.empty(len(columns[0]), dtype=np.dtype(fields))
-    block["count"] = len(types)
-    for j, (column, kind) in enumerate(zip(columns, types)):
-        column = np.asarray(column)
-        if kind == "int4" and column.size and not (-2**31 <= column.min() and column.max() < 2**31):
-            raise StoreError(f"a value of column {j + 1} does not fit PostgreSQL's int4")
-        block[f"size{j}"] = np.dtype(_COPY_TYPES[kind]).itemsize
-        block[f"value{j}"] = column
-    return b"".join((_COPY_SIGNATURE, block.tobytes(), _COPY_TRAILER))
-
-
-def _may_skip_key_triggers(conn) -> bool:
-    """Whether this PostgreSQL role may set session_replication_role (a superuser, or
-    since PostgreSQL 15 a role granted SET ON PARAMETER session_replication_role).
-
-    With it, COPY runs without the foreign-key triggers, which check each REBOND row
-    with a query of their own; the writer gives the same guarantee by construction:
-    the PA_NUM it writes are the species rows it has locked, SI_NUM is its own row.
-    Without it (an ordinary role) those checks bound the rate, whatever the client
-    sends: ``benchmarks/store.py --explain`` measured 16 us per row for each of the
-    two triggers on a loaded 2-core host (an INSERT ... SELECT of 200,000 rows: 27
-    thousand rows/s into REBOND, 212 thousand into a copy without the keys); a bulk
-    INSERT ... SELECT from a staging table runs the same per-row triggers, so it does
-    not help. A database owner can grant an ordinary role the fast path without
-    making it a superuser (PostgreSQL 15+):
-    ``GRANT SET ON PARAMETER session_replication_role TO role``.
-    """
-    if conn.exec_driver_sql("SELECT current_setting('is_superuser')").scalar() == "on":
-        return True
-    if (conn.dialect.server_version_info or (0,)) < (15,):
-        return False
-    return bool(conn.exec_driver_sql(
-        "SELECT has_parameter_privilege('session_replication_role', 'SET')").scalar())
-
-
-def _keep_open(conn) -> None:
-    """Lift, for this transaction only, the server's limits on how long a transaction may stay
-    open or idle (idle_in_transaction_session_timeout; transaction_timeout, PostgreSQL 17+),
-    which a managed server often sets: a run's transaction is open for the whole run, idle
-    while its engine computes (with --record none, from start to commit), and such a limit
-    ended it, losing the run at its commit. Both are settings any role may change for itself."""
-    conn.exec_driver_sql("SET LOCAL idle_in_transaction_session_timeout = 0")
-    if (conn.dialect.server_version_info or (0,)) >= (17,):
-        conn.exec_driver_sql("SET LOCAL transaction_timeout = 0")
-
-
-def _may_attach(conn) -> bool:
-    """Whether REBOND and CHOC are partitioned (PostgreSQL schema 5) and this role may
-    attach partitions to them: it owns them, or is a member of the role that does (a
-    superuser)."""
-    return bool(conn.exec_driver_sql(
-        "SELECT count(*) = 2 AND bool_and(c.relkind = 'p' AND pg_has_role(c.relowner, 'USAGE')) "
-        "FROM pg_class c WHERE c.oid IN (to_regclass('rebond'), to_regclass('choc'))").scalar())
-
-
-class _DirectRun(_Run):
-    """PostgreSQL: rows go straight into the run's open transaction,
-    by binary COPY (psycopg); the commit adds the results row.
-
-    PostgreSQL, REBOND and CHOC partitioned (schema 5) and a role that may attach
-    partitions (:func:`_may_attach`), the usual case: the run's REBOND rows go into a
-    table of their own, ``rebond_<SI_NUM>`` (created in the run's transaction: no key,
-    no trigger, seen by nobody), its CHOC rows (``--record all``) into ``choc_<SI_NUM>``,
-    and the commit attaches each whole (``ALTER TABLE ... ATTACH PARTITION``), which
-    builds its primary key index in one pass and checks each foreign key in one query
-    over all its rows (as ``ALTER TABLE ... ADD FOREIGN KEY`` does; PostgreSQL's
-    RI_Initial_Check), rather than one trigger query per row: a row naming a SIMULATION
-    or PARTICULE that does not exist fails the commit as it would fail an INSERT.
-    Attaching locks SIMULATION and PARTICULE in SHARE ROW EXCLUSIVE mode, which waits
-    for every transaction that has written to them; so such a run writes nothing to
-    them before its commit: SI_NUM is drawn from its sequence at the start, the rows
-    written at the commit (a new species' PARTICULE row is written before the run, see
-    :func:`_register_species`), and commits take REBOND's SHARE UPDATE EXCLUSIVE lock
-    (what attaching takes) first, one at a time, so that two commits never wait on each
-    other (a deadlock otherwise).
-
-    Otherwise (a role that may not attach, a database of schema 3 being read by an
-    older gaz...): rows go into REBOND and CHOC themselves (their default partitions),
-    each checked by the key triggers unless the role may skip them
-    (:func:`_may_skip_key_triggers`).
-    """
-
-    def __init__(self, store, scene, started):
-        super().__init__(store, scene, started)
-        if store.engine.dialect.name == "postgresql":
-            _register_species(store.engine, scene.species)
-        self.conn = store.engine.connect()
-        self._targets = {}  # table name -> where its rows go until the commit (attach path)
-        try:
-            self.trans = self.conn.begin()
-            if self.conn.dialect.name == "postgresql":
-                _keep_open(self.conn)
-                # before the engine: a run numbering its rows past a 32-bit column failed at that row
-                check_row_numbers([scene], narrow_row_numbers(self.conn))
-            self._types = {}  # table name -> its columns' types in the database (_copy_types)
-            self._attach = self.conn.dialect.name == "postgresql" and _may_attach(self.conn)
-            if self._attach:
-                self._si = self._next("simulation", "si_num")
-                nums = [_pa_num(self.conn, sp, insert=False) for sp in scene.species]
-            else:
-                self._si, nums = _write_simulation_rows(self.conn, scene, started)
-            self._keys_by_hand = _may_skip_key_triggers(self.conn)
-            if self._keys_by_hand and not self._attach:
-                # what the key triggers would do row by row, once: lock the species rows
-                # against deletion (our SIMULATION row is not visible to anyone else yet)
-                self.conn.execute(sa.select(particule.c.pa_num).where(particule.c.pa_num.in_(nums))
-                                  .with_for_update(key_share=True))
-            self._nums = nums
-            self._pa_of_particle = np.array(nums, dtype=np.int64)[scene.kinds()]
-        except BaseException:
-            self.conn.close()
-            raise
-
-    def _next(self, table: str, column: str) -> int:
-        return int(self.conn.exec_driver_sql(
-            f"SELECT nextval(pg_get_serial_sequence('{table}', '{column}'))").scalar())
-
-    def _target(self, table: sa.Table) -> str:
-        """The table this run's rows of ``table`` go into now."""
-        if not self._attach:
-            return table.name
-        if table.name not in self._targets:
-            name = f"{table.name}_{self._si}"
-            self.conn.exec_driver_sql(f"CREATE TABLE {name} (LIKE {table.name})")
-            self._targets[table.name] = name
-        return self._targets[table.name]
-
-    def _add(self, table: str, columns):
-        table = metadata.tables[table]
-        names = [c.name for c in table.columns]
-        target = self._target(table)
-        replica = self._keys_by_hand and target == table.name
-        # one binary COPY block per chunk, built by numpy (benchmarks/store.py)
-        if table.name not in self._types:
-            self._types[table.name] = _copy_types(self.conn, table)
-        block = _copy_block(columns, self._types[table.name])
-        raw = self.conn.connection.driver_connection
-        sql = f"COPY {target} ({', '.join(names)}) FROM STDIN (FORMAT BINARY)"
-        with raw.cursor() as cur:
-            if replica:
-                cur.execute("SET LOCAL session_replication_role = replica")
-            with cur.copy(sql) as copy:
-                copy.write(block)
-            if replica:
-                cur.execute("SET LOCAL session_replication_role = origin")
-
-    def commit(self) -> None:
-        # what comes before COMMIT is inside the run's transaction: a signal there (a commit
-        # waiting for another session's lock, however long) rolls it all back; the COMMIT
-        # alone is held, so that the run is known stored or not
-        if self._attach:
-            self._attach_rows()
-        self.conn.execute(resultat.insert().values(_result_row(self._si, *self._result)))
-        with interrupts.held():
-            self.trans.commit()
-            self.si_num = self._si
-            self.store._stored = True
-        self.conn.close()
-
-    def _attach_rows(self) -> None:
-        """The attach path's commit (see the class docstring), in this order."""
-        conn, si = self.conn, self._si
-        conn.exec_driver_sql("LOCK TABLE rebond IN SHARE UPDATE EXCLUSIVE MODE")
-        _write_simulation_rows(conn, self.scene, self.started, si_num=si, nums=self._nums)
-        for name, partition in self._targets.items():
-            conn.exec_driver_sql(f"ALTER TABLE {name} ATTACH PARTITION {partition} "
-                                 f"FOR VALUES FROM ({si}) TO ({si + 1})")
-
-    def abort(self) -> None:
-        try:
-            if self.trans.is_active:
-                self.trans.rollback()
-        except sa_exc.DBAPIError as err:
-            # the connection is gone (the server stopped, the backend terminated): the server
-            # dropped the transaction with it, and the error that ended the run is the one to tell
-            if not err.connection_invalidated:
-                raise
-        finally:
-            self.conn.close()

@@ -283,7 +283,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                 state = initial_state(scene)
             if db is not None:
                 # a SQLite file without SQLAlchemy's import when it can (gaz_cli.results.sqlite)
-                from gaz_cli.results.sqlite import open_for_writing
+                from gaz_cli.results.writer import open_for_writing
                 store = stack.enter_context(open_for_writing(db))  # refused or failing: before the engine
                 writer = stack.enter_context(store.simulation(scene))
             ke_start = state.kinetic_energy(masses)

@@ -378,7 +378,8 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
     from gaz_cli.results.budgets import check_database_space
     from gaz_cli.results.store import Store
 
-    from gaz_cli.results.sqlite import database_name, open_for_writing
+    from gaz_cli.results.sqlite import database_name
+    from gaz_cli.results.writer import open_for_writing
 
     check_workers(workers, scheduler)
     db = database_name(db)  # a pathlib.Path as its text

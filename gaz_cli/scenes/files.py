@@ -419,19 +419,6 @@ def write(path, scene: Scene, outputs: dict | None = None) -> None:
         raise SceneError(f"cannot write scene file {str(path)!r}: {err.strerror}") from None
 
 
-def stored(db: str, si_num: int) -> str:
-    """The scene file stored with simulation ``si_num`` in ``db`` (SCENE.SC_FILE; sql/scene_file.sql)."""
-    from gaz_cli.results import queries
-    from gaz_cli.errors import StoreError
-
-    _, frame = queries.run(db, "scene", [f"si_num={int(si_num)}"])  # refuses an si_num not stored
-    text = frame.iloc[0, 1]
-    if not isinstance(text, str) or not text:
-        raise StoreError(f"simulation {si_num} was stored without its scene file (by a gaz older than schema "
-                         "version 3, or by other software with no SCENE row): there is no SCENE.SC_FILE to print")
-    return without_builtin_clash(text)
-
-
 def without_builtin_clash(text: str) -> str:
     """A stored scene file that runs today: ``text`` itself, unless a custom species of it bears a
     built-in name with other values (stored by a gaz older than that check,

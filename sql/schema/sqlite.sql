@@ -1,4 +1,4 @@
--- The SQLite schema of a gaz database, version 3: generated from gaz_cli/results/store.py's metadata by
+-- The SQLite schema of a gaz database, version 3: generated from gaz_cli/results/schema.py's metadata by
 -- gaz_cli.results.sqlite.generated_schema() (tests/test_sqlite_writer.py keeps it equal)
 
 CREATE TABLE IF NOT EXISTS particule (

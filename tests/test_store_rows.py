@@ -1,0 +1,144 @@
+"""One mapping from a run to its rows (gaz_cli.results.rows), used by both writers: the SQLite
+writer (gaz_cli.results.sqlite) and the PostgreSQL writer (through SQLAlchemy and COPY) store
+the same rows for the same runs, in every table.
+
+Each scene runs once (its engine's arrays kept in memory); its arrays and results are then
+handed to a writer in the same chunks, with the same start time, so that every column can be
+compared exactly, the engine's wall time included. On SQLite the rows are checked against the
+run's arrays and the mapping itself; on PostgreSQL (see backends.py) against the SQLite file's.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species, lookup
+from gaz_cli.results import rows
+from gaz_cli.results import writer
+from gaz_cli.results import store as st
+from gaz_cli.run.runner import run_scene
+
+STARTED = _dt.datetime(2026, 11, 28, 7, 30, 15, 123456)
+"""Every run's SI_DEB (to the microsecond: both writers keep it)."""
+
+TABLES = ("simulation", "particule", "composition", "scene", "resultat", "rebond", "choc")
+
+CUSTOM = Species("Marble", 2.5e-26, 1.6e-10)
+"""A species of no built-in name: a PARTICULE row of its own, added by the run's writer."""
+
+
+def _scenes() -> list[Scene]:
+    """A mixture in walls, a periodic mixture, gravity; every row recorded (collisions too)."""
+    mixture = ((lookup("Ar"), 20), (lookup("He"), 10))
+    return [
+        Scene(dim=2, length=1e-7, duration=1e-9, seed=3, record="all", components=mixture),
+        Scene(dim=3, length=3e-9, duration=3e-11, seed=5, record="all", boundary="periodic",
+              components=((lookup("Kr"), 12), (CUSTOM, 12))),
+        Scene(dim=2, length=1e-8, duration=2e-11, seed=7, record="all", gravity=1e12,
+              components=((CUSTOM, 10), (lookup("Ne"), 6))),
+    ]
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """Each scene run once: (scene as run, bounces, collisions, stats, (ke_start, ke_end) J)."""
+    out = []
+    for scene in _scenes():
+        run = run_scene(scene, keep_bounces=True, keep_collisions=True)
+        ke = (1.5e-21, float(run.stats.final.kinetic_energy(run.scene.masses())))  # (any values: copied)
+        out.append((run.scene, run.bounces, run.collisions, run.stats, ke))
+    return out
+
+
+def _write(store, runs, chunks: int = 3) -> list[int]:
+    """Hand each run's arrays to ``store``'s writer in ``chunks`` chunks; its SI_NUMs."""
+    numbers = []
+    for scene, bounces, collisions, stats, ke in runs:
+        with store.simulation(scene, STARTED) as w:
+            for part in np.array_split(np.arange(len(bounces["t"])), chunks):
+                w.add_bounces(*(bounces[k][part] for k in ("t", "particle", "wall", "speed", "vperp")))
+            for part in np.array_split(np.arange(len(collisions["t"])), chunks):
+                w.add_collisions(*(collisions[k][part] for k in ("t", "i", "j", "impulse")))
+            w.finish(stats, *ke)
+        numbers.append(w.si_num)
+    return numbers
+
+
+def _tables(db: str) -> dict[str, pd.DataFrame]:
+    with st.Store(db, create=False) as store:
+        return {t: store.table(st.metadata.tables[t]) for t in TABLES}
+
+
+def test_the_runs_cover_what_the_writers_map(runs):
+    """The scenes hold what this file claims: bounces and collisions, a mixture, a periodic
+    box, gravity, a custom species."""
+    assert all(len(b["t"]) > 0 for _, b, *_ in runs[:1] + runs[2:])
+    assert all(len(c["t"]) > 0 for _, _, c, *_ in runs)
+    assert [s.boundary for s, *_ in runs] == ["walls", "periodic", "walls"]
+    assert runs[2][0].gravity > 0
+    assert all(len(s.species) == 2 for s, *_ in runs)
+
+
+def test_sqlite_rows_are_the_mapping_of_the_runs(runs, tmp_path):
+    db = str(tmp_path / "gaz.db")
+    st.Store(db).close()  # an existing file: the staged path
+    with writer.open_for_writing(db) as store:
+        numbers = _write(store, runs)
+    fresh = str(tmp_path / "fresh.db")  # a new file: its first run's early insert, private file
+    with writer.open_for_writing(fresh) as store:
+        assert _write(store, runs) == numbers
+    tables = _tables(db)
+    for name, frame in _tables(fresh).items():
+        pd.testing.assert_frame_equal(frame, tables[name], check_exact=True, obj=name)
+
+    particule = tables["particule"]
+    pa = {row.PA_NOM: row.PA_NUM for row in particule.itertuples()}
+    assert particule[particule.PA_NOM == CUSTOM.name].to_dict("records") == [
+        {"PA_NUM": pa[CUSTOM.name], "PA_NOM": CUSTOM.name, "PA_M": CUSTOM.mass_g, "PA_R": CUSTOM.radius}]
+    for si, (scene, bounces, collisions, stats, ke) in zip(numbers, runs):
+        nums = [pa[sp.name] for sp in scene.species]
+        one = {name: frame[frame.SI_NUM == si].reset_index(drop=True) for name, frame in tables.items()
+               if name != "particule"}
+        expected = {
+            "simulation": [{"si_num": si, **rows.simulation_row(scene, STARTED)}],
+            "composition": rows.composition_rows(si, nums, scene),
+            "scene": [rows.scene_row(si, scene)],
+            "resultat": [rows.result_row(si, stats, *ke)],
+        }
+        for name, records in expected.items():
+            found = [{k.lower(): v for k, v in r.items()} for r in one[name].to_dict("records")]
+            found = [{k: (None if isinstance(v, float) and np.isnan(v) else v) for k, v in r.items()}
+                     for r in found]
+            assert found == records, name
+        k = len(bounces["t"])
+        rebond = one["rebond"]
+        assert list(rebond.RE_NUM) == list(range(1, k + 1))
+        assert np.array_equal(rebond.PA_NUM, np.array(nums)[scene.kinds()[bounces["particle"]]])
+        for column, key in (("RE_T", "t"), ("RE_DIR", "wall"), ("RE_VIT", "speed"), ("RE_VP", "vperp")):
+            assert np.array_equal(rebond[column], bounces[key]), column
+        choc = one["choc"]
+        assert list(choc.CH_NUM) == list(range(1, len(collisions["t"]) + 1))
+        for column, key in (("CH_T", "t"), ("CH_I", "i"), ("CH_J", "j"), ("CH_IMP", "impulse")):
+            assert np.array_equal(choc[column], collisions[key]), column
+
+
+@pytest.mark.postgres
+def test_postgres_rows_are_the_sqlite_rows(runs, tmp_path, postgres_db):
+    """The same runs through both writers: every table equal, row for row, column for column
+    (the PostgreSQL writer's partitions attached at the commit, its COPY blocks built by numpy)."""
+    db = str(tmp_path / "gaz.db")
+    with writer.open_for_writing(db) as store:
+        numbers = _write(store, runs)
+    with st.Store(postgres_db) as store:
+        assert _write(store, runs) == numbers
+    lite, pg = _tables(db), _tables(postgres_db)
+    for name in TABLES:
+        a = lite[name].sort_values(list(lite[name].columns[:2])).reset_index(drop=True)
+        b = pg[name].sort_values(list(pg[name].columns[:2])).reset_index(drop=True)
+        pd.testing.assert_frame_equal(a, b, check_exact=True, check_dtype=False, obj=name)
