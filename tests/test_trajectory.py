@@ -14,7 +14,8 @@ from gaz_cli.model.recording import MemoryRecorder
 from gaz_cli.model.scene import Scene, State
 from gaz_cli.model.species import Species
 from gaz_cli.model.scene import MAX_SNAPSHOTS, check_outputs
-from gaz_cli.outputs.trajectory import open_trajectory, read_h5md, read_trajectory
+from gaz_cli.outputs.h5md import read_h5md
+from gaz_cli.outputs.trajectory import open_trajectory, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
 
@@ -65,7 +66,7 @@ def test_h5md_round_trip(tmp_path, suffix):
         assert box.attrs["dimension"] == 3 and list(box.attrs["boundary"]) == [b"none"] * 3
         assert "image" not in f["particles/all"]  # walls: no image
         np.testing.assert_array_equal(f["particles/all/species"][()], [0, 0, 0, 0, 1, 1])
-        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.outputs.trajectory)
+        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.outputs.h5md)
         for attrs, key in ((f["h5md/creator"].attrs, "name"), (f["h5md/author"].attrs, "name"),
                            (box.attrs, "boundary"), (f["parameters"].attrs, "engine"),
                            (f["h5md/modules/units"].attrs, "system")):
