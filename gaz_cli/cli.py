@@ -283,8 +283,8 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--write-scene", type=click.Path(dir_okay=False), default=None,
               help="Write the run's scene file (seed and tc as used) to FILE.toml.")
 @click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
-              help="Write snapshots to FILE.h5 (HDF5, H5MD 1.1: MDAnalysis), FILE.gsd (GSD: OVITO, "
-                   "HOOMD; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
+              help="Write snapshots to FILE.h5md (HDF5, H5MD 1.1: mda.Universe('FILE.h5md'); .h5 too), "
+                   "FILE.gsd (GSD: OVITO, HOOMD, freud; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
 @click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
@@ -536,7 +536,7 @@ def query(name, db, params, fmt, list_only):
               help="GIF file to write, FILE.gif (default: the trajectory's name with .gif).")
 @click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
 def animate(trajectory, output, fps):
-    """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
+    """Render a trajectory (FILE.h5md, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
     One frame per snapshot, each particle a disk of its true radius coloured by species: 1D rods
     on a line, 2D disks in the box, 3D spheres as a side view (x across, z up, the gravity axis;
@@ -545,8 +545,8 @@ def animate(trajectory, output, fps):
 
     \b
     Example:
-      gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
-      gaz animate run.h5 -o run.gif
+      gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5md --every 1e-11
+      gaz animate run.h5md -o run.gif
     """
     from gaz_cli.outputs import animate as anim
 

@@ -76,7 +76,7 @@ def _figure(data: dict, size_px: int, dpi: int):
 def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, fps: int = 20,
                max_frames: int = MAX_FRAMES, size_px: int = 600, dpi: int = 100, trail: int = 0,
                frame_png: str | os.PathLike | None = None) -> int:
-    """Render the trajectory ``trajectory_path`` (.h5, .gsd or .pvd) to the animated GIF ``gif_path``.
+    """Render the trajectory ``trajectory_path`` (.h5md, .gsd or .pvd) to the animated GIF ``gif_path``.
 
     fps: frames per second of the GIF; max_frames: subsample longer
     trajectories; size_px: width of the image in pixels; trail: number of

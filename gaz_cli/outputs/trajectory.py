@@ -45,7 +45,7 @@ class TrajectoryFormat:
 
 
 REGISTRY = (
-    TrajectoryFormat("h5md", (".h5", ".hdf5"), "HDF5/H5MD", h5md.H5MDWriter, h5md.read_h5md),
+    TrajectoryFormat("h5md", (".h5md", ".h5", ".hdf5"), "HDF5/H5MD, for MDAnalysis", h5md.H5MDWriter, h5md.read_h5md),
     TrajectoryFormat("gsd", (".gsd",), "GSD, for OVITO", gsd.GSDWriter, gsd.read_gsd),
     TrajectoryFormat("vtk", (".pvd", ".vtu"), "VTK for ParaView", vtk.VTKWriter, vtk.read_vtk),
 )
