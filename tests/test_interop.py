@@ -73,3 +73,80 @@ def test_the_h5_alias_is_the_same_file_for_mdanalysis(tmp_path):
     u = mda.Universe.empty(20, trajectory=True)
     u.load_new(str(path), format="H5MD")
     np.testing.assert_allclose(u.trajectory[-1].positions[:, :2], x * 1e10, rtol=0, atol=L * 1e10 * F32)
+
+
+@pytest.mark.parametrize("boundary", ["walls", "periodic"])
+def test_gsd_says_whether_the_box_had_walls(tmp_path, boundary):
+    """GSD has no walls (its boxes are periodic): each frame's log gaz/walls says 1 for a run
+    between walls, 0 for a periodic one; the last frame is --save-state's state (float32 nm,
+    centred on the origin), at the run's duration."""
+    gsd_hoomd = pytest.importorskip("gsd.hoomd", reason="gsd is in the test extra: pip install -e '.[test]'")
+    path, x, v, summary = simulate(tmp_path, 2, "run.gsd", "--boundary", boundary)
+    with gsd_hoomd.open(str(path), "r") as f:
+        assert len(f) == 5
+        assert all(int(frame.log["gaz/walls"][0]) == (boundary == "walls") for frame in f)
+        last = f[-1]
+        np.testing.assert_allclose(last.particles.position[:, :2] + 50.0, x * 1e9, rtol=0, atol=100 * F32)
+        np.testing.assert_allclose(last.particles.velocity[:, :2], v * 1e-3, rtol=F32)  # nm/ps
+        np.testing.assert_allclose(last.log["gaz/time_ps"], summary["duration"] * 1e12, rtol=1e-12)
+
+
+def test_freud_reads_the_gsd_box_and_positions(tmp_path):
+    """freud's Box of the GSD frame maps the particles back to --save-state's positions (its
+    fractional coordinates times L), and with the walls the log states (periodic=False) its
+    distances are the straight ones between the saved positions."""
+    freud = pytest.importorskip("freud", reason="freud-analysis is in the test extra: pip install -e '.[test]'")
+    gsd_hoomd = pytest.importorskip("gsd.hoomd", reason="gsd is in the test extra")
+    path, x, _, _ = simulate(tmp_path, 2, "run.gsd")
+    with gsd_hoomd.open(str(path), "r") as f:
+        last = f[-1]
+    assert int(last.log["gaz/walls"][0]) == 1
+    box = freud.box.Box.from_box(last.configuration.box)
+    assert box.is2D and np.allclose([box.Lx, box.Ly], 100.0)
+    box.periodic = (False, False, False)
+    points = last.particles.position
+    np.testing.assert_allclose(box.make_fractional(points)[:, :2] * L, x, rtol=0, atol=L * F32)
+    i, j = np.triu_indices(len(x), 1)
+    np.testing.assert_allclose(box.compute_distances(points[i], points[j]) * 1e-9,
+                               np.linalg.norm(x[i] - x[j], axis=1), rtol=0, atol=2 * L * F32)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_ovito_imports_the_gsd_file(tmp_path, dim):
+    """OVITO's own importer (ovito.io.import_file) reads the GSD file: every snapshot a frame,
+    the last one --save-state's positions in its cell, radii and species names, and the log's
+    gaz/walls among the global attributes."""
+    pytest.importorskip("ovito", reason="ovito is in the test extra: pip install -e '.[test]'")
+    from ovito.io import import_file
+
+    path, x, _, _ = simulate(tmp_path, dim, "run.gsd")
+    pipeline = import_file(str(path))
+    assert pipeline.source.num_frames == 5
+    data = pipeline.compute(4)
+    origin = np.asarray(data.cell[:, 3])
+    np.testing.assert_allclose((np.asarray(data.particles.positions) - origin)[:, :dim], x * 1e9,
+                               rtol=0, atol=100 * F32)
+    assert data.attributes["gaz/walls"] == 1 and data.attributes["gaz/dimension"] == dim
+    np.testing.assert_allclose(data.particles["Radius"], 0.179, rtol=1e-6)  # argon, nm
+    assert [t.name for t in data.particles.particle_types.types] == ["Ar"]
+
+
+def test_pyvista_reads_the_pvd_and_glyphs_true_sizes(tmp_path):
+    """pyvista (VTK's own readers) opens the .pvd: the snapshots' times, the last one
+    --save-state's positions; ParaView's glyph filter (vtkGlyph3D) scaled by the point array
+    ``diameter`` draws each particle at its true size (a sphere of diameter 1 scaled: the
+    glyphs' z extent is each particle's z plus or minus its radius)."""
+    pv = pytest.importorskip("pyvista", reason="pyvista is in the test extra: pip install -e '.[test]'")
+    path, x, v, summary = simulate(tmp_path, 3, "run.pvd")
+    reader = pv.get_reader(str(path))
+    np.testing.assert_allclose(reader.time_values, np.arange(5) * EVERY, rtol=1e-12)
+    reader.set_active_time_point(4)
+    mesh = reader.read()[0]
+    np.testing.assert_array_equal(mesh.points, x)
+    np.testing.assert_array_equal(mesh.point_data["velocity"], v)
+    radius = np.asarray(mesh.point_data["radius"])
+    np.testing.assert_allclose(radius, 0.179e-9, rtol=1e-12)
+    assert set(mesh.point_data["species"]) == {0}
+    glyphs = mesh.glyph(scale="diameter", factor=1.0, geom=pv.Sphere(radius=0.5), orient=False)
+    zmin, zmax = glyphs.bounds[4], glyphs.bounds[5]
+    np.testing.assert_allclose([zmin, zmax], [np.min(x[:, 2] - radius), np.max(x[:, 2] + radius)], rtol=1e-6)

@@ -1,14 +1,32 @@
 """GSD trajectories (``.gsd``): the writer and the reader; need the gsd package.
 
-GSD (HOOMD-blue's format; OVITO, freud and HOOMD read it) through the ``gsd``
-package (``pip install 'gaz[gsd]'``): one frame per snapshot, HOOMD's
-conventions: the box centred on the origin (positions shifted by -L/2),
-float32 positions in nm, velocities in nm/ps, diameters in nm, masses in
-daltons, particle types named by species; ``configuration.step`` is k and
-the log entry ``gaz/time_ps`` the time. 1D runs are written as 2D (y = 0)
-with ``gaz/dimension`` = 1 in the log. In a periodic box ``particles/image`` holds the
-box crossings as H5MD's ``image`` does (position + image * box is the unwrapped
-position; HOOMD's own convention).
+GSD (HOOMD-blue's format) through the ``gsd`` package (``pip install 'gaz[gsd]'``): one
+frame per snapshot, HOOMD's conventions: the box centred on the origin (positions shifted by
+-L/2), float32 positions in nm, velocities in nm/ps, diameters in nm, masses in daltons,
+particle types named by species; ``configuration.step`` is k. 1D runs are written as 2D
+(y = 0). In a periodic box ``particles/image`` holds the box crossings as H5MD's ``image``
+does (position + image * box is the unwrapped position; HOOMD's own convention).
+
+GSD has no walls: every GSD box is periodic. A run between walls is written in the same box
+(its particles never leave it, never cross it) and each frame's log says so:
+
+``gaz/walls``
+    [1] for a run between hard walls at 0 and L on every axis: the box's periodicity is
+    then not the run's (in OVITO untick the cell's periodic boundary conditions, in freud
+    make the box with ``periodic=False``); [0] for a periodic run.
+``gaz/time_ps``
+    the snapshot's time, ps.
+``gaz/dimension``
+    the run's dimension (1 for a run written as 2D).
+
+Opened as each tool's own documentation says:
+
+- OVITO (GUI: File > Load File; Python: ``ovito.io.import_file("run.gsd")``): particles
+  with Position, Velocity, Radius, Mass and Particle Type; the log entries become global
+  attributes (``gaz/walls``, ``gaz/time_ps``, ``gaz/dimension``).
+- freud: ``freud.box.Box.from_box(frame.configuration.box)`` and ``frame.particles.position``
+  of ``frame = gsd.hoomd.open("run.gsd")[k]``.
+- HOOMD-blue: ``simulation.create_state_from_gsd("run.gsd", frame=k)``.
 """
 
 from __future__ import annotations
@@ -36,6 +54,7 @@ class GSDWriter(TrajectoryWriter):
         self._hoomd = gsd_hoomd
         self.periodic = scene.boundary == "periodic"
         self.want_images = self.periodic
+        self._walls = np.array([0 if self.periodic else 1], dtype=np.uint8)
         d, length = scene.dim, scene.length / NM
         # GSD boxes are 2D (Lz = 0) or 3D: a 1D run is drawn in a square, on y = 0
         self._box = [length, length, length if d == 3 else 0.0, 0.0, 0.0, 0.0]
@@ -69,6 +88,7 @@ class GSDWriter(TrajectoryWriter):
             frame.particles.image = image
         frame.log["gaz/time_ps"] = np.array([t / PS])
         frame.log["gaz/dimension"] = np.array([d], dtype=np.int32)
+        frame.log["gaz/walls"] = self._walls
         try:
             self.file.append(frame)
         except OSError as err:

@@ -1,14 +1,23 @@
 """VTK trajectories (``.pvd`` collection of ``.vtu`` snapshots, for ParaView): the
 writer and the reader, through meshio.
 
-VTK XML for ParaView, written by meshio: one ``STEM_00000.vtu`` per
-snapshot (points padded to 3D, SI units, one vertex cell per particle, point
-data velocity, species, radius; use a Glyph filter scaled by radius to see
-the disks) and a ``STEM.pvd`` collection that gives ParaView the times (and
-gaz the dimension and the box, in a comment). Open the .pvd. Writing over an earlier
-.pvd first deletes it and the snapshots it lists that gaz would have written there
-(STEM_NNNNN.vtu beside it; not another .vtu it names), so that no snapshot of the
-earlier run is left among the new ones.
+VTK XML, written by meshio: one ``STEM_00000.vtu`` per snapshot and a ``STEM.pvd``
+collection that gives ParaView the times (and gaz the dimension and the box, in a comment).
+Each snapshot is an unstructured grid of N points (padded to 3D: z = 0 in 2D, y = z = 0 in
+1D; SI units, metres), one vertex cell per particle, and point data ``velocity`` (m/s),
+``species`` (index into the scene's species), ``radius`` and ``diameter`` (m).
+
+- ParaView: open the .pvd (its time steps are the snapshots' times, s); then Filters >
+  Glyph with Glyph Type Sphere, Scale Array ``diameter`` and Scale Factor 1 (ParaView's
+  sphere has diameter 1): each particle drawn at its true size; colour by ``species``.
+- pyvista: ``reader = pyvista.get_reader("run.pvd")``, ``reader.set_active_time_point(k)``,
+  ``mesh = reader.read()[0]``; ``mesh.glyph(scale="diameter", geom=pyvista.Sphere(radius=0.5),
+  orient=False)`` is ParaView's Glyph filter.
+- OVITO reads the collection as meshes, without particles: open the GSD file there.
+
+Writing over an earlier .pvd first deletes it and the snapshots it lists that gaz would have
+written there (STEM_NNNNN.vtu beside it; not another .vtu it names), so that no snapshot of
+the earlier run is left among the new ones.
 """
 
 from __future__ import annotations
@@ -39,6 +48,7 @@ class VTKWriter(TrajectoryWriter):
         self._cells = [("vertex", np.arange(n, dtype=np.int64).reshape(n, 1))]
         self._species = scene.kinds().astype(np.int32)
         self._radius = scene.radii()
+        self._diameter = 2.0 * self._radius
 
     def _remove_earlier(self) -> None:
         """Delete the collection written over and the snapshots it lists (module docstring):
@@ -79,7 +89,8 @@ class VTKWriter(TrajectoryWriter):
         vel[:, :d] = velocities
         name = f"{self.stem.name}_{self.count:05d}.vtu"
         mesh = meshio.Mesh(pts, self._cells,
-                           point_data={"velocity": vel, "species": self._species, "radius": self._radius})
+                           point_data={"velocity": vel, "species": self._species, "radius": self._radius,
+                                       "diameter": self._diameter})
         self.entries.append((t, name))
         try:
             meshio.write(self.stem.parent / name, mesh, file_format="vtu")
