@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from gaz_cli import interrupts
+from gaz_cli.constants import PRESSURE_UNIT
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.model.scene import (Scene, State, check_database_space, check_diagnostics, check_outputs,
@@ -350,7 +351,10 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
 
     ``pressure`` is the mean over the walls of the measured wall pressure
     (momentum / (T L^(D-1))), or the virial pressure in a periodic box; None
-    when nothing was recorded to measure it.
+    when nothing was recorded to measure it. Each dimensioned value names its unit: beside
+    it (``pressure_unit``: Pa in 3D, N/m in 2D, N in 1D; ``length_unit`` m, ``duration_unit``
+    s, ``kinetic_energy_unit`` J for both kinetic energies), or in its key (``wall_time_s``,
+    ``events_per_second``).
     """
     out = {
         "si_num": si_num,
@@ -359,7 +363,9 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
         "dim": scene.dim,
         "n": scene.n,
         "length": scene.length,
+        "length_unit": "m",
         "duration": scene.duration,
+        "duration_unit": "s",
         "seed": scene.seed,
         "boundary": scene.boundary,
         "packing_fraction": scene.packing_fraction,
@@ -368,7 +374,9 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
         "collisions": int(stats.collisions),
         "kinetic_energy_start": ke_start,
         "kinetic_energy_end": ke_end,
+        "kinetic_energy_unit": "J",
         "pressure": run_pressure(scene, stats, ke_start, ke_end, wall_momentum),
+        "pressure_unit": PRESSURE_UNIT[scene.dim],
         "wall_time_s": stats.wall_time_s,
         "events_per_second": stats.events / stats.wall_time_s if stats.wall_time_s > 0 else None,
     }
@@ -397,7 +405,8 @@ def write_state(path: str, scene: Scene, state: State) -> None:
 
 def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,
                  wall_momentum: np.ndarray | None = None) -> float | None:
-    """The summary's pressure, Pa: mean wall pressure, or the virial pressure in a periodic box."""
+    """The summary's pressure (:data:`gaz_cli.constants.PRESSURE_UNIT`: Pa, N/m or N): mean wall
+    pressure, or the virial pressure in a periodic box."""
     from gaz_cli import theory
 
     if scene.boundary == "periodic":
@@ -448,8 +457,7 @@ def describe(summary: dict) -> str:
     lines.append(f"  kinetic energy {ks:.6g} J -> {ke:.6g} J (relative change {drift:.2e})")
     if summary["pressure"] is not None:
         how = "mean over the walls" if summary["boundary"] == "walls" else "collision virial"
-        unit = {1: "N", 2: "N/m"}.get(summary["dim"], "Pa")   # force per wall measure L^(D-1)
-        lines.append(f"  pressure {summary['pressure']:.6g} {unit} ({how})")
+        lines.append(f"  pressure {summary['pressure']:.6g} {PRESSURE_UNIT[summary['dim']]} ({how})")
     eps = summary["events_per_second"]
     lines.append(f"  run time {summary['wall_time_s']:.3g} s"
                  + (f", {eps:,.0f} events/s" if eps else ""))
