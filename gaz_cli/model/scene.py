@@ -13,7 +13,7 @@ import numbers
 import os
 import re
 import sys
-from dataclasses import dataclass, field, replace
+from dataclasses import MISSING, dataclass, field, fields, replace
 
 import numpy as np
 
@@ -131,6 +131,27 @@ class Scene:
     ``[search]`` table: the ones set, and the ones left on 'auto' as the runner resolved them,
     :func:`gaz_cli.run.runner.with_search`) and reproduces the run. What :func:`validate` adds
     ('engine_reason', 'engine_auto') is derived and not stored."""
+
+    def __repr__(self) -> str:
+        """One line: the fields that differ from their defaults, the species as ``name x count``,
+        an initial state by its kind and size (never its arrays), the planes counted, no extras."""
+        parts = []
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "extras" or (f.default is not MISSING and value is f.default) \
+                    or (f.default is not MISSING and not isinstance(value, (dict, tuple)) and value == f.default):
+                continue
+            if f.name == "components":
+                text = " + ".join(f"{s.name} x {k}" for s, k in value)
+            elif f.name == "initial":
+                kind = value.get("kind")
+                text = f"{kind} ({len(value['positions'])} positions)" if "positions" in value else repr(kind)
+            elif f.name == "planes":
+                text = f"{len(value)} plane{'s' if len(value) != 1 else ''}"
+            else:
+                text = repr(value)
+            parts.append(f"{f.name}={text}")
+        return f"Scene({', '.join(parts)})"
 
     # --- derived quantities -------------------------------------------------
     @property
