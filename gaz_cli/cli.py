@@ -411,12 +411,7 @@ def analyse(db, sim, fmt, plot, table, vs):
     frames = api.analyse(db, sim=sim, plot=plot)
     if table is not None:
         title = analysis.TABLES[table]
-        if title not in frames:
-            why = ("needs --plot DIR" if table == "figures" and plot is None else
-                   "needs --sim" if sim is None else "not this scene")
-            raise GazError(f"no table {table!r} for this analysis ({why}); "
-                           f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
-        frame = frames[title]
+        frame = api.pick_table(frames, table, sim, plot)
         if fmt == "csv":
             import pandas as pd
 

@@ -134,7 +134,7 @@ def gsd_hoomd_module():
 
 
 def read_gsd(path: str | os.PathLike) -> dict:
-    """Read a GSD trajectory written by :class:`GSDWriter` (see :func:`read_trajectory`)."""
+    """Read a GSD trajectory written by :class:`GSDWriter` (see :func:`~gaz_cli.outputs.trajectory.read_trajectory`)."""
     gsd_hoomd = gsd_hoomd_module()
     try:
         f = gsd_hoomd.open(name=str(path), mode="r")

@@ -215,7 +215,7 @@ def is_hdf5(path) -> bool:
 
 
 def read_h5md(path: str | os.PathLike) -> dict:
-    """Read an H5MD trajectory written by :class:`H5MDWriter` (see :func:`read_trajectory`).
+    """Read an H5MD trajectory written by :class:`H5MDWriter` (see :func:`~gaz_cli.outputs.trajectory.read_trajectory`).
 
     Units are read from the file (gaz wrote m and s before 0.1's H5MD 1.1 layout, nm
     and ps since).

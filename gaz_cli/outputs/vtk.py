@@ -130,7 +130,7 @@ class VTKWriter(TrajectoryWriter):
 
 def read_vtk(path: str | os.PathLike) -> dict:
     """Read a VTK trajectory written by :class:`VTKWriter`: its .pvd collection (a .vtu
-    snapshot's name leads to it) and every .vtu it lists (see :func:`read_trajectory`)."""
+    snapshot's name leads to it) and every .vtu it lists (see :func:`~gaz_cli.outputs.trajectory.read_trajectory`)."""
     import xml.etree.ElementTree as ET
 
     import meshio

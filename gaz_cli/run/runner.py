@@ -214,6 +214,21 @@ class Run:
     scene: Scene | None = None
     """The scene as run: validated, its engine resolved, its seed fixed."""
 
+    def __repr__(self) -> str:
+        """The text summary (:func:`describe`) and what was kept, by shape: a dozen lines,
+        never the arrays (a notebook shows this for ``run``)."""
+        kept = []
+        if self.state is not None:
+            kept.append(f"state: positions {self.state.positions.shape}, velocities {self.state.velocities.shape}")
+        for name, rows in (("bounces", self.bounces), ("collisions", self.collisions)):
+            if rows is not None:
+                kept.append(f"{name}: {len(next(iter(rows.values()), ()))} rows ({', '.join(rows)})")
+        try:
+            lines = describe(self.summary).splitlines()
+        except (KeyError, TypeError, ValueError):  # a Run made by hand, its summary partial
+            lines = [f"summary with {', '.join(map(str, self.summary))}"]
+        return "\n".join([f"<Run: {lines[0]}", *lines[1:], *(f"  {k}" for k in kept)]) + ">"
+
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
