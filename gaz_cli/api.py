@@ -94,7 +94,8 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     without a seed gets a fresh one, recorded in the summary. ``diagnostics``: a function
     called with a dict (time, step, kinetic, potential, energy, max_speed...) every
     ``print_every`` steps of the step engine (refused with another engine). ``progress``: a progress bar
-    on stderr (``gaz simulate`` draws one when stderr is a terminal).
+    (:mod:`gaz_cli.progress`) on stderr, or in a notebook's cell (``pip install 'gaz[notebook]'``);
+    ``gaz simulate`` draws one when stderr is a terminal.
     """
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
@@ -157,6 +158,8 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``
     (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
     Returns a :class:`gaz_cli.run.sweeps.Report` (each point: stored, skipped or failed).
+    ``progress``: the sweep's bar (None: on a terminal or in a notebook, as
+    :func:`gaz_cli.progress.wanted` says).
     One ``vary`` may be given as a string."""
     from gaz_cli.scenes import files as scenefile
     from gaz_cli.run import sweeps
