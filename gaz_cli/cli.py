@@ -535,8 +535,9 @@ def animate(trajectory, output, fps):
 
     One frame per snapshot, each particle a disk of its true radius coloured by species: 1D rods
     on a line, 2D disks in the box, 3D spheres as a side view (x across, z up, the gravity axis;
-    y is not shown). A trajectory of more than 400 snapshots is subsampled evenly to 400 frames
-    (the title gives each frame's time).
+    y is not shown). In a periodic box a disk across an edge is drawn on both sides. A
+    trajectory of more than 400 snapshots is subsampled evenly to 400 frames (the title gives
+    each frame's time).
 
     \b
     Example:

@@ -280,6 +280,7 @@ def test_every_format_reads_back_what_was_written(tmp_path, suffix, dim):
     np.testing.assert_allclose(data["box"], np.full(dim, sc.length), rtol=UNITS)
     np.testing.assert_allclose(data["radius"], sc.radii(), rtol=rtol)
     np.testing.assert_array_equal(data["species"], sc.kinds())
+    assert data["periodic"] is False  # walls (the periodic case: test_animate_wraps_periodic_disks...)
 
 
 def test_periodic_image_counts_box_crossings(tmp_path):
@@ -612,3 +613,29 @@ def test_animate_names_the_formats_for_a_file_that_is_no_trajectory(tmp_path):
             w.add_snapshot(t, x, v)
     (tmp_path / "run.h5").rename(tmp_path / "run.h5md")
     assert read_trajectory(tmp_path / "run.h5md")["positions"].shape == (2, sc.n, 2)
+
+
+@pytest.mark.parametrize("suffix", [".h5md", ".gsd", ".pvd"])
+@pytest.mark.parametrize("boundary", ["periodic", "walls"])
+def test_animate_wraps_periodic_disks_at_the_edges(tmp_path, suffix, boundary):
+    """A disk across the left edge of a periodic box is drawn on both sides (itself and its
+    periodic image), in every format; between walls it is drawn once, clipped. Read from the
+    frame's pixels: the disk's colour (C0) in the right third of the image or not."""
+    from PIL import Image
+
+    from gaz_cli.outputs.animate import render_gif
+
+    if suffix == ".gsd":
+        pytest.importorskip("gsd")
+    sc = Scene(dim=2, length=1.0, duration=0.1, components=((Species("A", 1.0, 0.1), 1),), seed=1,
+               engine="step", dt=1e-3, boundary=boundary)
+    with open_trajectory(tmp_path / f"run{suffix}", 0.05, sc) as w:
+        for k in range(2):
+            w.add_snapshot(0.05 * k, np.array([[0.03, 0.5]]), np.zeros((1, 2)))
+    render_gif(tmp_path / f"run{suffix}", tmp_path / "run.gif", size_px=300, frame_png=tmp_path / "last.png")
+    pixels = np.asarray(Image.open(tmp_path / "last.png").convert("RGB")).astype(int)
+    blue = np.abs(pixels - np.array([31, 119, 180])).sum(axis=2) < 30  # matplotlib's C0
+    columns = np.nonzero(blue.any(axis=0))[0]
+    width = pixels.shape[1]
+    assert columns.size and columns.min() < width / 3  # the disk itself, at the left edge
+    assert (columns.max() > 2 * width / 3) == (boundary == "periodic"), columns

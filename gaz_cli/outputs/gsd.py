@@ -147,6 +147,8 @@ def read_gsd(path: str | os.PathLike) -> dict:
         dim = int(first.log["gaz/dimension"][0]) if "gaz/dimension" in first.log \
             else int(first.configuration.dimensions)
         box = np.asarray(first.configuration.box[:dim], dtype=np.float64) * NM
+        # (every GSD box is periodic: the log says whether the run's was; a file without it does not say)
+        periodic = "gaz/walls" in first.log and int(first.log["gaz/walls"][0]) == 0
         frames = [f[k] for k in range(len(f))]
     positions = np.stack([fr.particles.position[:, :dim] for fr in frames]).astype(np.float64) * NM + box / 2
     velocities = np.stack([fr.particles.velocity[:, :dim] for fr in frames]).astype(np.float64) * (NM / PS)
@@ -155,4 +157,4 @@ def read_gsd(path: str | os.PathLike) -> dict:
     return {"time": time, "positions": positions, "velocities": velocities,
             "species": first.particles.typeid.astype(np.int64),
             "radius": first.particles.diameter.astype(np.float64) * NM / 2, "box": box,
-            "species_names": list(first.particles.types), "dim": dim}
+            "species_names": list(first.particles.types), "dim": dim, "periodic": periodic}

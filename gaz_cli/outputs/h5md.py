@@ -256,6 +256,7 @@ def read_h5md(path: str | os.PathLike) -> dict:
             "species": part["species"][()] if "species" in part else None,
             "box": scaled(edges, LENGTH_UNITS, "m"),
             "dim": dim,
+            "periodic": b"periodic" in [np.bytes_(b) for b in part["box"].attrs.get("boundary", [])],
         }
         if out["box"].ndim == 2:
             out["box"] = out["box"][0]

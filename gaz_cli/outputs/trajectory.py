@@ -93,7 +93,8 @@ def read_trajectory(path: str | os.PathLike) -> dict:
 
     Returns a dict in SI units: time (T,) s, positions (T, N, D) m, velocities
     (T, N, D) m/s or None, species (N,) int or None, radius (N,) m, box (D,) m,
-    species_names (list of str), dim. Raises SceneError for a file it cannot read.
+    species_names (list of str), dim, periodic (whether the run's box was periodic: False for
+    walls, and for a file that does not say). Raises SceneError for a file it cannot read.
     """
     fmt = format_of(path)
     if fmt is None:

@@ -2,7 +2,8 @@
 writer and the reader, through meshio.
 
 VTK XML, written by meshio: one ``STEM_00000.vtu`` per snapshot and a ``STEM.pvd``
-collection that gives ParaView the times (and gaz the dimension and the box, in a comment).
+collection that gives ParaView the times (and gaz the dimension, the box and the boundary,
+in a comment).
 Each snapshot is an unstructured grid of N points (padded to 3D: z = 0 in 2D, y = z = 0 in
 1D; SI units, metres), one vertex cell per particle, and point data ``velocity`` (m/s),
 ``species`` (index into the scene's species), ``radius`` and ``diameter`` (m).
@@ -105,7 +106,8 @@ class VTKWriter(TrajectoryWriter):
         self._closed = True
         lines = ['<?xml version="1.0"?>',
                  '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
-                 f"  <!-- gaz: dimension={self.scene.dim} box={self.scene.length!r} m -->",
+                 f"  <!-- gaz: dimension={self.scene.dim} box={self.scene.length!r} m "
+                 f"boundary={self.scene.boundary} -->",
                  "  <Collection>"]
         lines += [f'    <DataSet timestep="{t!r}" group="" part="0" file="{name}"/>'
                   for t, name in self.entries]
@@ -173,4 +175,4 @@ def read_vtk(path: str | os.PathLike) -> dict:
             "velocities": np.stack([m.point_data["velocity"][:, :dim] for m in meshes]),
             "species": np.asarray(first.point_data["species"]).astype(np.int64),
             "radius": np.asarray(first.point_data["radius"], dtype=np.float64), "box": box,
-            "species_names": [], "dim": dim}
+            "species_names": [], "dim": dim, "periodic": said.get("boundary") == "periodic"}
