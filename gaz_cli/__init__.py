@@ -2,7 +2,8 @@
 
 The Python API (docs/tutorials/python.md): :func:`make_scene`, :func:`load_scene`,
 :func:`write_scene`, :func:`simulate`, :func:`open_store`, :func:`analyse`, :func:`sweep`,
-:func:`versus`, the types
+:func:`versus`; :mod:`theory` (``gaz.theory``: the equations of state, wall models and rates
+that ``analyse`` compares with, SI units); the types
 :class:`Scene`, :class:`Species`, :class:`State`, :class:`Run`, and the exceptions of
 :mod:`gaz_cli.errors` (:class:`GazError`, the base of :class:`SceneError`,
 :class:`StoreError`, :class:`PlacementError`, :class:`OutputError`, :class:`EngineError`,
@@ -20,10 +21,14 @@ _LAZY = {
     **{name: "gaz_cli.errors" for name in ("GazError", "SceneError", "StoreError", "PlacementError", "OutputError",
                                            "EngineError", "QueryError", "Interrupted", "GazWarning")},
 }
-__all__ = ["__version__", *_LAZY]
+__all__ = ["__version__", "theory", *_LAZY]
 
 
 def __getattr__(name):
+    if name == "theory":  # a module, not a name in one
+        import importlib
+
+        return importlib.import_module("gaz_cli.theory")
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'gaz_cli' has no attribute {name!r}")

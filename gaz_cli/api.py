@@ -6,16 +6,25 @@ Exposed at the package's top level (``import gaz_cli as gaz``; see docs/tutorial
     run = gaz.simulate(scene, keep_state=True, keep_bounces=True)    # no database
     run.summary["pressure"], run.state.positions, run.bounces["t"]
     gaz.simulate(scene, db="gaz.db"); frames = gaz.analyse("gaz.db", sim=1)
+    walls = gaz.analyse("gaz.db", sim=1, table="q36")                # one table: a DataFrame
 
 Every scene goes through :func:`gaz_cli.scenes.validate.validate`, as it does from the command line.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from gaz_cli.scenes import files as scenefile
-from gaz_cli.errors import SceneError
+from gaz_cli.errors import QueryError, SceneError
 from gaz_cli.run.runner import Run, run_scene
 from gaz_cli.model.scene import Scene
+
+if TYPE_CHECKING:  # (pandas and the store load on first use)
+    import pandas as pd
+
+    from gaz_cli.results.store import Store
+    from gaz_cli.run.sweeps import Report
 
 __all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", "open_store", "analyse",
            "sweep", "versus", "Run"]
@@ -85,7 +94,8 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     without a seed gets a fresh one, recorded in the summary. ``diagnostics``: a function
     called with a dict (time, step, kinetic, potential, energy, max_speed...) every
     ``print_every`` steps of the step engine (refused with another engine). ``progress``: a progress bar
-    on stderr (``gaz simulate`` draws one when stderr is a terminal).
+    (:mod:`gaz_cli.progress`) on stderr, or in a notebook's cell (``pip install 'gaz[notebook]'``);
+    ``gaz simulate`` draws one when stderr is a terminal.
     """
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
@@ -93,7 +103,7 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
                      progress=progress)
 
 
-def open_store(db: str, create: bool = False):
+def open_store(db: str, create: bool = False) -> Store:
     """The results database ``db`` (:class:`gaz_cli.results.store.Store`; a context manager).
     ``create=False`` refuses to make a new one."""
     from gaz_cli.results.store import Store
@@ -101,20 +111,55 @@ def open_store(db: str, create: bool = False):
     return Store(db, create=create)
 
 
-def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
-    """What ``gaz analyse`` prints: table title -> pandas DataFrame (or dict of scalars).
-    ``plot``: a folder for PNG figures."""
+def analyse(db: str, sim: int | None = None, plot: str | None = None,
+            table: str | None = None) -> dict[str, Any] | pd.DataFrame:
+    """What ``gaz analyse`` prints.
+
+    Without ``table``: every table, a dict of title -> pandas DataFrame (or dict of scalars).
+    With ``table``: that one table as a DataFrame (a dict of scalars as one row), named by its
+    short name, as ``gaz analyse --table NAME``: ``q34``, ``q35``, ``q36`` (momentum and
+    pressure per wall), ``overview`` (one row per simulation, against the ideal gas), and with
+    ``sim``: ``simulation``, ``pressure`` (against every theory that applies), ``collisions``,
+    ``contact``, ``speed``, ``gravity``, ``cooling``; ``figures`` with ``plot``
+    (:data:`gaz_cli.analysis.report.TABLES` maps each to its title). A name the analysis
+    does not know, or a table this run has not (gravity without gravity...), raises
+    :class:`~gaz_cli.errors.QueryError` naming those it has. ``plot``: a folder for PNG figures.
+    """
     from gaz_cli.analysis import report as analysis
 
-    return analysis.report(db, sim=sim, plot_dir=plot)
+    if table is not None and table not in analysis.TABLES:
+        raise QueryError(f"table {table!r} is not one of {', '.join(analysis.TABLES)}")
+    frames = analysis.report(db, sim=sim, plot_dir=plot)
+    if table is None:
+        return frames
+    import pandas as pd
+
+    frame = pick_table(frames, table, sim, plot)
+    return frame if isinstance(frame, pd.DataFrame) else pd.DataFrame([frame])
+
+
+def pick_table(frames: dict[str, Any], table: str, sim: int | None, plot: str | None) -> Any:
+    """The table of short name ``table`` among ``frames`` (what :func:`analyse` returns without
+    ``table``), as it is there; QueryError when this analysis has none by that name, saying why."""
+    from gaz_cli.analysis import report as analysis
+
+    title = analysis.TABLES[table]
+    if title not in frames:
+        why = ("needs --plot DIR" if table == "figures" and plot is None else
+               "needs --sim" if sim is None else "not this scene")
+        raise QueryError(f"no table {table!r} for this analysis ({why}); "
+                         f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
+    return frames[title]
 
 
 def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, workers: int | None = None,
-          scheduler: str | None = None, progress: bool | None = None):
+          scheduler: str | None = None, progress: bool | None = None) -> Report:
     """Run a sweep (``gaz sweep``): the scene file with each ``vary`` (``"KEY=V1,V2"`` or
     ``"KEY=START:STOP:COUNT"``) over ``seeds`` seeds, on Dask; every run stored in ``db``
     (None: the scene file's ``[output] db``, else gaz.db, as :func:`simulate` from a file).
-    Returns a :class:`gaz_cli.sweep.Report` (each point: stored, skipped or failed).
+    Returns a :class:`gaz_cli.run.sweeps.Report` (each point: stored, skipped or failed).
+    ``progress``: the sweep's bar (None: on a terminal or in a notebook, as
+    :func:`gaz_cli.progress.wanted` says).
     One ``vary`` may be given as a string."""
     from gaz_cli.scenes import files as scenefile
     from gaz_cli.run import sweeps
@@ -130,7 +175,7 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     return sweeps.run(points, scene_of, None, scenefile.database(db, outputs), workers=workers, scheduler=scheduler, progress=progress)
 
 
-def versus(db: str, key: str, plot: str | None = None):
+def versus(db: str, key: str, plot: str | None = None) -> pd.DataFrame:
     """What ``gaz analyse --vs KEY`` prints: per value of ``key`` the mean over the runs (seeds),
     its standard error and theory (a DataFrame); ``plot``: a folder for the figures."""
     from gaz_cli.analysis import studies

@@ -281,8 +281,8 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--write-scene", type=click.Path(dir_okay=False), default=None,
               help="Write the run's scene file (seed and tc as used) to FILE.toml.")
 @click.option("--trajectory", type=click.Path(dir_okay=False), default=None,
-              help="Write snapshots to FILE.h5 (HDF5, H5MD 1.1: MDAnalysis), FILE.gsd (GSD: OVITO, "
-                   "HOOMD; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
+              help="Write snapshots to FILE.h5md (HDF5, H5MD 1.1: mda.Universe('FILE.h5md'); .h5 too), "
+                   "FILE.gsd (GSD: OVITO, HOOMD, freud; needs gaz[gsd]) or FILE.pvd (VTK for ParaView).")
 @click.option("--every", type=float, default=None, help="Simulated seconds between trajectory snapshots.")
 @click.option("--save-state", type=click.Path(dir_okay=False), default=None,
               help="Write the final state as CSV: species,x[,y[,z]],vx[,vy[,vz]].")
@@ -404,12 +404,7 @@ def analyse(db, sim, fmt, plot, table, vs):
     frames = api.analyse(db, sim=sim, plot=plot)
     if table is not None:
         title = analysis.TABLES[table]
-        if title not in frames:
-            why = ("needs --plot DIR" if table == "figures" and plot is None else
-                   "needs --sim" if sim is None else "not this scene")
-            raise GazError(f"no table {table!r} for this analysis ({why}); "
-                           f"it has: {', '.join(k for k, v in analysis.TABLES.items() if v in frames)}")
-        frame = frames[title]
+        frame = api.pick_table(frames, table, sim, plot)
         if fmt == "csv":
             import pandas as pd
 
@@ -529,17 +524,18 @@ def query(name, db, params, fmt, list_only):
               help="GIF file to write, FILE.gif (default: the trajectory's name with .gif).")
 @click.option("--fps", type=click.IntRange(1, 100), default=20, show_default=True, help="Frames per second.")
 def animate(trajectory, output, fps):
-    """Render a trajectory (FILE.h5, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
+    """Render a trajectory (FILE.h5md, FILE.gsd or FILE.pvd from --trajectory) to an animated GIF.
 
     One frame per snapshot, each particle a disk of its true radius coloured by species: 1D rods
     on a line, 2D disks in the box, 3D spheres as a side view (x across, z up, the gravity axis;
-    y is not shown). A trajectory of more than 400 snapshots is subsampled evenly to 400 frames
-    (the title gives each frame's time).
+    y is not shown). In a periodic box a disk across an edge is drawn on both sides. A
+    trajectory of more than 400 snapshots is subsampled evenly to 400 frames (the title gives
+    each frame's time).
 
     \b
     Example:
-      gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5 --every 1e-11
-      gaz animate run.h5 -o run.gif
+      gaz simulate --dim 2 --n 50 --length 1e-7 --duration 1e-9 --trajectory run.h5md --every 1e-11
+      gaz animate run.h5md -o run.gif
     """
     from gaz_cli.outputs import animate as anim
 

@@ -85,3 +85,61 @@ def test_wanted_only_on_a_terminal_without_quiet():
         os.close(master)
         os.close(slave)
     assert not progress.wanted(False, io.StringIO())
+
+
+def test_simulate_draws_rich_bar_to_the_end():
+    """simulate's bar is rich's (progress.bar), as sweep's is: driven by the engine's reports
+    and closed complete, it ends at 100 % with the simulated time and the event rate."""
+    from rich.progress import Progress as RichProgress
+
+    out = io.StringIO()
+    bar = progress.Progress(1e-9, stream=out, after_s=0.0)
+    bar.progress(0.0, 0)
+    time.sleep(0.01)
+    bar.progress(4e-10, 1000)
+    assert isinstance(bar.bar, RichProgress)
+    bar.close(complete=True)
+    text = out.getvalue()
+    assert "simulating" in text and "100%" in text and "events/s" in text and "of 1e-09 s" in text, text
+
+
+def test_sweep_draws_the_same_bar():
+    from rich.progress import Progress as RichProgress
+
+    from gaz_cli.run.sweeps import _Bar
+
+    with _Bar(3, True) as sweep_bar:
+        assert isinstance(sweep_bar.progress, RichProgress)
+        columns = [type(c).__name__ for c in sweep_bar.progress.columns]
+        sweep_bar.update(done=3, failed=0, running=0)
+    simulate_columns = [type(c).__name__ for c in progress.bar("simulating", "{task.fields[detail]}").columns]
+    # the same bar, percentage and time left; the sweep adds its run count
+    assert columns[:3] == simulate_columns[:3] and columns[-1] == simulate_columns[-1] == "TimeRemainingColumn"
+
+
+def test_the_compile_notice_says_how_long_it_usually_takes():
+    out = io.StringIO()
+    bar = progress.Progress(1e-9, stream=out, after_s=0.0)
+    deadline = time.monotonic() + 30
+    while not bar.notice_shown and time.monotonic() < deadline:
+        time.sleep(0.01)
+    bar.close()
+    assert out.getvalue().strip() == progress.NOTICE
+    assert f"usually {progress.COMPILE_S}" in progress.NOTICE and "first run only" in progress.NOTICE
+
+
+def test_a_notebook_gets_the_bar(monkeypatch):
+    """In a Jupyter kernel (rich's test: an IPython ZMQ shell) progress is wanted though stderr is
+    no terminal, the sweep shows its bar by default, and the bars' console draws in the cell."""
+    import types
+
+    import rich.console
+
+    from gaz_cli.run.sweeps import _Bar
+
+    assert not progress.wanted(False, io.StringIO())
+    monkeypatch.setitem(sys.modules, "IPython", types.ModuleType("IPython"))
+    monkeypatch.setattr(rich.console, "_is_jupyter", lambda: True)
+    assert progress.wanted(False, io.StringIO()) and not progress.wanted(True, io.StringIO())
+    assert progress.console().is_jupyter and progress.bar("simulating").console.is_jupyter
+    assert _Bar(3, None).show

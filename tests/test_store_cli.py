@@ -175,7 +175,7 @@ def test_interrupt_rolls_back_and_says_what_is_left(tmp_path, signum):
                                f"trajectory '{traj}' keeps the ")
     snapshots = int(lines[0].split("keeps the ")[1].split()[0])
     with h5py.File(traj) as fh:
-        assert fh["particles/all/position/value"].shape[0] == snapshots > 0
+        assert fh["particles/trajectory/position/value"].shape[0] == snapshots > 0
     assert leftovers(tmp_path, {"gaz.db", "run.h5"}) == []
     assert check_consistent(db) == [1]
 

@@ -15,7 +15,8 @@ from gaz_cli.model.scene import Scene, State
 from gaz_cli.model.species import Species
 from gaz_cli.model.estimates import MAX_SNAPSHOTS
 from gaz_cli.scenes.validate import check_outputs
-from gaz_cli.outputs.trajectory import open_trajectory, read_h5md, read_trajectory
+from gaz_cli.outputs.h5md import read_h5md
+from gaz_cli.outputs.trajectory import open_trajectory, read_trajectory
 
 A, B = Species("A", 1.0, 0.02), Species("B", 2.0, 0.04)
 
@@ -50,23 +51,23 @@ def test_h5md_round_trip(tmp_path, suffix):
     with h5py.File(path, "r") as f:
         assert list(f["h5md"].attrs["version"]) == [1, 1]
         assert list(f["h5md/modules/units"].attrs["version"]) == [1, 0]
-        pos = f["particles/all/position"]
+        pos = f["particles/trajectory/position"]
         # stored in nm and ps (MDAnalysis's units): one rounding of x / 1e-9
         np.testing.assert_allclose(pos["value"][()] * nm, np.stack([x for _, x, _ in snaps]), rtol=UNITS)
         np.testing.assert_allclose(pos["time"][()] * ps, [t for t, _, _ in snaps], rtol=UNITS)
         np.testing.assert_array_equal(pos["step"][()], [0, 1, 2])
         assert pos["value"].attrs["unit"] == "nm" and pos["time"].attrs["unit"] == "ps"
-        velocity = f["particles/all/velocity"]
+        velocity = f["particles/trajectory/velocity"]
         assert velocity["value"].attrs["unit"] == "nm ps-1"
         np.testing.assert_allclose(velocity["value"][()] * nm / ps, np.stack([v for _, _, v in snaps]), rtol=UNITS)
-        edges = f["particles/all/box/edges"]
+        edges = f["particles/trajectory/box/edges"]
         np.testing.assert_allclose(edges["value"][()] * nm, np.ones((3, 3)), rtol=UNITS)
         assert edges["step"] == pos["step"] and edges["time"] == pos["time"]  # shared: hard links
-        box = f["particles/all/box"]
+        box = f["particles/trajectory/box"]
         assert box.attrs["dimension"] == 3 and list(box.attrs["boundary"]) == [b"none"] * 3
-        assert "image" not in f["particles/all"]  # walls: no image
-        np.testing.assert_array_equal(f["particles/all/species"][()], [0, 0, 0, 0, 1, 1])
-        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.outputs.trajectory)
+        assert "image" not in f["particles/trajectory"]  # walls: no image
+        np.testing.assert_array_equal(f["particles/trajectory/species"][()], [0, 0, 0, 0, 1, 1])
+        # H5MD 1.1's fixed-length strings (units aside, see gaz_cli.outputs.h5md)
         for attrs, key in ((f["h5md/creator"].attrs, "name"), (f["h5md/author"].attrs, "name"),
                            (box.attrs, "boundary"), (f["parameters"].attrs, "engine"),
                            (f["h5md/modules/units"].attrs, "system")):
@@ -187,7 +188,7 @@ def test_render_gif(tmp_path, dim, suffix):
         render_gif(tmp_path / "bad.h5", tmp_path / "x.gif")
 
 
-@pytest.mark.parametrize("drop", ["particles/all/box", "particles/all/position/time"])
+@pytest.mark.parametrize("drop", ["particles/trajectory/box", "particles/trajectory/position/time"])
 def test_an_h5_lacking_what_gaz_reads_is_one_line(tmp_path, drop):
     """An HDF5 file with positions but no box (a foreign or hand-made one) ended gaz animate in
     'internal error: KeyError: Unable to synchronously open object (component not found)', exit 3."""
@@ -202,7 +203,7 @@ def test_an_h5_lacking_what_gaz_reads_is_one_line(tmp_path, drop):
         del f[drop]
     code, out, err = invoke(["animate", str(tmp_path / "run.h5"), "-o", str(tmp_path / "x.gif")])
     assert (code, out, len(err.splitlines())) == (1, "", 1), err
-    assert err.startswith(f"gaz: error: '{tmp_path / 'run.h5'}' is not an H5MD trajectory (no particles/all/")
+    assert err.startswith(f"gaz: error: '{tmp_path / 'run.h5'}' is not an H5MD trajectory (no particles/trajectory/")
     assert not (tmp_path / "x.gif").exists()
 
 
@@ -280,6 +281,7 @@ def test_every_format_reads_back_what_was_written(tmp_path, suffix, dim):
     np.testing.assert_allclose(data["box"], np.full(dim, sc.length), rtol=UNITS)
     np.testing.assert_allclose(data["radius"], sc.radii(), rtol=rtol)
     np.testing.assert_array_equal(data["species"], sc.kinds())
+    assert data["periodic"] is False  # walls (the periodic case: test_animate_wraps_periodic_disks...)
 
 
 def test_periodic_image_counts_box_crossings(tmp_path):
@@ -293,30 +295,36 @@ def test_periodic_image_counts_box_crossings(tmp_path):
         for k, x in enumerate(unwrapped):
             w.add_snapshot(0.05 * k, np.mod(x, 1.0), np.zeros_like(x))
     with h5py.File(tmp_path / "run.h5") as f:
-        image = f["particles/all/image/value"][()]
-        assert f["particles/all/image/step"] == f["particles/all/position/step"]
-        assert list(f["particles/all/box"].attrs["boundary"]) == [b"periodic"] * 2
+        image = f["particles/trajectory/image/value"][()]
+        assert f["particles/trajectory/image/step"] == f["particles/trajectory/position/step"]
+        # the 2D run in the plane z = 0 of the file's 3D box: z is no periodic axis, never crossed
+        assert list(f["particles/trajectory/box"].attrs["boundary"]) == [b"periodic"] * 2 + [b"none"]
+        assert not image[:, :, 2].any()
+        image = image[:, :, :2]
     data = read_h5md(tmp_path / "run.h5")
     np.testing.assert_allclose(data["positions"] + image * sc.length, unwrapped, atol=1e-15)
 
 
-def test_mdanalysis_reads_a_3d_run(tmp_path):
-    """A 3D run's H5MD file opens in MDAnalysis with its units converted (angstrom, ps)."""
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_mdanalysis_reads_a_run_in_one_call(tmp_path, dim):
+    """mda.Universe("run.h5md") alone (the minimal topology reads particles/trajectory), its units
+    converted (angstrom, ps); 1D and 2D runs as the line or the plane through 0 of a 3D box."""
     mda = pytest.importorskip("MDAnalysis")
-    sc = replace(small_scene(dim=3), length=1e-9)  # a box of 1 nm
+    sc = replace(small_scene(dim=dim), length=1e-9)  # a box of 1 nm
     snaps = snapshots(sc, count=3)
-    with open_trajectory(tmp_path / "run.h5", 0.05, sc) as w:
+    with open_trajectory(tmp_path / "run.h5md", 0.05, sc) as w:
         for t, x, v in snaps:
             w.add_snapshot(t * 1e-12, x * 1e-9, v)  # nm-sized box, ps times
-    u = mda.Universe.empty(sc.n, trajectory=True)
-    u.load_new(str(tmp_path / "run.h5"), format="H5MD")
-    assert u.trajectory.n_frames == 3
+    u = mda.Universe(str(tmp_path / "run.h5md"))
+    assert u.atoms.n_atoms == sc.n and u.trajectory.n_frames == 3
     for k, ts in enumerate(u.trajectory):
         # MDAnalysis keeps float32 angstroms: half an ulp of values up to 10 A
-        np.testing.assert_allclose(ts.positions, snaps[k][1] * 10.0, rtol=0, atol=10 * 2 ** -23)
+        np.testing.assert_allclose(ts.positions[:, :dim], snaps[k][1] * 10.0, rtol=0, atol=10 * 2 ** -23)
+        np.testing.assert_array_equal(ts.positions[:, dim:], 0.0)
         np.testing.assert_allclose(ts.time, snaps[k][0], rtol=1e-12)  # ps
         np.testing.assert_allclose(ts.dimensions, [10.0, 10.0, 10.0, 90, 90, 90], rtol=1e-7)
-        np.testing.assert_allclose(ts.velocities, snaps[k][2] * 1e-2, rtol=2 ** -23)  # m/s -> A/ps
+        np.testing.assert_allclose(ts.velocities[:, :dim], snaps[k][2] * 1e-2, rtol=2 ** -23)  # m/s -> A/ps
+        np.testing.assert_array_equal(ts.velocities[:, dim:], 0.0)
 
 
 def test_gsd_opens_in_the_gsd_package(tmp_path):
@@ -399,7 +407,7 @@ def test_every_longer_than_the_run_is_refused_naming_the_fix(tmp_path):
     import h5py
 
     with h5py.File(tmp_path / "a.h5", "r") as f:
-        assert len(f["particles/all/position/time"]) == 2
+        assert len(f["particles/trajectory/position/time"]) == 2
 
 
 def test_cli_names_the_flags_and_every_format(tmp_path):
@@ -493,7 +501,7 @@ def write_run(scene, every, path, run=None):
         import h5py
 
         with h5py.File(path) as f:
-            images = f["particles/all/image/value"][()].astype(np.int64)
+            images = f["particles/trajectory/image/value"][()][:, :, :scene.dim].astype(np.int64)
     return stats, data["time"], data["positions"], images, data["velocities"]
 
 
@@ -606,3 +614,29 @@ def test_animate_names_the_formats_for_a_file_that_is_no_trajectory(tmp_path):
             w.add_snapshot(t, x, v)
     (tmp_path / "run.h5").rename(tmp_path / "run.h5md")
     assert read_trajectory(tmp_path / "run.h5md")["positions"].shape == (2, sc.n, 2)
+
+
+@pytest.mark.parametrize("suffix", [".h5md", ".gsd", ".pvd"])
+@pytest.mark.parametrize("boundary", ["periodic", "walls"])
+def test_animate_wraps_periodic_disks_at_the_edges(tmp_path, suffix, boundary):
+    """A disk across the left edge of a periodic box is drawn on both sides (itself and its
+    periodic image), in every format; between walls it is drawn once, clipped. Read from the
+    frame's pixels: the disk's colour (C0) in the right third of the image or not."""
+    from PIL import Image
+
+    from gaz_cli.outputs.animate import render_gif
+
+    if suffix == ".gsd":
+        pytest.importorskip("gsd")
+    sc = Scene(dim=2, length=1.0, duration=0.1, components=((Species("A", 1.0, 0.1), 1),), seed=1,
+               engine="step", dt=1e-3, boundary=boundary)
+    with open_trajectory(tmp_path / f"run{suffix}", 0.05, sc) as w:
+        for k in range(2):
+            w.add_snapshot(0.05 * k, np.array([[0.03, 0.5]]), np.zeros((1, 2)))
+    render_gif(tmp_path / f"run{suffix}", tmp_path / "run.gif", size_px=300, frame_png=tmp_path / "last.png")
+    pixels = np.asarray(Image.open(tmp_path / "last.png").convert("RGB")).astype(int)
+    blue = np.abs(pixels - np.array([31, 119, 180])).sum(axis=2) < 30  # matplotlib's C0
+    columns = np.nonzero(blue.any(axis=0))[0]
+    width = pixels.shape[1]
+    assert columns.size and columns.min() < width / 3  # the disk itself, at the left edge
+    assert (columns.max() > 2 * width / 3) == (boundary == "periodic"), columns

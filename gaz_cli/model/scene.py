@@ -35,7 +35,7 @@ ALL = ("event", "ideal", "reference", "step")
 class Option:
     """One row of the table of scene options: a field of :class:`Scene` as every layer sees it.
 
-    ``gaz simulate``'s flags (:func:`gaz_cli.scenes.options.scene_options`), the scene file's
+    ``gaz simulate``'s flags (:func:`gaz_cli.cli.scene_option`), the scene file's
     keys and their comments (:mod:`gaz_cli.scenes.files`), the range checks
     (:func:`gaz_cli.model.checks.check_option`), the step engine's own options
     (:data:`STEP_ONLY`) and the SCENE row (:mod:`gaz_cli.results`) read it: adding an option
@@ -168,6 +168,27 @@ class Scene:
     ``[search]`` table: the ones set, and the ones left on 'auto' as the runner resolved them,
     :func:`gaz_cli.run.runner.with_search`) and reproduces the run. What the door (:func:`gaz_cli.scenes.validate.validate`) adds
     ('engine_reason', 'engine_auto') is derived and not stored."""
+
+    def __repr__(self) -> str:
+        """One line: the fields that differ from their defaults, the species as ``name x count``,
+        an initial state by its kind and size (never its arrays), the planes counted, no extras."""
+        parts = []
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "extras" or (f.default is not MISSING and value is f.default) \
+                    or (f.default is not MISSING and not isinstance(value, (dict, tuple)) and value == f.default):
+                continue
+            if f.name == "components":
+                text = " + ".join(f"{s.name} x {k}" for s, k in value)
+            elif f.name == "initial":
+                kind = value.get("kind")
+                text = f"{kind} ({len(value['positions'])} positions)" if "positions" in value else repr(kind)
+            elif f.name == "planes":
+                text = f"{len(value)} plane{'s' if len(value) != 1 else ''}"
+            else:
+                text = repr(value)
+            parts.append(f"{f.name}={text}")
+        return f"Scene({', '.join(parts)})"
 
     # --- derived quantities -------------------------------------------------
     @property

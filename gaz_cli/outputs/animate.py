@@ -4,9 +4,10 @@
 (H5MD, GSD or VTK: :func:`~gaz_cli.outputs.trajectory.read_trajectory`) and draws every particle as a disk of its true
 radius in the box, coloured by species, one frame per snapshot. 1D rods are
 drawn on a line; 3D runs are drawn as their side view (x horizontal, the
-gravity axis z vertical). Particles smaller than about a pixel get a dot so
-they stay visible (the comet of the ``comet`` preset is 5.5 km wide in a
-1e9 m box); ``trail`` draws the path of the last frames of each particle.
+gravity axis z vertical). In a periodic box a disk across an edge is drawn on both
+sides, as the particle and its periodic image (:func:`periodic_images`). Particles smaller
+than about a pixel get a dot so they stay visible (the comet of the ``comet`` preset is
+5.5 km wide in a 1e9 m box); ``trail`` draws the path of the last frames of each particle.
 """
 
 from __future__ import annotations
@@ -39,6 +40,17 @@ def _frames(count: int, max_frames: int) -> np.ndarray:
     if count <= max_frames:
         return np.arange(count)
     return np.unique(np.linspace(0, count - 1, max_frames).round().astype(int))
+
+
+def periodic_images(xy: np.ndarray, length: float, axes: int) -> np.ndarray:
+    """The drawn centres of a periodic run: (T, N, 2) plane coordinates -> (T, 3^axes N, 2),
+    each particle then its images shifted by -L, 0, +L along the first ``axes`` plane axes
+    (1 for rods on a line, 2 for disks and the side view of spheres). The axes clip what falls
+    outside the box, so a disk across an edge shows on both sides; a particle's image k is at
+    index k N + i, the unshifted one first."""
+    steps = (0.0, -length, length)
+    shifts = [(dx, dy) for dx in steps for dy in (steps if axes == 2 else (0.0,))]
+    return np.concatenate([xy + np.array(shift) for shift in shifts], axis=1)
 
 
 def _figure(data: dict, size_px: int, dpi: int):
@@ -76,7 +88,7 @@ def _figure(data: dict, size_px: int, dpi: int):
 def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, fps: int = 20,
                max_frames: int = MAX_FRAMES, size_px: int = 600, dpi: int = 100, trail: int = 0,
                frame_png: str | os.PathLike | None = None) -> int:
-    """Render the trajectory ``trajectory_path`` (.h5, .gsd or .pvd) to the animated GIF ``gif_path``.
+    """Render the trajectory ``trajectory_path`` (.h5md, .gsd or .pvd) to the animated GIF ``gif_path``.
 
     fps: frames per second of the GIF; max_frames: subsample longer
     trajectories; size_px: width of the image in pixels; trail: number of
@@ -100,9 +112,14 @@ def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, 
     species = data["species"] if data["species"] is not None else np.zeros(radius.size, int)
     colours = np.array([f"C{k % 10}" for k in species])
     names = data["species_names"]
-    disks = EllipseCollection(2 * radius, 2 * radius, np.zeros_like(radius), units="xy",
-                              offsets=xy[0], offset_transform=ax.transData,
-                              facecolors=colours, edgecolors="k", linewidths=0.3)
+    centres, copies = xy, 1
+    if data.get("periodic"):  # each disk and its images: one across an edge shows on both sides
+        centres = periodic_images(xy, float(np.max(data["box"])), 1 if data["dim"] == 1 else 2)
+        copies = centres.shape[1] // radius.size
+    size = np.tile(2 * radius, copies)
+    disks = EllipseCollection(size, size, np.zeros_like(size), units="xy",
+                              offsets=centres[0], offset_transform=ax.transData,
+                              facecolors=np.tile(colours, copies), edgecolors="k", linewidths=0.3)
     ax.add_collection(disks)
     # particles under ~1.5 pixel wide: a dot on top
     fig.canvas.draw()
@@ -124,7 +141,7 @@ def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, 
     frames = _frames(count, max_frames)
 
     def draw(k):
-        disks.set_offsets(xy[k])
+        disks.set_offsets(centres[k])
         if dots is not None:
             dots.set_offsets(xy[k, tiny])
         if lines:

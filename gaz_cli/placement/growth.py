@@ -157,7 +157,7 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
     P (N, P_WIDTH) rows at time 0: start positions (points: f = 0 at t = 0), velocities,
     final radii R, in units where the box is L wide; I (N, I_WIDTH) with the cells
     assigned (cells of side >= the final largest diameter; ``cells`` and the gather
-    buffers GB, GS as the engine's). The engine's heap (:mod:`.engine.calendar`: keys HK
+    buffers GB, GS as the engine's). The engine's heap (:mod:`gaz_cli.engines.event.calendar`: keys HK
     (N,), particles HI (N,), links Q (N, 4)) holds every particle under its next event;
     C (3,) float64 is where the growth stands: time, events, heap size (-1 before the first
     call: every event predicted then).
@@ -168,7 +168,7 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
     (:func:`_ls_next`), off which a particle bounces as off a wall. The rows are moved to time f_end / gamma.
     Returns (status, f reached, events): status DONE, 1 event budget spent (jammed
     below f_end) or CELL_FULL: the next event, a crossing, would overflow a cell; nothing of
-    it is done: widen the table (:func:`.engine.neighbours.cells.wider`), take gather
+    it is done: widen the table (:func:`gaz_cli.engines.event.neighbours.cells.wider`), take gather
     buffers for it and call again, which goes on from there.
     """
     n = P.shape[0]

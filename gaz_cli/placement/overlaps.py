@@ -41,7 +41,7 @@ def _first_overlap(pos, radii, length, periodic, I, cells, GB, GS, nc):
 
 
 def _cell_table(P, I, nc: int, a: float, dim: int) -> np.ndarray:
-    """The engine's cell table (:mod:`.engine.neighbours.cells`) of the centres P[:, :dim]:
+    """The engine's cell table (:mod:`gaz_cli.engines.event.neighbours.cells`) of the centres P[:, :dim]:
     cells of side a, nc an axis, each particle's cell in I; wide enough for the fullest."""
     cap = GATHER_SLOTS
     while True:

@@ -26,7 +26,7 @@ atoms, 3D periodic, packing 0.2: 4.1 MB); staging.MEMORY_ROWS lowered to 1000 fo
 
 def database_peak(scene: Scene) -> tuple[float, float, float] | None:
     """(rows, growth, staged) of a run into a SQLite file: the rows it records
-    (:func:`work_estimate`'s wall bounces, and collisions with ``record`` all), the file's
+    (:func:`gaz_cli.model.estimates.work_estimate`'s wall bounces, and collisions with ``record`` all), the file's
     growth (times :data:`BYTES_PER_ROW`) and the scratch file that stages them when they are
     more than :data:`gaz_cli.results.staging.MEMORY_ROWS` (times :data:`STAGED_BYTES_PER_ROW`; else 0),
     bytes. None when not estimated: ``record`` none, ``force``, the step engine (its bounces

@@ -434,18 +434,26 @@ def renamed(name: str, path: Path, uri: bool) -> str:
 
 
 def _private_file(path: Path, shown: str) -> Path:
-    """A new, empty file beside ``path`` where its database is made (see :class:`SqliteFile`)."""
-    import tempfile
+    """A new, empty file beside ``path`` where its database is made (see :class:`SqliteFile`).
+
+    Created with mode 0o666 less the process's umask, as any tool's new file (0644 under umask
+    022): the database published from it keeps that mode. (tempfile.mkstemp made it 0600
+    whatever the umask: a shared database others could not read.)"""
+    import secrets
 
     name = file_name(path)
-    try:
-        fd, private = tempfile.mkstemp(prefix=f".{os.path.basename(name)}.{os.getpid()}.", suffix=NEW_SUFFIX,
-                                       dir=os.path.dirname(name))
-    except OSError as err:
-        raise StoreError(f"cannot open database {shown!r} ({err.strerror}); check that its folder exists "
-                         "and is writable") from None
-    os.close(fd)
-    return Path(private)
+    prefix = os.path.join(os.path.dirname(name), f".{os.path.basename(name)}.{os.getpid()}.")
+    while True:
+        private = f"{prefix}{secrets.token_hex(4)}{NEW_SUFFIX}"
+        try:
+            fd = os.open(private, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:  # (a name drawn twice: draw again)
+            continue
+        except OSError as err:
+            raise StoreError(f"cannot open database {shown!r} ({err.strerror}); check that its folder exists "
+                             "and is writable") from None
+        os.close(fd)
+        return Path(private)
 
 
 def _second_name(private: Path, file: "SqliteFile") -> Path:

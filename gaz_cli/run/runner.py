@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from gaz_cli import interrupts
+from gaz_cli.constants import PRESSURE_UNIT
 from gaz_cli.errors import Interrupted, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.model.scene import Scene, State, fresh_seed
@@ -215,6 +216,21 @@ class Run:
     scene: Scene | None = None
     """The scene as run: validated, its engine resolved, its seed fixed."""
 
+    def __repr__(self) -> str:
+        """The text summary (:func:`describe`) and what was kept, by shape: a dozen lines,
+        never the arrays (a notebook shows this for ``run``)."""
+        kept = []
+        if self.state is not None:
+            kept.append(f"state: positions {self.state.positions.shape}, velocities {self.state.velocities.shape}")
+        for name, rows in (("bounces", self.bounces), ("collisions", self.collisions)):
+            if rows is not None:
+                kept.append(f"{name}: {len(next(iter(rows.values()), ()))} rows ({', '.join(rows)})")
+        try:
+            lines = describe(self.summary).splitlines()
+        except (KeyError, TypeError, ValueError):  # a Run made by hand, its summary partial
+            lines = [f"summary with {', '.join(map(str, self.summary))}"]
+        return "\n".join([f"<Run: {lines[0]}", *lines[1:], *(f"  {k}" for k in kept)]) + ">"
+
 
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
@@ -352,7 +368,10 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
 
     ``pressure`` is the mean over the walls of the measured wall pressure
     (momentum / (T L^(D-1))), or the virial pressure in a periodic box; None
-    when nothing was recorded to measure it.
+    when nothing was recorded to measure it. Each dimensioned value names its unit: beside
+    it (``pressure_unit``: Pa in 3D, N/m in 2D, N in 1D; ``length_unit`` m, ``duration_unit``
+    s, ``kinetic_energy_unit`` J for both kinetic energies), or in its key (``wall_time_s``,
+    ``events_per_second``).
     """
     out = {
         "si_num": si_num,
@@ -361,7 +380,9 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
         "dim": scene.dim,
         "n": scene.n,
         "length": scene.length,
+        "length_unit": "m",
         "duration": scene.duration,
+        "duration_unit": "s",
         "seed": scene.seed,
         "boundary": scene.boundary,
         "packing_fraction": scene.packing_fraction,
@@ -370,7 +391,9 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
         "collisions": int(stats.collisions),
         "kinetic_energy_start": ke_start,
         "kinetic_energy_end": ke_end,
+        "kinetic_energy_unit": "J",
         "pressure": run_pressure(scene, stats, ke_start, ke_end, wall_momentum),
+        "pressure_unit": PRESSURE_UNIT[scene.dim],
         "wall_time_s": stats.wall_time_s,
         "events_per_second": stats.events / stats.wall_time_s if stats.wall_time_s > 0 else None,
     }
@@ -399,7 +422,8 @@ def write_state(path: str, scene: Scene, state: State) -> None:
 
 def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,
                  wall_momentum: np.ndarray | None = None) -> float | None:
-    """The summary's pressure, Pa: mean wall pressure, or the virial pressure in a periodic box."""
+    """The summary's pressure (:data:`gaz_cli.constants.PRESSURE_UNIT`: Pa, N/m or N): mean wall
+    pressure, or the virial pressure in a periodic box."""
     from gaz_cli import theory
 
     if scene.boundary == "periodic":
@@ -450,8 +474,7 @@ def describe(summary: dict) -> str:
     lines.append(f"  kinetic energy {ks:.6g} J -> {ke:.6g} J (relative change {drift:.2e})")
     if summary["pressure"] is not None:
         how = "mean over the walls" if summary["boundary"] == "walls" else "collision virial"
-        unit = {1: "N", 2: "N/m"}.get(summary["dim"], "Pa")   # force per wall measure L^(D-1)
-        lines.append(f"  pressure {summary['pressure']:.6g} {unit} ({how})")
+        lines.append(f"  pressure {summary['pressure']:.6g} {PRESSURE_UNIT[summary['dim']]} ({how})")
     eps = summary["events_per_second"]
     lines.append(f"  run time {summary['wall_time_s']:.3g} s"
                  + (f", {eps:,.0f} events/s" if eps else ""))

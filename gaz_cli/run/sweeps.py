@@ -37,7 +37,6 @@ import itertools
 import logging
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -627,24 +626,25 @@ def dask_setup(worker=None) -> None:
 
 
 class _Bar:
-    """The sweep's progress on stderr (rich): runs done, running and failed, time left."""
+    """The sweep's progress (:func:`gaz_cli.progress.bar`, the bar of every long command): runs
+    done, running and failed, time left; on stderr, or in a notebook's cell."""
 
     def __init__(self, total: int, show: bool | None):
+        from gaz_cli import progress
+
         self.total = total
-        self.show = sys.stderr.isatty() if show is None else show
+        self.show = progress.wanted(False) if show is None else show
         self.progress = None
         self.started = time.monotonic()
 
     def __enter__(self):
         if self.show:
-            from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+            from rich.progress import MofNCompleteColumn
 
-            self.progress = Progress(TextColumn("sweep"), BarColumn(), MofNCompleteColumn(),
-                                     TextColumn("runs · {task.fields[running]} running · "
-                                                "{task.fields[failed]} failed"),
-                                     TimeRemainingColumn(), console=Console(stderr=True),
-                                     transient=False)
+            from gaz_cli import progress
+
+            self.progress = progress.bar("sweep", MofNCompleteColumn(),
+                                         "runs · {task.fields[running]} running · {task.fields[failed]} failed")
             self.progress.start()
             self.task = self.progress.add_task("sweep", total=self.total, running=0, failed=0)
         return self

@@ -209,7 +209,7 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
         raise field_error(f"`every` {every:g} s over `duration` {scene.duration:g} s makes {snapshots:,} "
                           f"snapshots, more than {MAX_SNAPSHOTS:,}; use `every` {least:.3g} or more, "
                           "or add `force` to write them all")
-    size = snapshots * scene.n * scene.dim * 16.0
+    size = snapshots * scene.n * 3 * 16.0  # positions and velocities, 3 float64 each (1D and 2D embedded in 3D)
     try:
         import shutil
 
