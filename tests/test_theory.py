@@ -15,6 +15,7 @@ import pytest
 from scipy.integrate import quad
 
 from gaz_cli import theory as th
+from gaz_cli.theory import eos
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
 
@@ -86,8 +87,8 @@ def test_henderson_deviation_from_kolafa_rottner(rho, percent, tol):
 
 def test_disk_virial_coefficients():
     # Henderson B3 = 3.125; Kolafa-Rottner B3 = 3.12802 (exact); exact B4 = 4.25786, B5 = 5.33690
-    hen = _virial_coefficients(th._excess_henderson, 2)
-    kr = _virial_coefficients(th._excess_kolafa_rottner, 4)
+    hen = _virial_coefficients(eos._excess_henderson, 2)
+    kr = _virial_coefficients(eos._excess_kolafa_rottner, 4)
     assert hen == approx([2.0, 3.125], abs=1e-9)
     assert kr == approx([2.0, 3.12802, 4.25786, 5.33690], abs=2e-5)
 
@@ -105,7 +106,7 @@ def test_klm_table(eta, z):
 
 def test_klm_virial_coefficients():
     # physics.md: B4 = 18.3648, B5 = 28.2245, B6 ~ 39.815 (and B2 = 4, B3 = 10 exactly)
-    b = _virial_coefficients(th._excess_klm, 5)
+    b = _virial_coefficients(eos._excess_klm, 5)
     assert b[:2] == approx([4.0, 10.0], abs=1e-9)
     assert b[2] == approx(18.3648, abs=5e-5)
     assert b[3] == approx(28.2245, abs=1e-4)  # 28.22445 from the coefficients
@@ -114,7 +115,7 @@ def test_klm_virial_coefficients():
 
 def test_carnahan_starling_virial_coefficients():
     # CS: B_n = n^2 + n - 2 -> 4, 10, 18, 28, 40
-    assert _virial_coefficients(th._excess_carnahan_starling, 5) == approx(
+    assert _virial_coefficients(eos._excess_carnahan_starling, 5) == approx(
         [4.0, 10.0, 18.0, 28.0, 40.0], abs=1e-9)
 
 
