@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from gaz_cli import theory
-from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import stored
 from gaz_cli.errors import GazError, SceneError
 
 KEYS = {
@@ -65,7 +65,7 @@ def runs(store) -> pd.DataFrame:
     out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
                       for d, rho, r in zip(dim, out.density, radius)]
     ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
-    drift = [analysis.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
+    drift = [stored.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
              for f, k0, p in zip(out.scene_file, frame.RS_KE_START.to_numpy(dtype=float), periodic)]
     t_kin = np.array([_kinetic_temperature(d, k, nn, p, e) for d, k, nn, p, e in zip(dim, ke, n, periodic, drift)])
     out["T_KIN"] = t_kin
@@ -149,7 +149,7 @@ def _scenes(store) -> pd.DataFrame:
                         for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
     out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
     out["scene_file"] = scenes.SC_FILE if "SC_FILE" in scenes else None
-    out["planes"] = [analysis.plane_count(f) for f in out.scene_file]  # extra walls make another scene
+    out["planes"] = [stored.plane_count(f) for f in out.scene_file]  # extra walls make another scene
     return out.merge(mix, on="SI_NUM", how="left")
 
 

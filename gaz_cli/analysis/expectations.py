@@ -1,0 +1,286 @@
+"""Theory for one stored run: which models apply to its scene, their values and caveats.
+
+Each :class:`Expectation` names its model, its known systematic error (SYST_REL) and whether
+it fits the scene (``applies``); where it does not, no deviation in sigmas is printed and the
+reason is its note."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from gaz_cli import theory
+from gaz_cli.analysis import errorbars
+from gaz_cli.analysis.estimators import NA, species_arrays
+from gaz_cli.analysis.stored import StoredRun, initial_state
+from gaz_cli.errors import SceneError
+
+
+@dataclass
+class Expectation:
+    """One theoretical value: its number (NaN where none), the model's name and its caveat."""
+
+    value: float
+    model: str
+    note: str = ""
+    syst: float = 0.0
+    """Relative size of the model's known systematic error for this scene (0: exact or unknown)."""
+    applies: bool = True
+    """False when the model is known not to fit the scene: no deviation in sigmas is printed."""
+    error: float = 0.0
+    """Standard error of the value from that of its input temperature (under gravity), same unit."""
+
+    @property
+    def known(self) -> bool:
+        return math.isfinite(self.value)
+
+
+def evaluate(model: str, func, note: str = "") -> Expectation:
+    """Evaluate ``func()``; a theory range error becomes NaN with the reason as note."""
+    try:
+        return Expectation(float(func()), model, note)
+    except SceneError as err:
+        return Expectation(NA, model, str(err))
+
+
+EXACT_ENGINES = ("event", "ideal", "reference")
+"""Engines that conserve the energy to round-off (the step engine's leap-frog drifts)."""
+
+
+def energy_temperature(run: StoredRun) -> float:
+    """Temperature of the settled gas under gravity from its conserved energy, K (NaN where unknown).
+
+    Elastic dynamics under uniform gravity conserves E = K + sum m g (z - R)
+    exactly; the initial state (rebuilt from the stored scene file) gives E,
+    and the settled gas shares it as (D/2) N k_B T + N m g <z - R>(T)
+    (:func:`gaz_cli.theory.gravity_energy_temperature`). No statistical error:
+    the pressures' own error holds the exchange between kinetic and potential
+    energy over the run. One species, an exact engine, nothing that dissipates.
+    """
+    if (run.gravity <= 0.0 or run.periodic or not run.one_species or run.engine not in EXACT_ENGINES
+            or run.restitution < 1.0 or run.wall_restitution < 1.0):
+        return NA
+    rebuilt = initial_state(run)
+    if rebuilt is None:
+        return NA
+    scene, state = rebuilt
+    if scene.planes or scene.drag > 0.0 or scene.pair_gravity > 0.0:
+        return NA
+    radius = float(run.species.RADIUS_M.iloc[0])
+    mass = float(run.species.MASS_KG.iloc[0])
+    energy = run.ke_start + float(np.sum(scene.masses() * run.gravity * (state.positions[:, -1] - radius)))
+    try:
+        return float(theory.gravity_energy_temperature(run.dim, run.length, energy, run.n, radius, mass,
+                                                       run.gravity))
+    except SceneError:
+        return NA
+
+
+def gravity_walls(run: StoredRun, temperature: float):
+    """(floor, ceiling, side, model, note) of the best gravity model for the run."""
+    counts, radii, masses = species_arrays(run)
+    d, L = run.dim, run.length
+    if run.one_species and radii[0] > 0:
+        floor, ceiling, side = theory.hard_sphere_gravity_wall_pressures(
+            d, L, temperature, counts[0], radii[0], masses[0], run.gravity)
+        return floor, ceiling, side, f"hard spheres under gravity, local {theory.BEST_MODEL[d]} EOS", \
+            "barometric profile with the bulk EOS at the local density; first order in the wall corrections"
+    floor, ceiling = theory.ideal_gravity_wall_pressures(d, L, temperature, counts, radii, masses, run.gravity)
+    side = theory.ideal_wall_pressure(d, L, temperature, counts, radii) if d > 1 else 0.0
+    return floor, ceiling, side, "ideal gas under gravity", "non-interacting (dilute) limit; mixture: no excess"
+
+
+def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0) -> list[Expectation]:
+    """Every theoretical pressure that applies to the run; the first one is the best.
+
+    Walls: what the SQL measures (per full wall area). 1D: Tonks, exact.
+    2D/3D: :func:`theory.hard_sphere_wall_pressure` (one species), then the
+    non-interacting gas; when its systematic error bound (wall adsorption)
+    exceeds the statistical error ``stat_rel`` (relative), it does not fit the
+    scene and no deviation is printed. Under gravity the mean over the walls
+    of the hard-sphere barometric model. Periodic: the bulk equation of state
+    against the virial. Cooling gas: no equilibrium value.
+    """
+    counts, radii, masses = species_arrays(run)
+    d, L = run.dim, run.length
+    if not math.isfinite(temperature) or not len(run.species):
+        return [Expectation(NA, "none", "no kinetic energy or composition recorded for this simulation")]
+    if run.restitution < 1.0:
+        return [Expectation(NA, "none", f"restitution {run.restitution:g} < 1: the gas cools "
+                                        "(Haff's law below), there is no equilibrium pressure")]
+    if run.wall_restitution < 1.0:
+        return [Expectation(NA, "none", f"wall restitution {run.wall_restitution:g} < 1: the walls cool the gas, "
+                                        "there is no equilibrium pressure; measured from (1 + e_w) m |v_perp| per "
+                                        "bounce, as the run summary and Q36")]
+    if run.extra_forces:
+        return [Expectation(NA, "none", run.extra_forces)]
+    out = []
+    if run.periodic:
+        n = run.n / L ** d
+        if run.one_species:
+            model = theory.BEST_MODEL[d]
+            out.append(evaluate(f"hard spheres, bulk {model} EOS",
+                            lambda: theory.hard_sphere_pressure(d, n, 2 * radii[0], temperature)))
+        else:
+            out.append(evaluate("mixture, bulk BMCSL EOS" if d == 3 else "mixture, bulk EOS",
+                            lambda: theory.mixture_pressure(d, counts / L ** d, 2 * radii, temperature),
+                            "Boublik-Mansoori-Carnahan-Starling-Leland (3D; about 0.2% low at packing 0.3); "
+                            "2D: the Santos-Yuste-Lopez de Haro mapping on the one-component EOS"))
+        out.append(evaluate("ideal gas N kT/V", lambda: theory.ideal_gas_pressure(run.n, temperature, L ** d),
+                        "no interactions: excess pressure ignored"))
+        return out
+    if run.gravity > 0.0:
+        def mean_gravity(t=temperature):
+            floor, ceiling, side, _, _ = gravity_walls(run, t)
+            return (floor + ceiling + (2 * d - 2) * side) / (2 * d)
+        try:
+            _, _, _, name, note = gravity_walls(run, temperature)
+        except SceneError as err:
+            name, note = "under gravity", str(err)
+        exp = evaluate(f"{name} (mean of the walls)", mean_gravity, note)
+        if exp.known and run.temperature_error > 0:
+            exp.error = abs(mean_gravity(temperature + run.temperature_error) - exp.value)
+            exp.note += (f"; T = {temperature:.5g} +- {run.temperature_error:.2g} K from <v_perp^2> of the "
+                         "settled part's wall hits (its error is in DEV_SIGMA)")
+        elif exp.known and run.temperature_source == "energy":
+            exp.note += (f"; T = {temperature:.5g} K from the conserved energy of the initial state, "
+                         "kinetic plus potential")
+        if not set_aside_unsettled(exp, run) and run.ordered_rods:
+            exp.applies, exp.note = False, run.ordered_rods
+        elif exp.known and exp.applies and not run.one_species:
+            _set_aside_excess(exp, run, stat_rel)
+        out.append(exp)
+        return out
+    if d == 1:
+        out.append(evaluate("Tonks, exact (1D rods)", lambda: theory.tonks_pressure(L, temperature, counts, radii),
+                        "N kT/(L - N 2R), kT = (1/N) sum m v^2 from the kinetic energy"))
+    elif run.one_species:
+        model = theory.BEST_MODEL[d]
+        exp = evaluate(f"hard spheres at walls, {model} at N/(L-2R)^D",
+                   lambda: theory.hard_sphere_wall_pressure(d, L, temperature, counts[0], radii[0]),
+                   "first order in eta and 2R/L; SYST_REL: next order (wall adsorption), a bound")
+        if exp.known:
+            try:
+                exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
+            except SceneError:
+                exp.syst = NA
+            if stat_rel > 0 and not exp.syst <= stat_rel:
+                exp.applies = False
+                dense = exp.syst > 10 * stat_rel
+                exp.note = (("no theory for this scene: " if dense else "") +
+                            f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
+                            f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
+                            "compare REL_DEV with SYST_REL" +
+                            ("; a dense fluid at walls needs its contact density, which the database "
+                             "does not hold" if dense else ""))
+        out.append(exp)
+    else:
+        out.append(evaluate("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",
+                        lambda: theory.mixture_wall_pressure(d, L, temperature, counts, radii),
+                        "first order in eta and 2R/L, as for one species"))
+    ideal = evaluate("ideal gas at walls, N kT/((L-2R) L^(D-1))",
+                 lambda: theory.ideal_wall_pressure(d, L, temperature, counts, radii),
+                 "dilute limit (eta -> 0), exact for non-interacting particles")
+    out.append(ideal)
+    return out
+
+
+def _set_aside_excess(exp: Expectation, run: StoredRun, stat_rel: float) -> None:
+    """A mixture under gravity, against the ideal mixture's barometric pressures: its excess pressure,
+    Z - 1 of one species at the mixture's packing fraction (the best model), is the model's
+    systematic error (SYST_REL); above the statistical error ``stat_rel`` (relative) ``exp`` does
+    not fit the scene and is set aside, the reason in its note."""
+    try:
+        exp.syst = float(theory.compressibility_factor(run.dim, run.packing_fraction)) - 1.0
+    except SceneError:
+        exp.syst = NA
+    if stat_rel > 0 and not exp.syst <= stat_rel:
+        exp.applies = False
+        exp.note = (f"the ideal mixture leaves out the excess pressure (about {exp.syst:.2g} relative at the "
+                    f"packing fraction {run.packing_fraction:.3g}: SYST_REL), above the statistical error "
+                    f"({stat_rel:.2g}); no mixture theory under gravity here: compare REL_DEV with SYST_REL")
+
+
+def wall_pressure_theory(run: StoredRun, temperature: float, best: Expectation | None = None) -> dict[int, Expectation]:
+    """Wall code -> expected pressure on that wall (best model)."""
+    best = best or pressure_models(run, temperature)[0]
+    if run.gravity > 0.0 and best.known and not run.periodic:
+        d = run.dim
+        values = gravity_walls(run, temperature)[:3]
+        shifted = (gravity_walls(run, temperature + run.temperature_error)[:3] if run.temperature_error > 0
+                   else values)
+
+        def pick(v, w):
+            return float(v[0] if w == -d else v[1] if w == d else v[2])
+        return {w: Expectation(pick(values, w), best.model, best.note, applies=best.applies,
+                               error=abs(pick(shifted, w) - pick(values, w)))
+                for w in run.walls}
+    return {w: best for w in run.walls}
+
+
+def hit_shares(run: StoredRun, temperature: float = NA) -> np.ndarray:
+    """Expected share of the wall hits of each species, normalised.
+
+    A wall's hits per second are its pressure over sqrt(2 pi m kT), the mean momentum a hit
+    gives (physics.md section 6): a species' share is the sum over the walls of its partial
+    pressure over sqrt(m_s), N_s / ((L - 2R_s) sqrt(m_s)) without gravity. Under gravity (at
+    ``temperature``, K) the floor and ceiling take each species' own barometric pressures, the
+    2D - 2 side walls its N_s kT/((L - 2R_s) L^(D-1)): heavy species sit low and hit the
+    ceiling less.
+    """
+    counts, radii, masses = species_arrays(run)
+    d, L = run.dim, run.length
+    if d == 1 and len(counts) > 1 and run.gravity <= 0.0 and len(run.hits):
+        # rods never pass each other: only the two end rods hit the walls, each wall's hits at the
+        # rate P/sqrt(2 pi m kT) of its end rod's mass (the same P on both walls), whatever N_s
+        w = np.zeros(len(counts))
+        index = {int(pa): k for k, pa in enumerate(run.species.PA_NUM)}
+        for _, at_wall in run.hits.groupby("RE_DIR").PA_NUM:
+            ends = [index[int(pa)] for pa in at_wall.unique() if int(pa) in index]
+            for k in ends:
+                w[k] += 1.0 / (len(ends) * math.sqrt(masses[k]))
+        if w.sum() > 0:
+            return w / w.sum()
+    if run.gravity > 0.0 and not run.periodic and math.isfinite(temperature):
+        walls = np.array([sum(theory.ideal_gravity_wall_pressures(d, L, temperature, c, r, m, run.gravity))
+                          + (2 * d - 2) * theory.ideal_wall_pressure(d, L, temperature, c, r)
+                          for c, r, m in zip(counts, radii, masses)])
+        w = walls / np.sqrt(masses)
+    else:
+        w = counts / ((L - 2.0 * radii) * np.sqrt(masses))
+    return w / w.sum()
+
+
+def deviation(measured, error, expected, applies: bool = True, theory_error: float = 0.0) -> float:
+    """(measured - expected)/sqrt(error^2 + theory_error^2), or NaN."""
+    if not applies or not all(map(math.isfinite, (measured, error, expected))) or error <= 0:
+        return NA
+    return (measured - expected) / math.hypot(error, theory_error)
+
+
+def relative(measured, expected) -> float:
+    if not (math.isfinite(measured) and math.isfinite(expected)) or expected == 0:
+        return NA
+    return measured / expected - 1.0
+
+
+def number_or_nan(x) -> float:
+    """A float, NaN for None."""
+    return NA if x is None else float(x)
+
+
+def set_aside_unsettled(exp: Expectation, run: StoredRun) -> bool:
+    """Under gravity: ``exp`` set aside, with the reason, when the run never settles (1D rods of
+    one mass) or did not settle (its fall and thermalisation fill more than the bins it may
+    drop); returns whether it was."""
+    if run.never_settles:
+        exp.applies, exp.note = False, run.never_settles
+    elif not run.settled:
+        exp.applies = False
+        exp.note = (f"the run did not settle: the first {run.settle_bin}/{errorbars.BINS} of it are the "
+                    "fall and thermalisation; run longer")
+    else:
+        return False
+    return True
