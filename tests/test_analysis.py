@@ -179,7 +179,8 @@ def test_report_sees_a_wrong_pressure(tmp_path):
     with Store(db).engine.begin() as conn:
         conn.exec_driver_sql("UPDATE PARTICULE SET PA_M = PA_M * 1.3 WHERE PA_NOM = 'Ar'")
     row = analysis.report(db, sim=1)["pressure against the ideal gas"].iloc[0]
-    assert row.DEV_SIGMA > 8, row
+    # DEV_SIGMA is Student's t as a normal deviate: its far tail grows slower than t
+    assert row.DEV_SIGMA > 5 and row.P_MEASURED / row.P_THEORY - 1 > 5 * row.P_ERR / row.P_THEORY, row
 
 
 def test_gravity_force_balance_and_profile(tmp_path):

@@ -23,7 +23,7 @@ from gaz_cli.analysis import errorbars
 from gaz_cli.analysis.estimators import (NA, ends_variance, per_bin, run_average, settled_temperature,
                                          species_arrays, virial_bin_pressures, wall_bin_pressures,
                                          wall_estimates)
-from gaz_cli.analysis.expectations import (Expectation, deviation, evaluate, gravity_walls, hit_shares,
+from gaz_cli.analysis.expectations import (Expectation, deviation, evaluate, few_dof_note, gravity_walls, hit_shares,
                                            number_or_nan, pressure_models, relative, set_aside_unsettled,
                                            wall_pressure_theory)
 from gaz_cli.analysis.stored import StoredRun
@@ -54,7 +54,7 @@ def per_wall_frame(run: StoredRun, per_wall: pd.DataFrame, temperature: float, s
         return frame
     expected = wall_pressure_theory(run, temperature, summary["best"])
     estimates = wall_estimates(run, expected, temperature)
-    cols = {k: [] for k in ("P_UNIT", "P_MEASURED", "P_ERR", "N_EFF", "P_THEORY", "DEV_SIGMA", "NOTE")}
+    cols = {k: [] for k in ("P_UNIT", "P_MEASURED", "P_ERR", "N_EFF", "DOF", "P_THEORY", "DEV_SIGMA", "NOTE")}
     for w in frame.RE_DIR.astype(int):
         est = estimates.get(w, errorbars.NAN_ESTIMATE)
         exp = expected.get(w, Expectation(NA, "none"))
@@ -62,9 +62,11 @@ def per_wall_frame(run: StoredRun, per_wall: pd.DataFrame, temperature: float, s
         cols["P_MEASURED"].append(est.mean)
         cols["P_ERR"].append(est.error)
         cols["N_EFF"].append(est.n_eff)
+        cols["DOF"].append(est.dof)
         cols["P_THEORY"].append(exp.value)
-        cols["DEV_SIGMA"].append(deviation(est.mean, est.error, exp.value, exp.applies, exp.error))
-        cols["NOTE"].append(_wall_note(run, exp))
+        dev = deviation(est.mean, est.error, exp.value, exp.applies, exp.error, est.dof)
+        cols["DEV_SIGMA"].append(dev)
+        cols["NOTE"].append(_joined(_wall_note(run, exp), few_dof_note(est.dof, exp.known and exp.applies and math.isfinite(est.error))))
     for k, v in cols.items():
         frame[k] = v
     return frame
@@ -101,7 +103,7 @@ def pressure_summary(run: StoredRun, temperature: float) -> dict:
         how = "mean over the walls" + (" after settling" if run.settle_bin else "")
     stat_rel = est.error / abs(measured) if math.isfinite(est.error) and measured else 0.0
     models = pressure_models(run, temperature, stat_rel)
-    return {"measured": measured, "error": est.error, "n_eff": est.n_eff, "how": how,
+    return {"measured": measured, "error": est.error, "n_eff": est.n_eff, "dof": est.dof, "how": how,
             "best": models[0], "models": models}
 
 
@@ -110,10 +112,14 @@ def pressure_frame(run: StoredRun, temperature: float, summary: dict) -> pd.Data
     rows = []
     for exp in summary["models"]:
         rows.append({"MODEL": exp.model, "P_UNIT": run.unit, "P_MEASURED": number_or_nan(summary["measured"]),
-                     "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"], "P_THEORY": exp.value,
-                     "DEV_SIGMA": deviation(summary["measured"], summary["error"], exp.value, exp.applies, exp.error),
+                     "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"], "DOF": summary["dof"],
+                     "P_THEORY": exp.value,
+                     "DEV_SIGMA": deviation(summary["measured"], summary["error"], exp.value, exp.applies, exp.error,
+                                            summary["dof"]),
                      "REL_DEV": relative(summary["measured"], exp.value), "SYST_REL": exp.syst,
-                     "MEASURED": summary["how"], "NOTE": exp.note})
+                     "MEASURED": summary["how"],
+                     "NOTE": _joined(exp.note, few_dof_note(summary["dof"], exp.known and exp.applies
+                                                            and math.isfinite(summary["error"])))})
     return pd.DataFrame(rows)
 
 
@@ -191,8 +197,8 @@ def collision_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
         approximate = exp.model.startswith("Enskog") or exp.model.startswith("1D rods")
         fits = exp.applies and (not approximate or (math.isfinite(est.error) and est.error > 0.02 * rate))
         frame.append({"MODEL": exp.model, "COLLISIONS": run.collisions, "RATE_PER_PARTICLE_HZ": rate,
-                      "RATE_ERR_HZ": est.error, "N_EFF": est.n_eff, "THEORY_HZ": exp.value,
-                      "DEV_SIGMA": deviation(rate, est.error, exp.value, fits),
+                      "RATE_ERR_HZ": est.error, "N_EFF": est.n_eff, "DOF": est.dof, "THEORY_HZ": exp.value,
+                      "DEV_SIGMA": deviation(rate, est.error, exp.value, fits, 0.0, est.dof),
                       "REL_DEV": relative(rate, exp.value),
                       "NOTE": err_note + exp.note + ("" if fits or not (exp.applies and math.isfinite(est.error)) else
                                                      "; model error (a few %) above the statistical "
@@ -210,14 +216,14 @@ def contact_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
     particle indices give the species (COMPOSITION.CO_RANK: the species'
     block of indices). A periodic box only: walls thin the density near them.
     """
-    cols = ["PAIR", "COLLISIONS", "G_MEASURED", "G_ERR", "N_EFF", "G_THEORY", "DEV_SIGMA", "REL_DEV", "MODEL",
+    cols = ["PAIR", "COLLISIONS", "G_MEASURED", "G_ERR", "N_EFF", "DOF", "G_THEORY", "DEV_SIGMA", "REL_DEV", "MODEL",
             "NOTE"]
     sp = run.species.reset_index(drop=True)
     pairs = [(a, b) for a in range(len(sp)) for b in range(a, len(sp))]
 
     def empty(note):
         return pd.DataFrame([{"PAIR": f"{sp.NAME[a]}-{sp.NAME[b]}", "COLLISIONS": NA, "G_MEASURED": NA, "G_ERR": NA,
-                              "N_EFF": NA, "G_THEORY": NA, "DEV_SIGMA": NA, "REL_DEV": NA, "MODEL": "BMCSL",
+                              "N_EFF": NA, "DOF": NA, "G_THEORY": NA, "DEV_SIGMA": NA, "REL_DEV": NA, "MODEL": "BMCSL",
                               "NOTE": note} for a, b in pairs], columns=cols)
     if run.record != "all" or run.pair_bins is None:
         return empty("needs the collisions' partners: --record all" if run.record != "all" else
@@ -248,8 +254,8 @@ def contact_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
         est = errorbars.time_average(counts / (width * per_unit_g), duration=run.duration)
         g_th = float(bmcsl[a, b]) if bmcsl is not None else NA
         rows.append({"PAIR": f"{sp.NAME[a]}-{sp.NAME[b]}", "COLLISIONS": int(counts.sum()), "G_MEASURED": est.mean,
-                     "G_ERR": est.error, "N_EFF": est.n_eff, "G_THEORY": g_th,
-                     "DEV_SIGMA": deviation(est.mean, est.error, g_th), "REL_DEV": relative(est.mean, g_th),
+                     "G_ERR": est.error, "N_EFF": est.n_eff, "DOF": est.dof, "G_THEORY": g_th,
+                     "DEV_SIGMA": deviation(est.mean, est.error, g_th, True, 0.0, est.dof), "REL_DEV": relative(est.mean, g_th),
                      "MODEL": "BMCSL g_ij at contact" if bmcsl is not None else "none",
                      "NOTE": ("BMCSL sits about 0.2% below simulations at packing 0.3 (and more above): "
                               "a DEV_SIGMA of a few is that, with long runs" if bmcsl is not None else
@@ -307,8 +313,8 @@ def wall_speed_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
         expected_all = expected_all + w * exp.value
         expected_all_error += w * exp.error          # one temperature for all species: errors add
         rows.append({"SPECIES": sp.NAME, "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
-                     "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": exp.value,
-                     "DEV_SIGMA": deviation(est.mean, est.error, exp.value, True, exp.error),
+                     "ERR": est.error, "N_EFF": est.n_eff, "DOF": est.dof, "ERR_FROZEN": est.frozen, "THEORY": exp.value,
+                     "DEV_SIGMA": deviation(est.mean, est.error, exp.value, True, exp.error, est.dof),
                      "REL_DEV": relative(est.mean, exp.value),
                      "GAS_MEAN_SPEED": (float(theory.mean_speed(run.dim, temperature, sp.MASS_KG))
                                         if math.isfinite(temperature) else NA), "NOTE": exp.note})
@@ -323,8 +329,9 @@ def wall_speed_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
                          for sp, wt in zip(run.species.itertuples(), weights))
         est = run_average(run, sums, counts, static_var=static, relaxation=relax, end_var=0.0)
         rows.append({"SPECIES": "all (Q35)", "BOUNCES": int(counts.sum()), "VITESSE_MOYENNE": est.mean,
-                     "ERR": est.error, "N_EFF": est.n_eff, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
-                     "DEV_SIGMA": deviation(est.mean, est.error, expected_all, not run.ordered_rods, expected_all_error),
+                     "ERR": est.error, "N_EFF": est.n_eff, "DOF": est.dof, "ERR_FROZEN": est.frozen, "THEORY": expected_all,
+                     "DEV_SIGMA": deviation(est.mean, est.error, expected_all, not run.ordered_rods, expected_all_error,
+                                            est.dof),
                      "REL_DEV": relative(est.mean, expected_all), "GAS_MEAN_SPEED": NA,
                      "NOTE": ("theory weighted by the species of the two end rods, the only ones hitting the "
                               "walls, over sqrt(m_s)" if run.dim == 1 and run.gravity <= 0.0 else
@@ -371,10 +378,10 @@ def gravity_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
     if math.isfinite(est.mean) and math.isfinite(temperature) and len(run.species) and run.window > 0:
         error = math.sqrt(2.0 * float(np.sum(counts * masses)) * K_B * temperature) / run.window
         var1 = float(np.var(series[run.settle_bin:], ddof=1)) if series.size - run.settle_bin > 1 else NA
-        est = errorbars.Estimate(est.mean, error, var1 / error ** 2, NA, False, 0.0)
+        est = errorbars.Estimate(est.mean, error, var1 / error ** 2, NA, 0.0, math.inf)
     weight = float(np.sum(counts * masses) * run.gravity)
     pushed = run.drag > 0.0 or run.planes     # forces on the gas other than the weight and the two walls
-    rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": est.mean, "ERR": est.error, "N_EFF": est.n_eff,
+    rows = [{"QUANTITY": "floor - ceiling force (N)", "MEASURED": est.mean, "ERR": est.error, "N_EFF": est.n_eff, "DOF": est.dof,
              "THEORY": weight, "DEV_SIGMA": deviation(est.mean, est.error, weight, not pushed),
              "REL_DEV": relative(est.mean, weight),
              "NOTE": run.extra_forces if pushed else
@@ -403,8 +410,9 @@ def gravity_frame(run: StoredRun, temperature: float) -> pd.DataFrame:
     elif run.extra_forces:
         exp.applies, exp.note = False, run.extra_forces
     rows.append({"QUANTITY": "ceiling/floor hit ratio", "MEASURED": ratio_est.mean, "ERR": ratio_est.error,
-                 "N_EFF": ratio_est.n_eff, "THEORY": exp.value,
-                 "DEV_SIGMA": deviation(ratio_est.mean, ratio_est.error, exp.value, run.settled and exp.applies),
+                 "N_EFF": ratio_est.n_eff, "DOF": ratio_est.dof, "THEORY": exp.value,
+                 "DEV_SIGMA": deviation(ratio_est.mean, ratio_est.error, exp.value, run.settled and exp.applies, 0.0,
+                                        ratio_est.dof),
                  "REL_DEV": relative(ratio_est.mean, exp.value),
                  "NOTE": f"settled part, {int(floor[start:].sum())} floor and {int(ceiling[start:].sum())} "
                          f"ceiling hits; {exp.note}"})
@@ -487,11 +495,12 @@ def overview_row(run: StoredRun, temperature: float, summary: dict) -> dict:
                  if len(run.species) and math.isfinite(temperature) else Expectation(NA, "ideal"))
     measured = number_or_nan(summary["measured"])
     best = summary["best"]
-    row.update({"P_MEASURED": measured, "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"],
+    row.update({"P_MEASURED": measured, "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"], "DOF": summary["dof"],
                 "P_IDEAL": ideal.value, "RATIO": relative(measured, ideal.value) + 1.0,
                 "P_THEORY": best.value, "THEORY": best.model,
-                "DEV_SIGMA": deviation(measured, summary["error"], best.value, best.applies, best.error),
-                "NOTE": "" if best.known and best.applies else best.note})
+                "DEV_SIGMA": deviation(measured, summary["error"], best.value, best.applies, best.error, summary["dof"]),
+                "NOTE": (few_dof_note(summary["dof"], math.isfinite(summary["error"])) if best.known and best.applies
+                         else best.note)})
     return row
 
 
@@ -517,6 +526,10 @@ def tc_elastic(t, i, j, tc: float) -> np.ndarray:
     prev[order] = prev_sorted
     since = when - prev                          # time since this partner's previous collision
     return (since[:k] < tc) | (since[k:] < tc)
+
+
+def _joined(*notes: str) -> str:
+    return "; ".join(n for n in notes if n)
 
 
 # --- the registry ---------------------------------------------------------------------

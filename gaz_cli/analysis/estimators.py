@@ -192,7 +192,8 @@ def wall_estimates(run: StoredRun, expected: dict, temperature: float) -> dict[i
             error = 0.5 * math.sqrt(total.error ** 2 + diff_var)
             var1 = float(np.var(x[run.settle_bin:], ddof=1)) if x.size - run.settle_bin > 1 else math.nan
             out[w] = errorbars.Estimate(own.mean, error, var1 / error ** 2 if error > 0 else math.nan,
-                                        total.block_s, total.plateau, 0.5 * total.frozen)
+                                        total.window_s, 0.5 * total.frozen,
+                                        errorbars.combined_dof([(total.error ** 2, total.dof), (diff_var, math.inf)]))
     return out
 
 

@@ -253,11 +253,28 @@ def hit_shares(run: StoredRun, temperature: float = NA) -> np.ndarray:
     return w / w.sum()
 
 
-def deviation(measured, error, expected, applies: bool = True, theory_error: float = 0.0) -> float:
-    """(measured - expected)/sqrt(error^2 + theory_error^2), or NaN."""
+def deviation(measured, error, expected, applies: bool = True, theory_error: float = 0.0,
+              dof: float = math.inf) -> float:
+    """(measured - expected)/sqrt(error^2 + theory_error^2) judged on Student's t, or NaN.
+
+    ``dof``: the error's effective degrees of freedom (the theory's error counts as exact);
+    the t value is printed as the normal deviate of the same tail probability
+    (:func:`gaz_cli.analysis.errorbars.normal_equivalent`), NaN below errorbars.MIN_DOF.
+    """
     if not applies or not all(map(math.isfinite, (measured, error, expected))) or error <= 0:
         return NA
-    return (measured - expected) / math.hypot(error, theory_error)
+    t = (measured - expected) / math.hypot(error, theory_error)
+    if math.isfinite(dof):
+        dof = errorbars.combined_dof([(error * error, dof), (theory_error * theory_error, math.inf)])
+    return errorbars.normal_equivalent(t, dof)
+
+
+def few_dof_note(dof: float, applies: bool = True) -> str:
+    """NOTE's words where a deviation is withheld for too few degrees of freedom ('' otherwise)."""
+    if applies and math.isfinite(dof) and dof < errorbars.MIN_DOF or (applies and dof != dof):
+        return (f"DEV_SIGMA withheld: the error has about {dof:.2g} effective degrees of freedom "
+                f"(fewer than {errorbars.MIN_DOF:g}); run longer")
+    return ""
 
 
 def relative(measured, expected) -> float:

@@ -9,7 +9,7 @@ groups the runs by the key, and gives for each value the mean over its runs,
 its standard error, and theory for the same scene. The error of Z in a
 periodic box recorded with ``record = "all"`` comes from within each run: the
 collision virial in :data:`gaz_cli.analysis.errorbars.BINS` time bins (``collision_bins.sql``),
-reblocked (:func:`gaz_cli.analysis.errorbars.reblock`), the runs' errors combined as
+its error from the autocorrelation window (:func:`gaz_cli.analysis.errorbars.autocorrelation_error`), the runs' errors combined as
 sqrt(sum e_i^2)/k -- stable with few seeds, where the spread of k = 3 seeds gives an
 error that is itself uncertain by 50 % (Student's t with 2 degrees of freedom puts
 10 % of points beyond 3 of its sigmas). Otherwise, and for P and the rate, the error
@@ -285,7 +285,7 @@ def _z_error_within(store, si_num: int, dim: int, n: float, duration: float, t: 
     np.add.at(per_bin, index, bins.SUM_IMP.to_numpy(dtype=float))
     # Z in each bin: 1 + W_b / (D dt N k_B T), W_b = sum |J| sigma over the bin's collisions
     z = 1.0 + per_bin * 2.0 * radius / (dim * (duration / errorbars.BINS) * n * theory.K_B * t)
-    return errorbars.reblock(z)[0]
+    return errorbars.autocorrelation_error(z)[0]
 
 
 def _kinetic_temperature(dim, ke, n, periodic, drift=0.0) -> float:
