@@ -102,7 +102,7 @@ def pressure_summary(run: StoredRun, temperature: float) -> dict:
         measured = est.mean
         how = "mean over the walls" + (" after settling" if run.settle_bin else "")
     stat_rel = est.error / abs(measured) if math.isfinite(est.error) and measured else 0.0
-    models = pressure_models(run, temperature, stat_rel)
+    models = pressure_models(run, temperature, stat_rel, measured)
     return {"measured": measured, "error": est.error, "n_eff": est.n_eff, "dof": est.dof, "how": how,
             "best": models[0], "models": models}
 

@@ -15,6 +15,7 @@ from gaz_cli import theory
 from gaz_cli.analysis import errorbars
 from gaz_cli.analysis.estimators import NA, species_arrays
 from gaz_cli.analysis.stored import StoredRun, initial_state
+from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
 
 
@@ -92,7 +93,8 @@ def gravity_walls(run: StoredRun, temperature: float):
     return floor, ceiling, side, "ideal gas under gravity", "non-interacting (dilute) limit; mixture: no excess"
 
 
-def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0) -> list[Expectation]:
+def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0,
+                    measured: float = NA) -> list[Expectation]:
     """Every theoretical pressure that applies to the run; the first one is the best.
 
     Walls: what the SQL measures (per full wall area). 1D: Tonks, exact.
@@ -101,7 +103,12 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0) -
     exceeds the statistical error ``stat_rel`` (relative), it does not fit the
     scene and no deviation is printed. Under gravity the mean over the walls
     of the hard-sphere barometric model. Periodic: the bulk equation of state
-    against the virial. Cooling gas: no equilibrium value.
+    against the virial; 1D: the exact ring of N rods; at a packing where the solid
+    is stable, the phase is read from ``measured`` (the pressure): nearer the FCC
+    solid's EOS than the fluid's, the solid's is the model. Cooling gas: no
+    equilibrium value. Every model carries where it holds: outside, its
+    ``applies`` is False and its note says why (the ideal gas too, beyond the
+    dilute limit: it is shown for scale, never as the verdict).
     """
     counts, radii, masses = species_arrays(run)
     d, L = run.dim, run.length
@@ -119,17 +126,21 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0) -
     out = []
     if run.periodic:
         n = run.n / L ** d
-        if run.one_species:
-            model = theory.BEST_MODEL[d]
-            out.append(evaluate(f"hard spheres, bulk {model} EOS",
-                            lambda: theory.hard_sphere_pressure(d, n, 2 * radii[0], temperature)))
+        if d == 1:
+            out.append(evaluate("1D ring of N rods, exact: kT/L + (N-1) kT/(L - N sigma)",
+                                lambda: theory.ring_pressure(L, temperature, counts, radii),
+                                "finite N at fixed total momentum (kT = 2K/(N-1)); infinite-N Tonks is "
+                                "eta/N above it"))
+        elif run.one_species:
+            out.extend(_bulk_phase_models(run, temperature, n, 2 * radii[0], stat_rel, measured))
         else:
             out.append(evaluate("mixture, bulk BMCSL EOS" if d == 3 else "mixture, bulk EOS",
                             lambda: theory.mixture_pressure(d, counts / L ** d, 2 * radii, temperature),
                             "Boublik-Mansoori-Carnahan-Starling-Leland (3D; about 0.2% low at packing 0.3); "
                             "2D: the Santos-Yuste-Lopez de Haro mapping on the one-component EOS"))
-        out.append(evaluate("ideal gas N kT/V", lambda: theory.ideal_gas_pressure(run.n, temperature, L ** d),
-                        "no interactions: excess pressure ignored"))
+        out.append(_ideal(run, evaluate("ideal gas N kT/V",
+                                        lambda: theory.ideal_gas_pressure(run.n, temperature, L ** d),
+                                        "no interactions: excess pressure ignored"), stat_rel))
         return out
     if run.gravity > 0.0:
         def mean_gravity(t=temperature):
@@ -166,25 +177,106 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0) -
                 exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
             except SceneError:
                 exp.syst = NA
-            if stat_rel > 0 and not exp.syst <= stat_rel:
-                exp.applies = False
-                dense = exp.syst > 10 * stat_rel
-                exp.note = (("no theory for this scene: " if dense else "") +
-                            f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
-                            f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
-                            "compare REL_DEV with SYST_REL" +
-                            ("; a dense fluid at walls needs its contact density, which the database "
-                             "does not hold" if dense else ""))
+            _beyond_syst(exp, stat_rel)
         out.append(exp)
     else:
-        out.append(evaluate("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",
-                        lambda: theory.mixture_wall_pressure(d, L, temperature, counts, radii),
-                        "first order in eta and 2R/L, as for one species"))
+        exp = evaluate("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",
+                       lambda: theory.mixture_wall_pressure(d, L, temperature, counts, radii),
+                       "first order in eta and 2R/L, as for one species; SYST_REL: the wall adsorption of "
+                       "one species of the largest radius at the mixture's number, a bound")
+        if exp.known:
+            try:
+                exp.syst = max(abs(float(theory.wall_adsorption_shift(d, L, float(np.sum(counts)), r)))
+                               for r in radii)
+            except SceneError:
+                exp.syst = NA
+            _beyond_syst(exp, stat_rel)
+        out.append(exp)
     ideal = evaluate("ideal gas at walls, N kT/((L-2R) L^(D-1))",
                  lambda: theory.ideal_wall_pressure(d, L, temperature, counts, radii),
                  "dilute limit (eta -> 0), exact for non-interacting particles")
-    out.append(ideal)
+    out.append(_ideal(run, ideal, stat_rel))
     return out
+
+
+def _beyond_syst(exp: Expectation, stat_rel: float) -> None:
+    """``exp`` set aside when its systematic error bound (SYST_REL) exceeds the statistical error
+    ``stat_rel`` (relative): a wall model at a density where wall adsorption matters."""
+    if stat_rel > 0 and not exp.syst <= stat_rel:
+        exp.applies = False
+        dense = exp.syst > 10 * stat_rel
+        exp.note = (("no theory for this scene: " if dense else "") +
+                    f"the wall model's systematic error (up to {exp.syst:.2g} relative, wall "
+                    f"adsorption: SYST_REL) exceeds the statistical error ({stat_rel:.2g}); "
+                    "compare REL_DEV with SYST_REL" +
+                    ("; a dense fluid at walls needs its contact density, which the database "
+                     "does not hold" if dense else ""))
+
+
+def _ideal(run: StoredRun, exp: Expectation, stat_rel: float) -> Expectation:
+    """The ideal gas holds in the dilute limit only: its systematic error is the excess pressure
+    Z - 1 at the run's packing fraction; beyond the statistical error it is shown for scale,
+    without a deviation."""
+    try:
+        exp.syst = float(theory.compressibility_factor(run.dim, run.packing_fraction)) - 1.0
+    except SceneError:
+        exp.syst = NA
+    if exp.known and stat_rel > 0 and not exp.syst <= stat_rel:
+        exp.applies = False
+        exp.note = (f"shown for scale, not this scene's model: the excess pressure (Z - 1 = {exp.syst:.2g} "
+                    f"at packing {run.packing_fraction:.3g}: SYST_REL) is beyond the statistical error "
+                    f"({stat_rel:.2g})")
+    return exp
+
+
+def _bulk_phase_models(run: StoredRun, temperature: float, n: float, sigma: float, stat_rel: float,
+                       measured: float) -> list[Expectation]:
+    """One species in a periodic box: the fluid's EOS, and above freezing the phase the run is in.
+
+    Above the freezing packing (3D 0.494) the measured Z decides: nearer the FCC solid's EOS
+    (Speedy) than the fluid's, the run is a solid (a lattice start that did not melt, or a
+    fluid that froze), compared with the solid's EOS (SYST_REL 1 %: finite N, vacancies); the
+    fluid's EOS is then shown without a deviation. 2D from 0.700 (liquid-hexatic coexistence,
+    hexatic, solid): no EOS here, no verdict.
+    """
+    d = run.dim
+    model = theory.BEST_MODEL[d]
+    fluid = evaluate(f"hard spheres, bulk {model} EOS",
+                     lambda: theory.hard_sphere_pressure(d, n, sigma, temperature))
+    eta = run.packing_fraction
+    freezing = theory.FREEZING_PACKING[d]
+    if freezing is None or eta < freezing:
+        return [fluid]
+    kt_n = n * K_B * temperature
+    z_measured = measured / kt_n if math.isfinite(measured) and kt_n > 0 else NA
+    if d == 2:
+        fluid.applies = False
+        fluid.note = (f"packing {eta:.3g} at or above the liquid-hexatic coexistence (0.700, Bernard & Krauth "
+                      "2011): hexatic or solid phases with large finite-size effects; no EOS for them here")
+        return [fluid]
+    try:
+        z_solid = float(theory.z_fcc_speedy(eta))
+    except SceneError:
+        z_solid = NA
+    solid = Expectation(z_solid * kt_n if math.isfinite(z_solid) else NA, "hard-sphere FCC solid, Speedy EOS",
+                        "solid: the measured Z is nearer the FCC solid's EOS than the fluid's at a packing above "
+                        "freezing (0.494); SYST_REL: finite N, vacancies, other stackings", syst=0.01)
+    is_solid = (math.isfinite(z_measured) and math.isfinite(z_solid) and
+                (not fluid.known or abs(z_measured - z_solid) < abs(z_measured - fluid.value / kt_n)))
+    if is_solid:
+        if stat_rel > 0 and not solid.syst <= stat_rel:
+            solid.applies = False
+            solid.note += f"; above the statistical error ({stat_rel:.2g}): compare REL_DEV with SYST_REL"
+        fluid.applies = False
+        fluid.note = "not the run's phase: the run is a solid (the row above)"
+        return [solid, fluid]
+    fluid.note = (f"packing {eta:.3g} above freezing (0.494): a metastable or coexisting fluid; its pressure "
+                  "matched the fluid's EOS better than the solid's")
+    if solid.known:
+        solid.applies = False
+        solid.note = "not the run's phase: its pressure is nearer the fluid's EOS"
+        return [fluid, solid]
+    return [fluid]
 
 
 def _set_aside_excess(exp: Expectation, run: StoredRun, stat_rel: float) -> None:

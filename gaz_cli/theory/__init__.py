@@ -29,13 +29,14 @@ from gaz_cli.constants import K_B  # noqa: F401  (theory.K_B, as before the spli
 from gaz_cli.theory.eos import (  # noqa: F401
     KOLAFA_ROTTNER_MAX_PACKING, KLM_MAX_PACKING, MODELS, BEST_MODEL, particle_volume, packing_fraction,
     density_from_packing, z_tonks, z_henderson, z_kolafa_rottner, z_carnahan_starling, z_klm,
-    compressibility_factor, hard_sphere_pressure)
+    compressibility_factor, hard_sphere_pressure,
+    FREEZING_PACKING, MELTING_PACKING, FCC_CLOSE_PACKING, z_fcc_speedy)
 from gaz_cli.theory.mixtures import (  # noqa: F401
     mixture_pressure, mixture_contact_values)
 from gaz_cli.theory.walls import (  # noqa: F401
     ideal_gas_pressure, ideal_wall_pressure, ideal_accessible_pressure, tonks_pressure,
     rods_wall_pressure, hard_sphere_wall_pressure, wall_adsorption, wall_adsorption_shift,
-    mixture_wall_pressure, rod_centre_density)
+    mixture_wall_pressure, rod_centre_density, ring_pressure)
 from gaz_cli.theory.transport import (  # noqa: F401
     rods_collision_frequency, rods_collision_frequency_exact, contact_value, enskog_collision_frequency,
     pair_collision_density, mean_free_path)
@@ -72,4 +73,5 @@ __all__ = [
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
     "virial_pressure", "kinetic_temperature", "wall_impulse",
+    "ring_pressure", "FREEZING_PACKING", "MELTING_PACKING", "FCC_CLOSE_PACKING", "z_fcc_speedy",
 ]

@@ -182,3 +182,26 @@ def hard_sphere_pressure(dim: int, number_density, diameter, temperature, model:
     eta = packing_fraction(dim, number_density, diameter)
     kt = K_B * _positive("temperature", temperature, "K")
     return _out(np.asarray(number_density) * kt * compressibility_factor(dim, eta, model))
+
+
+FREEZING_PACKING = {1: None, 2: 0.700, 3: 0.494}
+"""Packing fraction where the hard-particle fluid stops being the only stable phase: 3D freezing 0.494
+(Hoover & Ree 1968), 2D the liquid-hexatic coexistence's lower end 0.700 (Bernard & Krauth 2011);
+1D rods never freeze."""
+
+MELTING_PACKING = {2: 0.720, 3: 0.545}
+"""Packing fraction above which the solid is the stable phase (3D melting 0.545; 2D about 0.72)."""
+
+FCC_CLOSE_PACKING = math.pi / math.sqrt(18.0)
+
+
+def z_fcc_speedy(packing_fraction):
+    """Z of the hard-sphere FCC solid, Speedy's fit (J. Phys.: Condens. Matter 10, 4387 (1998)).
+
+    Z = 3/(1 - x) - a (x - b)/(x - c), x = eta/eta_cp, a = 0.5921, b = 0.7072, c = 0.601; from the
+    melting point (eta 0.545, Z 11.2) to close packing (the coefficients recalled, not read from
+    the paper: checked against Z = 11.1 at coexistence, beta P sigma^3 = 11.6).
+    """
+    eta = _packing(packing_fraction, FCC_CLOSE_PACKING, False, "the FCC solid")
+    x = eta / FCC_CLOSE_PACKING
+    return _out(3.0 / (1.0 - x) - 0.5921 * (x - 0.7072) / (x - 0.601))

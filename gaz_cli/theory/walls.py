@@ -88,6 +88,24 @@ def tonks_pressure(length, temperature, counts, radii):
     return _out(np.sum(c) * kt / free)
 
 
+def ring_pressure(length, temperature, counts, radii):
+    """Exact pressure of N hard rods on a ring of length L (1D periodic box), finite N (N).
+
+    With one rod's position fixed by the conserved momentum's frame, the configurational
+    integral is L (L - sum sigma)^(N-1)/(N-1)!, so P = k_B T/L + (N - 1) k_B T/(L - sum_i sigma_i),
+    with k_B T = 2K/(N - 1) (the kinetic temperature at fixed total momentum). Against the
+    infinite-N Tonks value N k_B T/(L - sum sigma) it differs by a relative -eta/N exactly.
+    ``counts``/``radii``: one entry per species (mixtures of rod lengths included).
+    """
+    length = _positive("box length", length, "m")
+    kt = K_B * _positive("temperature", temperature, "K")
+    c, r = _species(counts, radii)
+    free = length - np.sum(c * 2.0 * r)
+    if not np.all(free > 0.0):
+        raise SceneError("the rods fill the ring: total rod length must be below the box length")
+    return _out(kt / length + (np.sum(c) - 1.0) * kt / free)
+
+
 def rods_wall_pressure(velocities, mass, length, radius):
     """Exact time-averaged wall pressure of equal-mass hard rods: sum_k m v_k^2 / (L - N sigma) (N).
 
