@@ -837,3 +837,26 @@ def test_fixed_energy_hit_speed_by_sampling_the_energy_shell(dim, n):
     assert abs(ratio - expected) < 4 * stderr, (ratio, expected, stderr)
     canonical = th.wall_hit_mean_speed(dim, 1.0 / K_B, m)
     assert expected / canonical == approx(1 - 1 / (4 * dim * n), abs=1 / (dim * n) ** 2)
+
+
+# --------------------------------------------------------------------- mixtures mapped from one component
+def test_mapped_mixture_from_carnahan_starling_is_bmcsl():
+    """The contact-value mapping with Carnahan-Starling as input gives BMCSL's pressure and g_ij exactly."""
+    n, s = np.array([3e27, 1e27, 2e27]), np.array([2.15e-10, 4.78e-10, 3.0e-10])
+    assert th.mixture_pressure_mapped(3, n, s, 300.0, "carnahan-starling") == approx(
+        th.mixture_pressure(3, n, s, 300.0), rel=1e-13)
+    assert th.mixture_contact_values_mapped(n, s, "carnahan-starling") == approx(
+        th.mixture_contact_values(n, s), rel=1e-13)
+
+
+@pytest.mark.parametrize("eta", [0.1, 0.3, 0.45])
+def test_mapped_mixture_of_one_size_is_the_one_component_eos(eta):
+    """Equal diameters: the mapped mixture is KLM itself; a binary 1:2 mixture at 0.3-0.4 sits 0.2-0.3 % above BMCSL."""
+    sigma = 4e-10
+    n = th.density_from_packing(3, eta, sigma)
+    assert th.mixture_pressure_mapped(3, [n / 2, n / 2], [sigma, sigma], 300.0) == approx(
+        th.hard_sphere_pressure(3, n, sigma, 300.0, "klm"), rel=1e-13)
+    s = np.array([1.0, 0.5]) * sigma
+    rho = eta / (math.pi / 6 * np.mean(s ** 3))
+    lift = th.mixture_pressure_mapped(3, [rho / 2] * 2, s, 300.0) / th.mixture_pressure(3, [rho / 2] * 2, s, 300.0) - 1
+    assert 0.0 < lift < 0.004 and (eta < 0.2 or lift > 0.0015)

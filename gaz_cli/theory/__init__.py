@@ -32,7 +32,7 @@ from gaz_cli.theory.eos import (  # noqa: F401
     compressibility_factor, hard_sphere_pressure,
     FREEZING_PACKING, MELTING_PACKING, FCC_CLOSE_PACKING, z_fcc_speedy)
 from gaz_cli.theory.mixtures import (  # noqa: F401
-    mixture_pressure, mixture_contact_values)
+    mixture_pressure, mixture_contact_values, mixture_pressure_mapped, mixture_contact_values_mapped)
 from gaz_cli.theory.walls import (  # noqa: F401
     ideal_gas_pressure, ideal_wall_pressure, ideal_accessible_pressure, tonks_pressure,
     rods_wall_pressure, hard_sphere_wall_pressure, wall_adsorption, wall_adsorption_shift,
@@ -73,5 +73,5 @@ __all__ = [
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
     "virial_pressure", "kinetic_temperature", "wall_impulse",
-    "ring_pressure", "FREEZING_PACKING", "MELTING_PACKING", "FCC_CLOSE_PACKING", "z_fcc_speedy",
+    "ring_pressure", "mixture_pressure_mapped", "mixture_contact_values_mapped", "FREEZING_PACKING", "MELTING_PACKING", "FCC_CLOSE_PACKING", "z_fcc_speedy",
 ]
