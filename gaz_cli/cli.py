@@ -223,7 +223,7 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
       gaz place --dim 1 --n 5 --radius 0.5 --length 10 --seed 1
       gaz place --dim 1 --n 2 --radius 1 --length 10 --repeat 20000 --bins 40 --histogram q12.png
     """
-    from gaz_cli.analysis import report as analysis
+    from gaz_cli.analysis import placements as analysis
     from gaz_cli.scenes.validate import check_placement
 
     check_placement(dim, n, radius, length)

@@ -15,6 +15,7 @@ import pytest
 
 from backends import BACKENDS, backend, postgres_db, postgres_url  # noqa: F401 - fixtures
 from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import stored
 from gaz_cli.analysis import errorbars
 from gaz_cli.model.recording import RunStats
 from gaz_cli.placement.initial import initial_state
@@ -70,8 +71,8 @@ def test_summed_per_range_as_numpy_does(backend, argon_scene, rng):
     scene = argon_scene(dim=3, n=40)
     with Store(backend) as store:
         si = write(store, scene, bounces(rng, scene))
-        run = analysis.load_run(store, si)
-        assert_same(analysis._bin_sums_by_ranges(store, run), expected(store, si, scene.duration))
+        run = stored.load_run(store, si)
+        assert_same(stored._bin_sums_by_ranges(store, run), expected(store, si, scene.duration))
         assert_same(run.hits, expected(store, si, scene.duration))  # what analyse reads
 
 
@@ -85,8 +86,8 @@ def test_rows_out_of_time_order_fall_back_to_group_by(backend, argon_scene, rng)
     t[[100, 5000]] = t[[5000, 100]]
     with Store(backend) as store:
         si = write(store, scene, (t, *rest))
-        run = analysis.load_run(store, si)
-        assert analysis._bin_sums_by_ranges(store, run) is None
+        run = stored.load_run(store, si)
+        assert stored._bin_sums_by_ranges(store, run) is None
         assert_same(run.hits, expected(store, si, scene.duration))
 
 
@@ -96,12 +97,12 @@ def test_mixture_and_no_bounce(backend, argon_scene, rng):
     with Store(backend) as store:
         si = write(store, scene, bounces(rng, scene))
         empty = write(store, scene, tuple(np.zeros(0) for _ in range(5)))
-        run = analysis.load_run(store, si)
-        assert_same(analysis._bin_sums_by_ranges(store, run), expected(store, si, scene.duration))
+        run = stored.load_run(store, si)
+        assert_same(stored._bin_sums_by_ranges(store, run), expected(store, si, scene.duration))
         one = replace(argon_scene(dim=3, n=40))
         nothing = write(store, one, tuple(np.zeros(0) for _ in range(5)))
         for number in (empty, nothing):
-            assert len(analysis.load_run(store, number).hits) == 0
+            assert len(stored.load_run(store, number).hits) == 0
 
 
 @both
@@ -117,7 +118,7 @@ def test_a_row_of_another_species_is_summed_too(backend, argon_scene, rng):
         with store.engine.begin() as conn:
             conn.execute(sa.text("INSERT INTO rebond VALUES (:si, :k, :pa, :t, 1, 500.0, 400.0)"),
                          dict(si=si, k=K + 1, pa=helium, t=scene.duration))
-        run = analysis.load_run(store, si)
-        hits = analysis._bin_sums_by_ranges(store, run)
+        run = stored.load_run(store, si)
+        hits = stored._bin_sums_by_ranges(store, run)
         assert_same(hits, expected(store, si, scene.duration))
         assert helium in set(hits.PA_NUM)

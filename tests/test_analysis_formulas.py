@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 
 from gaz_cli import theory
+from gaz_cli.analysis import estimators
 from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import stored
 from gaz_cli.run import runner
 from gaz_cli.constants import K_B
 from gaz_cli.model.scene import Scene
@@ -68,8 +70,8 @@ def test_virial_pressure_binned_and_whole_run_agree(tmp_path):
     measured = frames["pressure against theory"].P_MEASURED.iloc[0]
     assert measured == pytest.approx(summary["pressure"], rel=ROUNDING)
     with Store(db, create=False) as store:
-        run = analysis.load_run(store, summary["si_num"])
-    bins = analysis.virial_bin_pressures(run, run.kinetic_temperature)
+        run = stored.load_run(store, summary["si_num"])
+    bins = estimators.virial_bin_pressures(run, run.kinetic_temperature)
     assert summary["collisions"] > 100 and bins is not None
     assert float(np.mean(bins)) == pytest.approx(measured, rel=1e-9)
     assert math.isfinite(frames["pressure against theory"].P_ERR.iloc[0])

@@ -15,6 +15,7 @@ import pytest
 from scipy.integrate import quad
 
 from gaz_cli import theory as th
+from gaz_cli.theory import eos
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
 
@@ -86,8 +87,8 @@ def test_henderson_deviation_from_kolafa_rottner(rho, percent, tol):
 
 def test_disk_virial_coefficients():
     # Henderson B3 = 3.125; Kolafa-Rottner B3 = 3.12802 (exact); exact B4 = 4.25786, B5 = 5.33690
-    hen = _virial_coefficients(th._excess_henderson, 2)
-    kr = _virial_coefficients(th._excess_kolafa_rottner, 4)
+    hen = _virial_coefficients(eos._excess_henderson, 2)
+    kr = _virial_coefficients(eos._excess_kolafa_rottner, 4)
     assert hen == approx([2.0, 3.125], abs=1e-9)
     assert kr == approx([2.0, 3.12802, 4.25786, 5.33690], abs=2e-5)
 
@@ -105,7 +106,7 @@ def test_klm_table(eta, z):
 
 def test_klm_virial_coefficients():
     # physics.md: B4 = 18.3648, B5 = 28.2245, B6 ~ 39.815 (and B2 = 4, B3 = 10 exactly)
-    b = _virial_coefficients(th._excess_klm, 5)
+    b = _virial_coefficients(eos._excess_klm, 5)
     assert b[:2] == approx([4.0, 10.0], abs=1e-9)
     assert b[2] == approx(18.3648, abs=5e-5)
     assert b[3] == approx(28.2245, abs=1e-4)  # 28.22445 from the coefficients
@@ -114,7 +115,7 @@ def test_klm_virial_coefficients():
 
 def test_carnahan_starling_virial_coefficients():
     # CS: B_n = n^2 + n - 2 -> 4, 10, 18, 28, 40
-    assert _virial_coefficients(th._excess_carnahan_starling, 5) == approx(
+    assert _virial_coefficients(eos._excess_carnahan_starling, 5) == approx(
         [4.0, 10.0, 18.0, 28.0, 40.0], abs=1e-9)
 
 
@@ -836,3 +837,26 @@ def test_fixed_energy_hit_speed_by_sampling_the_energy_shell(dim, n):
     assert abs(ratio - expected) < 4 * stderr, (ratio, expected, stderr)
     canonical = th.wall_hit_mean_speed(dim, 1.0 / K_B, m)
     assert expected / canonical == approx(1 - 1 / (4 * dim * n), abs=1 / (dim * n) ** 2)
+
+
+# --------------------------------------------------------------------- mixtures mapped from one component
+def test_mapped_mixture_from_carnahan_starling_is_bmcsl():
+    """The contact-value mapping with Carnahan-Starling as input gives BMCSL's pressure and g_ij exactly."""
+    n, s = np.array([3e27, 1e27, 2e27]), np.array([2.15e-10, 4.78e-10, 3.0e-10])
+    assert th.mixture_pressure_mapped(3, n, s, 300.0, "carnahan-starling") == approx(
+        th.mixture_pressure(3, n, s, 300.0), rel=1e-13)
+    assert th.mixture_contact_values_mapped(n, s, "carnahan-starling") == approx(
+        th.mixture_contact_values(n, s), rel=1e-13)
+
+
+@pytest.mark.parametrize("eta", [0.1, 0.3, 0.45])
+def test_mapped_mixture_of_one_size_is_the_one_component_eos(eta):
+    """Equal diameters: the mapped mixture is KLM itself; a binary 1:2 mixture at 0.3-0.4 sits 0.2-0.3 % above BMCSL."""
+    sigma = 4e-10
+    n = th.density_from_packing(3, eta, sigma)
+    assert th.mixture_pressure_mapped(3, [n / 2, n / 2], [sigma, sigma], 300.0) == approx(
+        th.hard_sphere_pressure(3, n, sigma, 300.0, "klm"), rel=1e-13)
+    s = np.array([1.0, 0.5]) * sigma
+    rho = eta / (math.pi / 6 * np.mean(s ** 3))
+    lift = th.mixture_pressure_mapped(3, [rho / 2] * 2, s, 300.0) / th.mixture_pressure(3, [rho / 2] * 2, s, 300.0) - 1
+    assert 0.0 < lift < 0.004 and (eta < 0.2 or lift > 0.0015)

@@ -127,7 +127,9 @@ def test_2d_gas_wall_pressure(tmp_path):
         assert abs(row.DEV_SIGMA) < 3, row
     # the disks' excluded area is seen: the ideal gas is 10% low, many sigma away
     ideal = frames["pressure against theory"].iloc[1]
-    assert ideal.DEV_SIGMA > 10, ideal
+    assert (ideal.P_MEASURED - ideal.P_THEORY) / ideal.P_ERR > 10, ideal
+    # ... so it is shown for scale, not as a verdict: its excess pressure is SYST_REL
+    assert math.isnan(ideal.DEV_SIGMA) and ideal.SYST_REL > ideal.P_ERR / ideal.P_MEASURED, ideal
     walls = frames["Q36 momentum and pressure per wall"]
     if math.isnan(row.DEV_SIGMA):   # the walls share the model, and its systematic error
         rel = (walls.P_MEASURED / walls.P_THEORY - 1).abs()

@@ -1,4 +1,4 @@
-"""Error bars of time averages: reblocking, plus the part of the initial draw no block can see.
+"""Error bars of time averages: an autocorrelation window, plus the part of the initial draw no block can see.
 
 A number ``gaz analyse`` measures (a wall's pressure, the mean speed of the
 wall hits, a collision rate...) is a time average over the run. Its error
@@ -6,12 +6,18 @@ has two parts:
 
 * fluctuations that decorrelate within the run (shot noise of single hits,
   density and velocity fluctuations lasting a few mean free times). The
-  Flyvbjerg-Petersen reblocking (J. Chem. Phys. 91, 461 (1989)) sees them: the
-  run is cut into 2^k equal time bins, pairs of neighbouring bins are merged
-  again and again, and the standard error of the mean of the blocks is read
-  at the smallest block length where it has stopped growing (the criterion of
-  Lee, Filippi and Towler, Phys. Rev. B 84, 245117 (2011), as in ``pyblock``:
-  B^3 > 2 n (s_B/s_1)^4 for blocks of B bins out of n);
+  integrated autocorrelation time with Sokal's automatic window (Madras &
+  Sokal 1988; emcee.autocorr.integrated_time) sees them
+  (:func:`autocorrelation_error`): the sum of the autocovariances stops at the
+  first lag W >= 5 tau(W), corrected for the sample mean's own spread, floored
+  at the naive standard error; then the spread of 64 to 4 long blocks checks
+  it for slow modes the window cut off (an F test; where one shows, that
+  level's variance and its M - 1 degrees of freedom are kept). The error
+  carries its effective degrees of freedom (about n/(2W + 1)): a deviation is
+  judged on Student's t (:func:`normal_equivalent`) and withheld below
+  :data:`MIN_DOF`. On synthetic series (tests/test_errorbars.py: white noise,
+  AR(1) at phi 0.2/0.5/0.9, a sum of two AR(1), a slow oscillation) |z| > 4 and
+  an error below half the truth each occur in at most 0.1 % of series;
 * slow modes fixed by the initial draw of the N velocities: the share of the
   kinetic energy each axis holds (a wall's pressure follows its axis), the
   set of speeds (the mean wall-hit speed). They relax only by collisions,
@@ -28,10 +34,11 @@ has two parts:
   limits it is the full frozen spread (no collision) and the plain reblocking
   error (many collisions per block).
 
-Pure NumPy (about 40 lines of reblocking): ``pyblock`` does the same
-reblocking, but is a pandas-era package last released in 2017 and would add a
-dependency for a loop of a dozen lines; the correction for frozen modes is
-not in it.
+NumPy and scipy.stats (already a dependency): ``emcee.autocorr`` holds the same
+window in a dozen lines, but works on one series at a time, has no correction
+for the sample mean nor degrees of freedom, and would add a dependency for
+them; ``pyblock`` (reblocking, last released in 2017) is what this replaced.
+Neither has the correction for frozen modes.
 """
 
 from __future__ import annotations
@@ -44,7 +51,7 @@ import numpy as np
 BINS = 512
 """Time bins of the series handed to reblocking (a power of two)."""
 
-ESTIMATOR = "reblocking (Flyvbjerg-Petersen) + frozen initial draw"
+ESTIMATOR = "autocorrelation window (Sokal) + long-block check + frozen initial draw; Student t"
 """How the errors are made, as printed in the output."""
 
 
@@ -56,15 +63,17 @@ class Estimate:
     error: float
     n_eff: float
     """Effective number of independent samples: (variance of one bin's value)/error^2, bins of T/BINS."""
-    block_s: float
-    """Block length chosen by the reblocking, s (nan if no plateau was found)."""
-    plateau: bool
-    """Whether the reblocking found a plateau; if not, the largest block length was used."""
+    window_s: float
+    """Longest lag of the autocorrelation sum (Sokal's window), s (nan where a closed form or long
+    blocks gave the error)."""
     frozen: float
     """Part of the error from the initial draw that blocks cannot see (same unit as error)."""
+    dof: float = math.inf
+    """Effective degrees of freedom of the error (inf: closed forms only): the error's own relative
+    standard deviation is about 1/sqrt(2 dof); a deviation is judged on Student's t with dof."""
 
 
-NAN_ESTIMATE = Estimate(math.nan, math.nan, math.nan, math.nan, False, math.nan)
+NAN_ESTIMATE = Estimate(math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
 
 
 def frozen_fraction(x: float) -> float:
@@ -79,67 +88,113 @@ def frozen_fraction(x: float) -> float:
     return 2.0 * (x - 1.0 + math.exp(-x)) / (x * x)
 
 
-def reblock(series) -> tuple[float, int, bool]:
-    """Standard error of the mean of ``series`` ((n,) floats, equal weights) from its reblocking.
+WINDOW_C = 5.0
+"""Sokal's windowing constant: the autocorrelation sum stops at the first lag W >= WINDOW_C tau_int(W)
+(emcee.autocorr's default; Madras & Sokal, J. Stat. Phys. 50, 109 (1988))."""
 
-    Returns (error, bins per block at the plateau, plateau found). Levels
-    with fewer than 4 blocks are not used. From the plateau level on (the
-    Lee-Filippi-Towler criterion; without one, the last two levels), the
-    Flyvbjerg-Petersen estimates s_M^2 of the levels with M blocks are fitted
-    by s_M^2 = V + a M; when the slope a is positive beyond three times its
-    standard error and the last level is 16 times below the first (white
-    noise does that by chance about once in a hundred runs), V, the variance of the mean, is returned as the error^2,
-    else the plateau's s_M^2 (the Flyvbjerg-Petersen value; averaged over the
-    levels from the plateau on, weighted by M - 1, which undoes the bias of
-    picking the first level that passes the criterion). Why: for any noise of finite correlation time, the variance of
-    the mean over a time t is b/t + a/t^2 (a < 0 for positive correlations,
-    a > 0 for the end effects of periodic motion: a particle bouncing between
-    two walls delivers its momentum at fixed intervals, and only the last,
-    unfinished interval is random), and the expected s_M^2 is then exactly
-    V + a M: a flat plateau is the special case a = 0, and the fit also
-    reads a falling curve, where the plateau value alone would overestimate
-    the error by a factor of up to sqrt(M). The result is kept above
-    min_M s_M^2/(M + 1), its value for pure end effects.
+SLOW_LEVELS = (64, 32, 16, 8, 4)
+"""Numbers of long blocks whose spread checks the windowed error for slow modes (coarsest last)."""
+
+DRIFT_P = 0.05
+"""False-alarm rate of each long-block check (a false alarm only swaps in a noisier, unbiased error)."""
+
+MIN_DOF = 4.0
+"""Fewest effective degrees of freedom of an error for a deviation to be printed (below: withheld)."""
+
+
+def _autocovariances(d: np.ndarray) -> np.ndarray:
+    """(..., n) autocovariances sum_i d_i d_(i+t) / n of centred rows ``d`` (..., n), lags 0..n-1, by FFT."""
+    n = d.shape[-1]
+    size = 1 << (2 * n - 1).bit_length()
+    f = np.fft.rfft(d, n=size, axis=-1)
+    return np.fft.irfft(f * np.conj(f), n=size, axis=-1)[..., :n] / n
+
+
+def autocorrelation_error(series, c: float = WINDOW_C):
+    """Standard error of the mean of a correlated series, its degrees of freedom and the window.
+
+    ``series`` (n,) or (k, n) rows. The variance of the mean is sum_t gamma(t)/n over all
+    lags; the sum S(W) = gamma(0) + 2 sum_{t=1..W} gamma(t) of the sample autocovariances
+    (centred on the sample mean) stops at Sokal's window, the first W with W >= c tau(W),
+    tau(W) = S(W)/gamma(0) (at most n/4: without a window there, W = n/4). The sample mean's
+    own spread biases S(W) low by (2W + 1)/n of the truth: error^2 = S(W)/(n - 2W - 1),
+    W = 0 giving the naive s^2/n. The error is floored at the naive standard error (positive
+    correlations only raise it; where the data know better, e.g. the momentum in flight at a
+    wall, the callers add their closed forms instead). Its relative variance is about
+    2 (2W + 1)/n (Madras-Sokal), hence ``dof`` = n/(2W + 1) effective degrees of freedom.
+    Returns (error, dof, W), floats or (k,) arrays.
     """
-    x = np.asarray(series, dtype=float)
-    n = x.size
+    y = np.asarray(series, dtype=float)
+    single = y.ndim == 1
+    y = np.atleast_2d(y)
+    k, n = y.shape
     if n < 2:
-        return math.nan, 1, False
-    var, blocks, sizes = [], [], []
-    size = 1
-    while x.size >= 4:
-        var.append(float(x.var(ddof=1) / x.size))
-        blocks.append(x.size)
-        sizes.append(size)
-        if x.size % 2:
-            x = x[:-1]
-        x = 0.5 * (x[0::2] + x[1::2])
-        size *= 2
-    if not var:
-        return float(np.std(series, ddof=1) / math.sqrt(n)), 1, False
-    if var[0] == 0.0:
-        return 0.0, 1, True
-    start, plateau = max(len(var) - 2, 0), False
-    for k, (v, b) in enumerate(zip(var, sizes)):
-        if b ** 3 > 2.0 * n * (v / var[0]) ** 2:
-            start, plateau = k, True
-            break
-    v = np.array(var[start:])
-    m = np.array(blocks[start:], dtype=float)
-    floor = float(np.min(v / (m + 1.0)))
-    if v.size < 2:
-        return math.sqrt(v[0]), sizes[start], plateau
-    model = np.full_like(v, v[0])
-    for _ in range(3):   # weighted least squares, weights 1/var(s^2) = (M - 1)/(2 model^2), reweighted
-        weight = (m - 1.0) / np.maximum(model, floor) ** 2
-        design = np.stack([np.ones_like(m), m], axis=1)
-        cov = np.linalg.inv(design.T @ (design * weight[:, None]))
-        intercept, slope = cov @ (design.T @ (weight * v))
-        model = intercept + slope * m
-    if slope > 3.0 * math.sqrt(cov[1, 1]) and v[-1] < v[0] / 16.0:   # a steeply falling curve: end effects
-        return math.sqrt(max(float(intercept) + math.sqrt(cov[0, 0]), floor)), sizes[start], plateau
-    weight = (m - 1.0)                                 # flat: the weighted mean of the plateau's levels
-    return math.sqrt(float(np.sum(weight * v) / np.sum(weight))), sizes[start], plateau
+        out = np.full(k, np.nan)
+        return (out[0], out[0], out[0]) if single else (out, out, out)
+    d = y - y.mean(axis=1, keepdims=True)
+    g = _autocovariances(d)
+    g0 = g[:, 0]
+    s = g0[:, None] + 2.0 * np.cumsum(g[:, 1:], axis=1)          # S(W), W = 1..n-1
+    lags = np.arange(1, n, dtype=float)
+    top = max(n // 4, 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        tau = s / g0[:, None]
+        ok = lags[None, :top] >= c * tau[:, :top]
+    found = ok.any(axis=1)
+    w = np.where(found, np.argmax(ok, axis=1), top - 1) + 1          # window, lags
+    w = np.where(g0 > 0.0, w, 0)                                      # a constant: nothing to sum
+    sw = np.where(w > 0, s[np.arange(k), np.maximum(w, 1) - 1], g0)
+    denominator = np.maximum(n - 2.0 * w - 1.0, 1.0)
+    naive = g0 * n / (n - 1.0) / n
+    var = np.maximum(sw / denominator, naive)
+    err = np.sqrt(var)
+    dof = n / (2.0 * w + 1.0)
+    # long blocks: a slow drift or mode too weak at short lags for the window shows in the spread of
+    # a few long block means; where it is beyond the window's estimate (F test at DRIFT_P), that
+    # level's variance of the mean and its M - 1 degrees of freedom are kept instead
+    from scipy import stats
+
+    for m in SLOW_LEVELS:
+        if n < 2 * m:
+            continue
+        b = y[:, : n - n % m].reshape(k, m, -1).mean(axis=2)
+        var_m = b.var(axis=1, ddof=1) / m
+        with np.errstate(invalid="ignore", divide="ignore"):
+            slow = var_m / var > stats.f.isf(DRIFT_P, m - 1, dof)
+        var = np.where(slow, var_m, var)
+        dof = np.where(slow, np.minimum(dof, m - 1.0), dof)
+    err = np.sqrt(var)
+    zero = g0 <= 0.0
+    err = np.where(zero, 0.0, err)
+    if single:
+        return float(err[0]), float(dof[0]), int(w[0])
+    return err, dof, w
+
+
+def combined_dof(parts) -> float:
+    """Welch-Satterthwaite degrees of freedom of a sum of variances: ``parts`` of (variance, dof),
+    dof inf for a closed form. inf when nothing is estimated, nan when the sum is 0."""
+    total = sum(v for v, _ in parts)
+    denominator = sum(v * v / k for v, k in parts if math.isfinite(k) and k > 0 and v > 0)
+    if total <= 0.0:
+        return math.nan
+    return math.inf if denominator == 0.0 else total * total / denominator
+
+
+def normal_equivalent(t, dof):
+    """The deviation t (in standard errors with ``dof`` degrees of freedom) as the normal deviate of the
+    same tail probability: Student's t judged as a normal z (t itself when dof is inf; NaN below MIN_DOF)."""
+    t = np.asarray(t, dtype=float)
+    dof = np.broadcast_to(np.asarray(dof, dtype=float), t.shape)
+    from scipy import stats
+
+    with np.errstate(invalid="ignore"):
+        tail = stats.t.sf(np.abs(t), np.where(np.isfinite(dof), dof, 1.0))
+        z = np.where(np.isfinite(dof), np.sign(t) * stats.norm.isf(tail), t)
+    z = np.where(dof >= MIN_DOF, z, np.nan)
+    # far tails: sf underflows to 0 (isf inf); keep the sign and the size of t there
+    z = np.where(np.isinf(z), t, z)
+    return float(z) if z.ndim == 0 else z
 
 
 LONG_BLOCKS = 4
@@ -158,21 +213,27 @@ def _levels(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array(var), np.array(blocks, dtype=float)
 
 
-def _white_var(y: np.ndarray, end_var: float) -> float:
-    """Variance of the mean of y: the ends' known end_var plus the white part read from long blocks.
+def _white_var(y: np.ndarray, end_var: float) -> tuple[float, float]:
+    """Variance of the mean of y: the ends' known end_var plus the white part read from long blocks,
+    and its effective degrees of freedom.
 
     A level of M blocks sees s_M^2 = V + end_var M once the blocks are longer
     than the noise's correlation time (V the white part, end_var M the two
     ends of each block). V is the (M - 1)-weighted mean of s_M^2 - end_var M
     over the levels of 4 to 16 blocks, not below 0; the error of the mean is
-    V + end_var (one block: the run).
+    V + end_var (one block: the run). Degrees of freedom: the white part's, 4 LONG_BLOCKS - 1
+    (its widest level's), combined with the exact end_var by Welch-Satterthwaite; this leaves
+    out the noise of the subtraction (about 2 (16 end_var)^2/15 where V is small), which the
+    coverage over seeds (tests/test_coverage.py) has calibrated in rms but which spreads the
+    error over seeds (issue 38: up to a factor 5 for 2D boxes at packing 0.2).
     """
     v, m = _levels(np.asarray(y, dtype=float))
     keep = (m >= LONG_BLOCKS) & (m <= 4 * LONG_BLOCKS)
     if not keep.any():
-        return float(v[-1]) if v.size else math.nan
+        return (float(v[-1]), float(m[-1] - 1)) if v.size else (math.nan, math.nan)
     white = float(np.sum((m[keep] - 1) * (v[keep] - end_var * m[keep])) / np.sum(m[keep] - 1))
-    return max(white, 0.0) + end_var
+    white = max(white, 0.0)
+    return white + end_var, combined_dof([(white, 4.0 * LONG_BLOCKS - 1.0), (end_var, math.inf)])
 
 
 def time_average(sums, weights=None, *, duration: float, static_var: float = 0.0,
@@ -186,7 +247,7 @@ def time_average(sums, weights=None, *, duration: float, static_var: float = 0.0
     as (sums - mean weights)/<weights> before reblocking.
     ``static_var``: variance of the slow mode over draws of the initial
     velocities (unit^2); ``relaxation_s``: its relaxation time, s (inf: never
-    relaxes). ``end_var``: None for the reblocking error (:func:`reblock`);
+    relaxes). ``end_var``: None for the windowed autocorrelation error (:func:`autocorrelation_error`);
     else the variance (unit^2) the two ends of the run alone give the average,
     known in closed form (the momentum in flight at the start and at the end,
     :func:`end_variance`; 0 when there is none), and the error is end_var plus
@@ -209,12 +270,14 @@ def time_average(sums, weights=None, *, duration: float, static_var: float = 0.0
         mean = float(s.sum() / total)
         y = (s - mean * w) / (total / w.size)
     n = y.size
-    err, size, plateau = reblock(y)
-    blocks = max(n // size, 2)            # the blocks whose spread the error reads
+    err, dof, window = autocorrelation_error(y)
+    window_s = window * duration / n if n >= 2 else math.nan
+    blocks = max(int(dof), 2)              # about as many independent stretches as the error reads
     if end_var is not None and end_var > 0.0 and not white:
-        err, blocks = math.sqrt(end_var), 0
-    elif end_var is not None and n >= 8 * LONG_BLOCKS:
-        err, blocks = math.sqrt(_white_var(y, end_var)), 4 * LONG_BLOCKS
+        err, dof, blocks, window_s = math.sqrt(end_var), math.inf, 0, math.nan
+    elif end_var is not None and end_var > 0.0 and n >= 8 * LONG_BLOCKS:
+        var, dof = _white_var(y, end_var)
+        err, blocks, window_s = math.sqrt(var), 4 * LONG_BLOCKS, math.nan
     if not math.isfinite(err):
         err = 0.0 if n >= 2 else math.nan
     frozen_var = 0.0
@@ -223,10 +286,10 @@ def time_average(sums, weights=None, *, duration: float, static_var: float = 0.0
         seen = (frozen_fraction(x / blocks) - frozen_fraction(x)) / (blocks - 1) if blocks >= 2 else 0.0
         frozen_var = static_var * max(0.0, frozen_fraction(x) - seen)
     total_err = math.sqrt(err * err + frozen_var)
+    dof = combined_dof([(err * err, dof), (frozen_var, math.inf)])
     var1 = float(np.var(y, ddof=1)) if n > 1 else math.nan
     n_eff = var1 / total_err ** 2 if total_err > 0 and math.isfinite(var1) else math.nan
-    return Estimate(mean, total_err, n_eff, size * duration / n if plateau else math.nan, plateau,
-                    math.sqrt(frozen_var))
+    return Estimate(mean, total_err, n_eff, window_s, math.sqrt(frozen_var), dof)
 
 
 # --- the ends of the run -------------------------------------------------------------

@@ -1,7 +1,7 @@
 """Figures of ``gaz analyse --plot`` and ``gaz place --histogram`` (matplotlib, Agg backend, PNG).
 
 Each function takes plain arrays (SI units) already computed by
-:mod:`gaz_cli.analysis.report`, draws one figure and writes it to ``path``; none
+:mod:`gaz_cli.analysis.figures`, draws one figure and writes it to ``path``; none
 reads the database or computes physics beyond evaluating a theory curve from
 :mod:`gaz_cli.theory`.
 """

@@ -9,7 +9,7 @@ groups the runs by the key, and gives for each value the mean over its runs,
 its standard error, and theory for the same scene. The error of Z in a
 periodic box recorded with ``record = "all"`` comes from within each run: the
 collision virial in :data:`gaz_cli.analysis.errorbars.BINS` time bins (``collision_bins.sql``),
-reblocked (:func:`gaz_cli.analysis.errorbars.reblock`), the runs' errors combined as
+its error from the autocorrelation window (:func:`gaz_cli.analysis.errorbars.autocorrelation_error`), the runs' errors combined as
 sqrt(sum e_i^2)/k -- stable with few seeds, where the spread of k = 3 seeds gives an
 error that is itself uncertain by 50 % (Student's t with 2 degrees of freedom puts
 10 % of points beyond 3 of its sigmas). Otherwise, and for P and the rate, the error
@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from gaz_cli import theory
-from gaz_cli.analysis import report as analysis
+from gaz_cli.analysis import stored
 from gaz_cli.errors import GazError, SceneError
 
 KEYS = {
@@ -65,7 +65,7 @@ def runs(store) -> pd.DataFrame:
     out["packing"] = [float(theory.packing_fraction(d, rho, 2.0 * r)) if np.isfinite(r) else math.nan
                       for d, rho, r in zip(dim, out.density, radius)]
     ke = 0.5 * (frame.RS_KE_START.to_numpy(dtype=float) + frame.RS_KE_END.to_numpy(dtype=float))
-    drift = [analysis.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
+    drift = [stored.drift_energy(f, k0) if p else 0.0      # an explicit state's conserved momentum
              for f, k0, p in zip(out.scene_file, frame.RS_KE_START.to_numpy(dtype=float), periodic)]
     t_kin = np.array([_kinetic_temperature(d, k, nn, p, e) for d, k, nn, p, e in zip(dim, ke, n, periodic, drift)])
     out["T_KIN"] = t_kin
@@ -149,7 +149,7 @@ def _scenes(store) -> pd.DataFrame:
                         for si, g in parts.groupby("SI_NUM")], columns=["SI_NUM", "names", "species"])
     out = scenes[["SI_NUM", *SETTINGS]].rename(columns=SETTINGS)
     out["scene_file"] = scenes.SC_FILE if "SC_FILE" in scenes else None
-    out["planes"] = [analysis.plane_count(f) for f in out.scene_file]  # extra walls make another scene
+    out["planes"] = [stored.plane_count(f) for f in out.scene_file]  # extra walls make another scene
     return out.merge(mix, on="SI_NUM", how="left")
 
 
@@ -285,7 +285,7 @@ def _z_error_within(store, si_num: int, dim: int, n: float, duration: float, t: 
     np.add.at(per_bin, index, bins.SUM_IMP.to_numpy(dtype=float))
     # Z in each bin: 1 + W_b / (D dt N k_B T), W_b = sum |J| sigma over the bin's collisions
     z = 1.0 + per_bin * 2.0 * radius / (dim * (duration / errorbars.BINS) * n * theory.K_B * t)
-    return errorbars.reblock(z)[0]
+    return errorbars.autocorrelation_error(z)[0]
 
 
 def _kinetic_temperature(dim, ke, n, periodic, drift=0.0) -> float:

@@ -1,0 +1,216 @@
+"""Time averages of one stored run and their error bars: pressures per wall and time bin, the
+exam's per-wall table, and the estimates :mod:`gaz_cli.analysis.errorbars` makes of them
+(block statistics for figures and studies too)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from gaz_cli import theory
+from gaz_cli.analysis import errorbars
+from gaz_cli.analysis.stored import StoredRun
+from gaz_cli.constants import K_B
+
+NA = math.nan
+"""What a numeric cell holds when theory or the data cannot give a value (the reason goes in NOTE)."""
+
+BLOCKS = 16
+"""Time windows of the block values drawn in the pressure figure, and of :func:`block_sums`' default."""
+
+
+def block_sums(t, values, duration: float, blocks: int = BLOCKS) -> np.ndarray:
+    """Sum of ``values`` over each of ``blocks`` equal time windows of [0, duration] ((blocks,) array).
+
+    ``t`` (k,) event times, s; ``values`` (k,) or a scalar weight per event.
+    Divide by ``duration / blocks`` for a rate per second in each window.
+    """
+    t = np.asarray(t, dtype=float)
+    index = np.clip((t * (blocks / duration)).astype(np.int64), 0, blocks - 1)
+    weights = np.broadcast_to(np.asarray(values, dtype=float), t.shape)
+    return np.bincount(index, weights=weights, minlength=blocks)[:blocks]
+
+
+def block_means(t, values, duration: float, blocks: int = BLOCKS) -> np.ndarray:
+    """Mean of ``values`` over the events of each time window ((blocks,), NaN where a window is empty)."""
+    sums = block_sums(t, values, duration, blocks)
+    counts = block_sums(t, 1.0, duration, blocks)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(counts > 0, sums / np.where(counts > 0, counts, 1.0), np.nan)
+
+
+def mean_and_error(samples) -> tuple[float, float]:
+    """Mean of block values and its standard error std(ddof=1)/sqrt(k); NaN blocks are dropped.
+
+    The error is NaN with fewer than two blocks.
+    """
+    a = np.asarray(samples, dtype=float)
+    a = a[np.isfinite(a)]
+    if a.size == 0:
+        return math.nan, math.nan
+    if a.size < 2:
+        return float(a.mean()), math.nan
+    return float(a.mean()), float(a.std(ddof=1) / math.sqrt(a.size))
+
+
+def per_bin(bins, values) -> np.ndarray:
+    """(BINS,) sums of ``values`` over their time bins."""
+    return np.bincount(np.asarray(bins, dtype=np.int64), weights=np.asarray(values, dtype=float),
+                       minlength=errorbars.BINS)[:errorbars.BINS]
+
+
+def hit_masses(run: StoredRun) -> np.ndarray:
+    mass = run.species.set_index("PA_NUM").MASS_KG
+    return mass.reindex(run.hits.PA_NUM.to_numpy()).to_numpy(dtype=float)
+
+
+def wall_bin_pressures(run: StoredRun) -> dict[int, np.ndarray]:
+    """Wall code -> (BINS,) pressure in each time bin (unit per :data:`gaz_cli.constants.PRESSURE_UNIT`), from (1 + e_w) m |v_perp|."""
+    h = run.hits
+    width = run.duration / errorbars.BINS
+    if not len(h):
+        return {w: np.zeros(errorbars.BINS) for w in run.walls}
+    mom = wall_momenta(run)
+    wall = h.RE_DIR.to_numpy(dtype=np.int64)
+    return {w: per_bin(h.BIN[wall == w], mom[wall == w]) / (width * run.wall_measure) for w in run.walls}
+
+
+def wall_momenta(run: StoredRun) -> np.ndarray:
+    """Momentum given to the wall by each row of ``run.hits``: sum of (1 + e_w) m |v_perp| (theory.wall_impulse)."""
+    return theory.wall_impulse(hit_masses(run), run.hits.SUM_VP.to_numpy(dtype=float), run.wall_restitution)
+
+
+def virial_bin_pressures(run: StoredRun, temperature: float) -> np.ndarray | None:
+    """(BINS,) virial pressure of a periodic box in each time bin, from CHOC (one species), or None.
+
+    :func:`gaz_cli.theory.virial_pressure` of each bin: W = sum of |J| sigma over the bin's collisions.
+    """
+    if run.collision_bins is None or not run.one_species or not math.isfinite(temperature):
+        return None
+    sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
+    w = per_bin(run.collision_bins.BIN, run.collision_bins.SUM_IMP.to_numpy(dtype=float) * sigma)
+    return np.asarray(theory.virial_pressure(run.dim, run.n, temperature, run.length ** run.dim, w,
+                                             run.duration / errorbars.BINS), dtype=float)
+
+
+def exam_per_wall(run: StoredRun) -> pd.DataFrame:
+    """sql/pressure_per_wall.sql's table (SI_NUM, RE_DIR, NB_REBONDS, QUANTITE_MOUVEMENT, PRESSION), from the bins.
+
+    The same sums as the exam's query ((1 + e_w) m |v_perp| per bounce, 2 m
+    |v_perp| for elastic walls), added up from the per-bin sums the database
+    returned, so that the REBOND rows are read once.
+    """
+    h = run.hits
+    if not len(h):
+        return pd.DataFrame(columns=["SI_NUM", "RE_DIR", "NB_REBONDS", "QUANTITE_MOUVEMENT", "PRESSION"])
+    mom = pd.Series(wall_momenta(run), index=h.index)
+    walls = pd.DataFrame({"NB_REBONDS": h.NB_REBONDS.groupby(h.RE_DIR).sum(),
+                          "QUANTITE_MOUVEMENT": mom.groupby(h.RE_DIR).sum()}).reset_index()
+    walls["PRESSION"] = walls.QUANTITE_MOUVEMENT / (run.duration * run.wall_measure)
+    walls.insert(0, "SI_NUM", run.si_num)
+    return walls.astype({"RE_DIR": int, "NB_REBONDS": int})
+
+
+def exam_q35(run: StoredRun) -> pd.DataFrame:
+    """Q35 (sql/q35_bounces_per_simulation.sql) for this simulation alone, from the bins."""
+    count = run.bounces_count
+    mean = float(run.hits.SUM_VIT.sum() / count) if count else NA
+    return pd.DataFrame([{"SI_NUM": run.si_num, "NB_REBONDS": count, "VITESSE_MOYENNE": mean}])
+
+
+def run_average(run: StoredRun, series, weights=None, static_var: float = 0.0,
+              relaxation: float = math.inf, end_var: float | None = None) -> errorbars.Estimate:
+    """Time average of a (BINS,) series over the analysed part of the run; ``relaxation`` in mean free times."""
+    start = run.settle_bin
+    if start >= errorbars.BINS:
+        return errorbars.NAN_ESTIMATE
+    tau = run.mean_free_time
+    tau = math.inf if not math.isfinite(tau) else tau * relaxation
+    if not math.isfinite(run.mean_free_time) and static_var > 0.0 and run.collisions is None:
+        tau = math.inf                    # collisions unknown: assume the draw stays frozen
+    return errorbars.time_average(np.asarray(series)[start:],
+                                  None if weights is None else np.asarray(weights)[start:],
+                                  duration=run.window, static_var=static_var, relaxation_s=tau, end_var=end_var,
+                                  white=not run.collisions_per_particle < FEW_COLLISIONS)
+
+
+FEW_COLLISIONS = 3.0
+"""Collisions per particle below which a wall pressure's error is the ends' closed form alone.
+
+The walls' impulse is the kinetic energy, the collisional virial and an end
+term (errorbars.end_variance): with c collisions per particle the virial's
+noise is about c/30 of the end term's variance (measured: 0.5 of it at 29
+collisions per particle, 3 of it at 121), under 10% below 3, where reading
+it from four to sixteen blocks would only add their noise (benchmarks/error_coverage.py).
+"""
+
+
+def ends_variance(run: StoredRun, temperature: float, axes: int) -> float | None:
+    """errorbars.end_variance of the pressures summed over the walls of ``axes`` axes (None under gravity)."""
+    if run.gravity > 0.0 or run.periodic or not len(run.species) or not math.isfinite(temperature):
+        return None
+    counts, radii, masses = species_arrays(run)
+    return errorbars.end_variance(float(np.sum(counts * masses)) * K_B * temperature,
+                                  0.5 * (run.length - 2.0 * float(radii.max())), run.window, run.wall_measure, axes)
+
+
+def wall_estimates(run: StoredRun, expected: dict, temperature: float) -> dict[int, errorbars.Estimate]:
+    """Wall code -> pressure estimate, from the two opposite walls of each axis.
+
+    A wall's pressure is half the sum S of its axis' two walls plus (or
+    minus) half their difference D. S follows the axis' kinetic energy: it is
+    reblocked, with the frozen share of the energy the axis drew at the start
+    (scaled by the expected, else measured, pressure). D is exactly the change
+    of the gas's momentum along the axis over the run, divided by the run's
+    time and the wall measure: its variance has the closed form
+    2 sum_s N_s m_s k_B T/(T L^(D-1))^2 (start and end momenta independent
+    draws), where reblocking would read its hit-by-hit noise as white and
+    overestimate it (a momentum given to one wall is soon given back to the
+    other). S and D are uncorrelated by the box's mirror symmetry.
+    """
+    out = {}
+    share = errorbars.axis_share_var(run.dim, run.n)
+    series = wall_bin_pressures(run)
+    counts, _, masses = species_arrays(run)
+    window = run.window
+    diff_var = (2.0 * float(np.sum(counts * masses)) * K_B * temperature / (window * run.wall_measure) ** 2
+                if math.isfinite(temperature) and len(run.species) and window > 0.0 else math.nan)
+    for d in range(1, run.dim + 1):
+        low, high = series[-d], series[d]
+        exp = [expected.get(w) for w in (-d, d)]
+        scale = sum(e.value if e is not None and e.known else float(np.mean(x)) for e, x in zip(exp, (low, high)))
+        total = run_average(run, low + high, static_var=share * scale ** 2,
+                          relaxation=errorbars.ANISOTROPY_RELAXATION[run.dim],
+                          end_var=ends_variance(run, temperature, 1))
+        for w, x in ((-d, low), (d, high)):
+            own = run_average(run, x)
+            if not (math.isfinite(total.error) and math.isfinite(diff_var)):
+                out[w] = own
+                continue
+            error = 0.5 * math.sqrt(total.error ** 2 + diff_var)
+            var1 = float(np.var(x[run.settle_bin:], ddof=1)) if x.size - run.settle_bin > 1 else math.nan
+            out[w] = errorbars.Estimate(own.mean, error, var1 / error ** 2 if error > 0 else math.nan,
+                                        total.window_s, 0.5 * total.frozen,
+                                        errorbars.combined_dof([(total.error ** 2, total.dof), (diff_var, math.inf)]))
+    return out
+
+
+def species_arrays(run: StoredRun):
+    return (run.species.COUNT.to_numpy(dtype=float), run.species.RADIUS_M.to_numpy(dtype=float),
+            run.species.MASS_KG.to_numpy(dtype=float))
+
+
+def settled_temperature(run: StoredRun) -> errorbars.Estimate:
+    """Temperature of the analysed (settled) part of the run from its wall hits, K.
+
+    Flux-weighted Maxwell-Boltzmann: <m v_perp^2> over the hits on any wall
+    is 2 k_B T at any density and height, for every species; the hits of the
+    settled part give T and its error (reblocking of the per-bin sums).
+    """
+    h = run.hits
+    if not len(h) or "SUM_VP2" not in h:
+        return errorbars.NAN_ESTIMATE
+    energy = hit_masses(run) * h.SUM_VP2.to_numpy(dtype=float) / (2.0 * K_B)
+    return run_average(run, per_bin(h.BIN, energy), per_bin(h.BIN, h.NB_REBONDS))

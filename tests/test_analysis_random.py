@@ -1,0 +1,95 @@
+"""Random scenes (issue 38, item 5): whatever the scene, no printed deviation is far off.
+
+Scenes are drawn at random (fixed seeds, so the test is deterministic): dimension,
+boundary, packing up to a little below freezing, one species or two of different
+radii and masses, gravity (with walls), N and duration. Each runs once; every
+DEV_SIGMA analyse prints, in every table, must be below FAR in size: a comparison
+either fits the scene and its error is honest, or it prints no deviation.
+Reduced units: m = k_B T = 1, box side 1.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from gaz_cli.analysis import report as analysis
+from gaz_cli.constants import K_B
+from gaz_cli.model.scene import Scene
+from gaz_cli.model.species import Species
+from gaz_cli.run import runner
+
+FAR = 5.0
+"""A printed |DEV_SIGMA| at or beyond this is a wrong verdict (6e-7 of a normal's draws)."""
+
+TOP_PACKING = {1: 0.6, 2: 0.5, 3: 0.35}
+"""Largest packing drawn (below 2D's 0.70 and 3D's 0.494 freezing, with room for small N)."""
+UNIT = {1: 2.0, 2: math.pi, 3: 4.0 * math.pi / 3.0}
+
+
+def draw_scene(k: int) -> Scene:
+    """Scene number ``k`` of the random set."""
+    rng = np.random.default_rng(1000 + k)
+    dim = int(rng.integers(1, 4))
+    boundary = "periodic" if rng.random() < 0.4 else "walls"
+    n = int(rng.integers(20, {1: 150, 2: 150, 3: 120}[dim]))
+    packing = float(rng.uniform(0.01, TOP_PACKING[dim]))
+    two = rng.random() < 0.35
+    if two:
+        ratio, heavy = float(rng.uniform(0.5, 1.0)), float(rng.uniform(1.0, 5.0))
+        n_a = n // 2
+        volume = n_a * 1.0 + (n - n_a) * ratio ** dim
+        r = (packing / (UNIT[dim] * volume)) ** (1.0 / dim)
+        components = ((Species("A", 1.0, r), n_a), (Species("B", heavy, r * ratio), n - n_a))
+    else:
+        r = (packing / (UNIT[dim] * n)) ** (1.0 / dim)
+        components = ((Species("X", 1.0, r), n),)
+    gravity = float(rng.uniform(0.5, 2.0)) if boundary == "walls" and rng.random() < 0.25 else 0.0
+    duration = float(rng.uniform(4.0, 12.0))
+    record = "all" if rng.random() < 0.5 else "bounces"
+    return Scene(dim=dim, length=1.0, duration=duration, components=components, temperature=1.0 / K_B,
+                 seed=int(rng.integers(1, 10 ** 6)), boundary=boundary, gravity=gravity, record=record)
+
+
+def printed_deviations(frames: dict) -> list[tuple[str, str, float]]:
+    """(table, row label, DEV_SIGMA) of every finite deviation in analyse's tables."""
+    out = []
+    for title, frame in frames.items():
+        if isinstance(frame, pd.DataFrame) and "DEV_SIGMA" in frame:
+            for i, row in frame.iterrows():
+                z = row.DEV_SIGMA
+                if isinstance(z, float) and math.isfinite(z):
+                    label = str(row.get("MODEL", row.get("SPECIES", row.get("QUANTITY", row.get("RE_DIR", i)))))
+                    out.append((title, label, float(z)))
+    return out
+
+
+def _far_off(tmp_path, scenes: range):
+    db = str(tmp_path / "random.db")
+    far, printed = [], 0
+    for k in scenes:
+        scene = draw_scene(k)
+        summary = runner.simulate(scene, db=db)
+        devs = printed_deviations(analysis.report(db, sim=summary["si_num"]))
+        printed += len(devs)
+        far += [(k, scene.dim, scene.boundary, len(scene.components), scene.gravity, *d)
+                for d in devs if abs(d[2]) >= FAR]
+    return far, printed
+
+
+def test_no_printed_deviation_is_far_off_on_random_scenes(tmp_path):
+    """40 scenes, about 15 s."""
+    far, printed = _far_off(tmp_path, range(40))
+    assert not far, far
+    assert printed >= 40              # verdicts are given, not all withheld (79 on these)
+
+
+@pytest.mark.coverage
+def test_no_printed_deviation_is_far_off_on_many_random_scenes(tmp_path):
+    """200 more scenes (about a minute)."""
+    far, printed = _far_off(tmp_path, range(40, 240))
+    assert not far, far
+    assert printed >= 2 * 200
