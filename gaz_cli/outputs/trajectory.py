@@ -91,11 +91,14 @@ _TIME = {"s": 1.0, "ps": PS, "fs": 1e-15, "ns": 1e-9}
 """Unit strings gaz reads back (files of older gaz versions were in m and s)."""
 
 
-def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> "TrajectoryWriter":
+def open_trajectory(path: str | os.PathLike, every: float, scene: Scene,
+                    write_to: str | os.PathLike | None = None) -> "TrajectoryWriter":
     """A writer of snapshots every ``every`` simulated seconds to ``path`` (format by extension).
 
     Use as a context manager, or call ``close()``. Raises SceneError for an
-    unknown extension, a bad interval or a directory that does not exist.
+    unknown extension, a bad interval or a directory that does not exist. ``write_to``: the
+    file actually written (a temporary name that the caller renames to ``path`` when its run
+    is committed, :mod:`gaz_cli.atomic`; HDF5 and GSD only); messages name ``path``.
     """
     path = Path(path)
     fmt = FORMATS.get(path.suffix.lower())
@@ -108,7 +111,12 @@ def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> "Tra
     if not directory.is_dir():
         raise SceneError(f"--trajectory {str(path)!r}: directory {str(directory)!r} does not exist")
     cls = {"h5md": H5MDWriter, "gsd": GSDWriter, "vtk": VTKWriter}[fmt]
-    return cls(path, float(every), scene)
+    if write_to is None or fmt == "vtk":
+        return cls(path, float(every), scene)
+    writer = cls.__new__(cls)
+    writer.name = path
+    writer.__init__(Path(write_to), float(every), scene)
+    return writer
 
 
 class TrajectoryWriter(Recorder):
@@ -119,7 +127,8 @@ class TrajectoryWriter(Recorder):
     want_images = False
 
     def __init__(self, path: Path, every: float, scene: Scene):
-        self.path = Path(path)
+        self.path = Path(path)  # the file written
+        self.name = getattr(self, "name", self.path)  # the file named in messages
         self.snapshot_every = every
         self.scene = scene
         self.count = 0
@@ -214,7 +223,7 @@ class H5MDWriter(TrajectoryWriter):
             # flush (it then crashed the interpreter at exit: exit 139)
             self.file = h5py.File(self.path, "w", rdcc_nbytes=0)
         except OSError as err:
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {_reason(err)}") from None
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r}: {_reason(err)}") from None
         f = self.file
         h5md = f.create_group("h5md")
         h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
@@ -262,7 +271,7 @@ class H5MDWriter(TrajectoryWriter):
 
     def _write(self, t, positions, velocities, images=None):
         if self.file is None:
-            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
+            raise SceneError(f"--trajectory {str(self.name)!r} is closed")
         k = self.count
         data = {"position": positions / NM, "velocity": velocities * (PS / NM), "box/edges": self._edges}
         if self.periodic:
@@ -276,7 +285,7 @@ class H5MDWriter(TrajectoryWriter):
                 value[k] = data[name]
         except OSError as err:
             self._discard()
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {k}): "
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r} (snapshot {k}): "
                              f"{_reason(err)}; the file was removed") from None
 
     def close(self):
@@ -286,7 +295,7 @@ class H5MDWriter(TrajectoryWriter):
                 self.file = None
             except OSError as err:
                 self._discard()
-                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {_reason(err)}; "
+                raise OutputError(f"cannot finish --trajectory {str(self.name)!r}: {_reason(err)}; "
                                  "the file was removed") from None
 
     def _discard(self) -> None:
@@ -321,7 +330,7 @@ class GSDWriter(TrajectoryWriter):
         try:
             self.file = gsd_hoomd.open(name=str(self.path), mode="w")
         except OSError as err:
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {_reason(err)}") from None
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r}: {_reason(err)}") from None
         self._hoomd = gsd_hoomd
         self.periodic = scene.boundary == "periodic"
         self.want_images = self.periodic
@@ -335,7 +344,7 @@ class GSDWriter(TrajectoryWriter):
 
     def _write(self, t, positions, velocities, images=None):
         if self.file is None:
-            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
+            raise SceneError(f"--trajectory {str(self.name)!r} is closed")
         n, d = positions.shape
         frame = self._hoomd.Frame()
         frame.configuration.step = self.count
@@ -362,7 +371,7 @@ class GSDWriter(TrajectoryWriter):
             self.file.append(frame)
         except OSError as err:
             self._discard()
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {self.count}): "
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r} (snapshot {self.count}): "
                              f"{_reason(err)}; the file was removed") from None
 
     def close(self):
@@ -372,7 +381,7 @@ class GSDWriter(TrajectoryWriter):
                 f.close()
             except OSError as err:
                 self._remove()
-                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {_reason(err)}; "
+                raise OutputError(f"cannot finish --trajectory {str(self.name)!r}: {_reason(err)}; "
                                  "the file was removed") from None
 
     def _discard(self) -> None:
