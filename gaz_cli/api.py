@@ -77,7 +77,7 @@ def _checked(scene, path=None) -> None:
 def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,
              keep_collisions: bool = False, trajectory: str | None = None, every: float | None = None,
              save_state: str | None = None, write_scene: str | None = None, diagnostics=None,
-             progress: bool = False) -> Run:
+             progress: bool = False, inputs: dict | None = None) -> Run:
     """Run ``scene``; returns a :class:`~gaz_cli.run.runner.Run`: ``summary`` (dict), and the final
     ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
 
@@ -85,12 +85,14 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     without a seed gets a fresh one, recorded in the summary. ``diagnostics``: a function
     called with a dict (time, step, kinetic, potential, energy, max_speed...) every
     ``print_every`` steps of the step engine (refused with another engine). ``progress``: a progress bar
-    on stderr (``gaz simulate`` draws one when stderr is a terminal).
+    on stderr (``gaz simulate`` draws one when stderr is a terminal). ``inputs``: the files the
+    scene was read from ({'the scene file': path}): no output may be one of them. Every output
+    appears under its name when the run is committed, whole (a temporary file renamed).
     """
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
                      save_state=save_state, write_scene=write_scene, diagnostics=diagnostics,
-                     progress=progress)
+                     progress=progress, inputs=inputs)
 
 
 def open_store(db: str, create: bool = False):

@@ -322,12 +322,13 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
-    trajectory = trajectory or outputs.get("trajectory")
+    trajectory = trajectory if trajectory is not None else outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
-    save_state = save_state or outputs.get("save_state")
+    save_state = save_state if save_state is not None else outputs.get("save_state")
     diagnostics = _print_diagnostic if scene.print_every else None  # --print-every: step engine only
     summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
-                           diagnostics=diagnostics, write_scene=write_scene, progress=progress.wanted(quiet)).summary
+                           diagnostics=diagnostics, write_scene=write_scene, progress=progress.wanted(quiet),
+                           inputs={"the scene file": scene_file} if scene_file else None).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:
@@ -550,8 +551,11 @@ def animate(trajectory, output, fps):
     """
     from gaz_cli.outputs import animate as anim
 
+    from gaz_cli.scenes import paths
+
     output = os.path.splitext(trajectory)[0] + ".gif" if output is None else output
     anim.check_output(output)
+    paths.check(inputs={"the trajectory": trajectory}, outputs={"-o": output})
     anim.render_gif(trajectory, output, fps=fps)
     click.echo(f"animation written to {output}", err=True)
 

@@ -8,11 +8,14 @@ a database that cannot take the run fails here, before any simulation); let
 the engine stream its events into the run's writer (staged or
 in an open transaction, see :mod:`gaz_cli.results.store`); then everything that can
 still fail -- the trajectory's last write, the final state file, the
-summary -- and only then the commit. A failure or an interrupt (SIGINT or
+summary -- and only then the commit. The outputs (scene file, trajectory, final
+state) are written under temporary names beside them and renamed into place after
+the commit (:mod:`gaz_cli.atomic`); before anything is written each is compared with
+the database, the run's inputs and the other outputs by identity of the file
+(:mod:`gaz_cli.scenes.paths`). A failure or an interrupt (SIGINT or
 SIGTERM, see :mod:`gaz_cli.interrupts`) at any point before the commit
-leaves nothing in the database and removes the state file; the trajectory
-keeps the snapshots written so far, and the
-:class:`~gaz_cli.errors.Interrupted` raised says so.
+leaves nothing in the database and every output as it was (the temporary files
+removed), and the :class:`~gaz_cli.errors.Interrupted` raised says so.
 """
 
 from __future__ import annotations
@@ -25,13 +28,14 @@ from pathlib import Path
 
 import numpy as np
 
-from gaz_cli import interrupts
-from gaz_cli.errors import Interrupted, SceneError
+from gaz_cli import atomic, interrupts
+from gaz_cli.errors import Interrupted, OutputError, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.model.scene import (Scene, State, check_database_space, check_diagnostics, check_outputs,
                            fresh_seed, initial_state, validate)
 
 from gaz_cli.engines.registry import engine_run
+from gaz_cli.scenes import paths
 
 
 class Tee(Recorder):
@@ -134,11 +138,13 @@ class Diagnostics(Recorder):
 
 
 def _check_writable(path: str | None, option: str) -> None:
-    """Refuse, before the database is opened, an output file that cannot be written: its folder
-    missing, or the path an existing folder (the command line's flags check that too; a scene
-    file's [output] and the Python API come here)."""
+    """Refuse, before the database is opened, an output file that cannot be written: an empty
+    name, its folder missing, or the path an existing folder (the command line's flags check
+    that too; a scene file's [output] and the Python API come here)."""
     if path is not None and not isinstance(path, (str, os.PathLike)):
         raise SceneError(f"{option} {path!r} is not a file path; give a path (text or pathlib.Path), or None")
+    if path is not None and not os.fspath(path).strip():
+        raise SceneError(f"{option} {os.fspath(path)!r} names no file; give a file name, or leave {option} out")
     if path:
         where = Path(path).expanduser()
         parent = where.resolve().parent
@@ -159,41 +165,6 @@ def sqlite_file(db: str | None) -> str | None:
     path = db if is_file_path(db) else (db[len("sqlite:///"):].split("?", 1)[0]
                                         if db.startswith("sqlite:///") else None)
     return path or None
-
-
-def _check_distinct(db: str | None, outputs: dict) -> None:
-    """No two of a run's files the same: an output written over the SQLite database (or over
-    another output) would destroy it. ``outputs``: option -> path (None when not given). A VTK
-    trajectory (.pvd or .vtu) writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it:
-    each of those counts (--db run.pvd with --trajectory run.vtu lost the database to the
-    collection written over it)."""
-    taken = []
-    path = sqlite_file(db)
-    if path:
-        taken.append(("--db", db, *_written(path, "--db")))
-    for option, path in outputs.items():
-        if not path:
-            continue
-        resolved, writes = _written(path, option)
-        for other, given, where, wrote in taken:
-            if writes(where) or wrote(resolved):
-                what = "the database" if other == "--db" else f"the {other} file"
-                vtk = ("" if where == resolved else
-                       " (a VTK trajectory writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it)")
-                raise SceneError(f"{option} {str(path)!r} is also {other} {str(given)!r}{vtk}: writing it would "
-                                 f"destroy {what}; give {option} another file")
-        taken.append((option, path, resolved, writes))
-
-
-def _written(path, option: str):
-    """(the resolved path, a test of whether the output ``option`` writes a given resolved path)."""
-    resolved = Path(path).expanduser().resolve()
-    if option != "--trajectory" or resolved.suffix.lower() not in (".pvd", ".vtu"):
-        return resolved, lambda p: p == resolved
-    collection = resolved.with_suffix(".pvd")
-    snapshot = re.compile(re.escape(resolved.stem) + r"_\d{5,}\.vtu")
-    return resolved, lambda p: p in (resolved, collection) or (p.parent == resolved.parent
-                                                               and snapshot.fullmatch(p.name) is not None)
 
 
 @dataclass
@@ -217,17 +188,18 @@ class Run:
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
              every: float | None = None, diagnostics=None, write_scene: str | None = None,
-             progress: bool = False) -> dict:
+             progress: bool = False, inputs: dict | None = None) -> dict:
     """Run one simulation; return its summary (a dict, JSON-ready). See :func:`run_scene`."""
     return run_scene(scene, db=db, save_state=save_state, state=state, trajectory=trajectory, every=every,
-                     diagnostics=diagnostics, write_scene=write_scene, progress=progress).summary
+                     diagnostics=diagnostics, write_scene=write_scene, progress=progress,
+                     inputs=inputs).summary
 
 
 def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None,
               state: State | None = None, trajectory: str | None = None,
               every: float | None = None, diagnostics=None, write_scene: str | None = None,
               keep_state: bool = False, keep_bounces: bool = False, keep_collisions: bool = False,
-              progress: bool = False) -> Run:
+              progress: bool = False, inputs: dict | None = None) -> Run:
     """Run one simulation; return its :class:`Run` (summary, and what ``keep_*`` asks for).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
@@ -242,7 +214,10 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     interrupted, saying what was left on disk. ``keep_state``, ``keep_bounces``,
     ``keep_collisions``: return the final state, the wall bounces, the collisions as arrays
     (no database needed; the bounces and collisions are kept in memory, whatever
-    ``scene.record`` says).
+    ``scene.record`` says). ``inputs``: the files the run was read from, by what they are
+    ('the scene file' -> path): no output, nor the database, may be one of them
+    (:func:`gaz_cli.scenes.paths.check`). The outputs appear under their names when the run
+    is committed, not before (:mod:`gaz_cli.atomic`).
     """
     if db is not None:
         from gaz_cli.results.sqlite import database_name
@@ -255,23 +230,23 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             **scene.extras, "engine_reason": "hard spheres: exact event-driven dynamics (a trajectory asked for)"})
         scene = with_search(scene)
     run = engine_run(scene.engine)
-    _check_writable(save_state, "--save-state")
-    _check_writable(trajectory, "--trajectory")
-    _check_writable(write_scene, "--write-scene")
-    _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
+    outputs = {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state}
+    for option, path in outputs.items():
+        _check_writable(path, option)
+    # every output against the database, the run's inputs and the other outputs, by identity
+    # of the file (hard and symbolic links seen through), before anything is written
+    paths.check(sqlite_file(db), inputs, outputs)
     check_outputs(scene, trajectory, every)
     check_diagnostics(scene, diagnostics)
     if sqlite_file(db):
         check_database_space([scene], sqlite_file(db))
     # (PostgreSQL: a run past a 32-bit row number is refused by its writer, before the engine)
-    if write_scene:
-        from gaz_cli.scenes import files as scenefile
-
-        scenefile.write(write_scene, scene)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
-    state_written = False
+    # every output goes to a temporary name beside it, renamed into place once the run is
+    # committed (gaz_cli.atomic): a failure or an interrupt leaves the old files as they were
+    pending: dict[str, Path] = {}
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
@@ -284,10 +259,15 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                 from gaz_cli.results.sqlite import open_for_writing
                 store = stack.enter_context(open_for_writing(db))  # refused or failing: before the engine
                 writer = stack.enter_context(store.simulation(scene))
+            if write_scene:
+                from gaz_cli.scenes import files as scenefile
+
+                scenefile.write(_temporary(pending, write_scene), scene, shown=write_scene)
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.outputs.trajectory import open_trajectory
-                traj = stack.enter_context(open_trajectory(trajectory, every, scene))
+                traj = stack.enter_context(open_trajectory(trajectory, every, scene,
+                                                           write_to=_temporary(pending, trajectory)))
             diag = Diagnostics(diagnostics) if diagnostics else None
             memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
             if memory is not None:
@@ -305,15 +285,18 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             if traj is not None:
                 traj.close()
             if save_state:
-                state_written = True
-                write_state(save_state, scene, stats.final)
+                write_state(_temporary(pending, save_state), scene, stats.final, shown=save_state)
             out = summary(scene, stats, None, ke_start, ke_end,
                           None if tally is None else tally.momentum)
             if writer is not None:
                 writer.finish(stats, ke_start, ke_end)
+        with interrupts.held():  # committed: the outputs take their names, all of them
+            _rename_all(pending)
     except BaseException as exc:
-        if state_written and (writer is None or writer.si_num is None):
-            _remove(save_state)
+        for temporary in pending.values():
+            atomic.discard(temporary)
+        if traj is not None and hasattr(traj, "_discard") and not pending.get(str(trajectory)):
+            traj._discard()  # (a VTK collection: its files are written in place)
         signum = interrupts.signal_of(exc)
         if signum is not None:
             raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
@@ -324,11 +307,28 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                stats, scene)
 
 
-def _remove(path: str) -> None:
-    """Delete the state file of a failed run: a regular file only (never /dev/full and the like)."""
-    with contextlib.suppress(OSError):
-        if Path(path).is_file():
-            Path(path).unlink()
+def _temporary(pending: dict, path) -> Path | None:
+    """The name to write the output ``path`` under until the run is committed, noted in
+    ``pending`` (None for a VTK trajectory, written in place, and for a device or FIFO)."""
+    if atomic.in_place(path):
+        return None
+    if Path(path).suffix.lower() in (".pvd", ".vtu"):
+        return None
+    temporary = atomic.temporary_name(path)
+    pending[str(path)] = temporary
+    return temporary
+
+
+def _rename_all(pending: dict) -> None:
+    """Rename each output's temporary file over its name (the run is committed)."""
+    while pending:
+        final, temporary = next(iter(pending.items()))
+        try:
+            atomic.commit(temporary, final)
+        except OSError as err:
+            raise OutputError(f"cannot put {final!r} in place: {err.strerror} (the run was stored; "
+                              f"its file is {str(temporary)!r})") from None
+        del pending[final]
 
 
 def _left_on_disk(store, writer, traj) -> str:
@@ -340,7 +340,7 @@ def _left_on_disk(store, writer, traj) -> str:
     else:
         said = ["no database was written"]
     if traj is not None:
-        said.append(f"trajectory {str(traj.path)!r} keeps the {traj.count} snapshots written before it")
+        said.append(f"no trajectory was written to {str(getattr(traj, 'name', traj.path))!r}")
     return "; ".join(said)
 
 
@@ -380,8 +380,11 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
     return out
 
 
-def write_state(path: str, scene: Scene, state: State) -> None:
-    """Final state as CSV: species,x[,y[,z]],vx[,vy[,vz]] (species by name, SI units)."""
+def write_state(path: str | None, scene: Scene, state: State, shown: str | None = None) -> None:
+    """Final state as CSV: species,x[,y[,z]],vx[,vy[,vz]] (species by name, SI units). ``path``
+    None: ``shown`` itself (a device); ``shown``: the name the messages give (a temporary file's)."""
+    shown = path if shown is None else shown
+    path = shown if path is None else path
     axes = "xyz"[: scene.dim]
     header = ["species", *axes, *(f"v{a}" for a in axes)]
     names = np.array([s.name for s in scene.species])[state.kinds]
@@ -392,7 +395,7 @@ def write_state(path: str, scene: Scene, state: State) -> None:
                 fh.write(",".join([str(name), *(repr(float(c)) for c in x),
                                    *(repr(float(c)) for c in v)]) + "\n")
     except OSError as err:
-        raise SceneError(f"cannot write --save-state {path!r}: {err.strerror}") from None
+        raise SceneError(f"cannot write --save-state {str(shown)!r}: {err.strerror}") from None
 
 
 def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,

@@ -407,13 +407,22 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
     return "\n".join(lines) + "\n"
 
 
-def write(path, scene: Scene, outputs: dict | None = None) -> None:
-    """Write the scene file of ``scene`` to ``path``; SceneError if it cannot be written."""
-    require_scene(scene, path)
+def write(path, scene: Scene, outputs: dict | None = None, shown=None) -> None:
+    """Write the scene file of ``scene`` to ``path``, whole or not at all (:mod:`gaz_cli.atomic`);
+    SceneError if it cannot be written. ``shown``: the name the messages give (``path`` a
+    temporary name; None: ``path``, or ``shown`` itself when ``path`` is None)."""
+    from gaz_cli import atomic
+
+    shown = path if shown is None else shown
+    require_scene(scene, shown)
+    text = dumps(scene, outputs)
     try:
-        Path(path).write_text(dumps(scene, outputs), encoding="utf-8")
+        if path is None:
+            Path(shown).write_text(text, encoding="utf-8")
+        else:
+            atomic.write_text(path, text)
     except OSError as err:
-        raise SceneError(f"cannot write scene file {str(path)!r}: {err.strerror}") from None
+        raise SceneError(f"cannot write scene file {str(shown)!r}: {err.strerror}") from None
 
 
 def stored(db: str, si_num: int) -> str:

