@@ -67,6 +67,7 @@ The format follows the file's extension; :func:`read_trajectory` reads each back
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -532,6 +533,17 @@ def _is_hdf5(path) -> bool:
         return False
 
 
+MAX_READ_BYTES = 4 << 30
+"""The most a trajectory read back may hold in memory (positions and velocities: 4 GiB);
+a larger file is refused in one line before it is read (issue 39: unbounded reads)."""
+
+
+def _check_size(path, nbytes: int) -> None:
+    if nbytes > MAX_READ_BYTES:
+        raise SceneError(f"trajectory {str(path)!r} holds {nbytes / 2**30:.3g} GiB of snapshots, more than the "
+                         f"{MAX_READ_BYTES >> 30} GiB gaz reads back; write fewer snapshots (a larger --every)")
+
+
 def read_h5md(path: str | os.PathLike) -> dict:
     """Read an H5MD trajectory written by :class:`H5MDWriter` (see :func:`read_trajectory`).
 
@@ -561,6 +573,7 @@ def read_h5md(path: str | os.PathLike) -> dict:
 
         position = part["position/value"]
         velocity = part["velocity/value"] if "velocity" in part else None
+        _check_size(path, position.size * 8 + (0 if velocity is None else velocity.size * 8))
         edges = part["box/edges"]
         edges = edges["value"] if isinstance(edges, h5py.Group) else edges
         out = {
@@ -601,6 +614,7 @@ def read_gsd(path: str | os.PathLike) -> dict:
         dim = int(first.log["gaz/dimension"][0]) if "gaz/dimension" in first.log \
             else int(first.configuration.dimensions)
         box = np.asarray(first.configuration.box[:dim], dtype=np.float64) * NM
+        _check_size(path, len(f) * int(first.particles.N) * dim * 16)
         frames = [f[k] for k in range(len(f))]
     positions = np.stack([fr.particles.position[:, :dim] for fr in frames]).astype(np.float64) * NM + box / 2
     velocities = np.stack([fr.particles.velocity[:, :dim] for fr in frames]).astype(np.float64) * (NM / PS)
@@ -624,11 +638,14 @@ def read_vtk(path: str | os.PathLike) -> dict:
         stem = path.stem.rsplit("_", 1)[0] if path.stem.rsplit("_", 1)[-1].isdigit() else path.stem
         path = path.with_name(stem + ".pvd")
     try:
+        _check_size(path, os.stat(path).st_size)  # (the collection; each snapshot's size below)
         root = ET.parse(path, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
         entries = [(float(e.get("timestep")), path.parent / e.get("file")) for e in root.iter("DataSet")]
     except (OSError, ET.ParseError, TypeError, ValueError) as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
     meshes = []
+    with contextlib.suppress(OSError):
+        _check_size(path, sum(os.stat(file).st_size for _, file in entries))
     for _, file in entries:
         # meshio's own reader, not meshio.read: that one prints "Error: Couldn't read file" and
         # calls sys.exit(1) for a file it cannot parse, and raises its ReadError for a missing one
