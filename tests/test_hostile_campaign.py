@@ -157,3 +157,29 @@ def test_a_successful_run_replaces_its_outputs_whole(tmp_path):
     assert "dim = 2" in (tmp_path / "scene.toml").read_text()
     assert (tmp_path / "other.csv").read_text() == "old\n"  # renamed over: the link is left alone
     assert sorted(p.name for p in tmp_path.iterdir()) == ["other.csv", "scene.toml", "state.csv"]
+
+
+# --- 3. bounded reads ------------------------------------------------------------------
+def test_a_scene_file_that_never_ends_fails_at_once():
+    """``gaz simulate /dev/zero`` read until the kernel killed it (22 GB resident)."""
+    import time
+
+    start = time.perf_counter()
+    res = invoke(["simulate", "/dev/zero", "--no-db"])
+    one_line(res, 1, "scene file '/dev/zero' holds more than 64 MiB, the most a scene file may hold")
+    assert time.perf_counter() - start < 20
+
+
+def test_a_binary_scene_file_is_one_line(tmp_path):
+    (tmp_path / "nul.toml").write_bytes(b"dim = 2\n\0\0\0")
+    one_line(invoke(["simulate", str(tmp_path / "nul.toml"), "--no-db"]), 1, "is not text (it holds NUL bytes)")
+
+
+def test_a_trajectory_beyond_the_read_bound_is_refused(tmp_path, monkeypatch):
+    from gaz_cli.outputs import trajectory
+
+    traj = tmp_path / "run.h5"
+    assert invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(traj), "--every", "5e-12"]).exit_code == 0
+    monkeypatch.setattr(trajectory, "MAX_READ_BYTES", 100)
+    one_line(invoke(["animate", str(traj)]), 1, "GiB gaz reads back; write fewer snapshots")
+    assert not (tmp_path / "run.gif").exists()

@@ -36,6 +36,7 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
 import numbers
 import sys
 from dataclasses import fields, replace
@@ -128,14 +129,31 @@ def _check_keys(table: dict, allowed: dict, where: str, tables: tuple = ()) -> N
             raise SceneError(f"{where}{key} = {_shown(value)} must be {kind}")
 
 
+MAX_SCENE_BYTES = 64 << 20
+"""The most a scene file may hold (64 MiB: an explicit state of about a million particles);
+reading stops there, so that ``gaz simulate /dev/zero`` or a wrong file fails at once
+instead of filling the memory."""
+
+
 def read(path) -> dict:
-    """The parsed TOML of a scene file (a dict); SceneError if unreadable or not TOML."""
+    """The parsed TOML of a scene file (a dict); SceneError if unreadable, larger than
+    :data:`MAX_SCENE_BYTES` or not TOML."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SceneError(f"scene file {path!r} is not a file path; give a path (text or pathlib.Path)")
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_SCENE_BYTES + 1)
     except OSError as err:
         raise SceneError(f"cannot read scene file {str(path)!r}: {err.strerror}") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"scene file {str(path)!r} holds more than {MAX_SCENE_BYTES >> 20} MiB, the most "
+                         "a scene file may hold; is it the right file?")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise SceneError(f"scene file {str(path)!r} is not UTF-8 text") from None
+    if "\0" in text:
+        raise SceneError(f"scene file {str(path)!r} is not text (it holds NUL bytes); is it the right file?")
     return parse(text, str(path))
 
 
