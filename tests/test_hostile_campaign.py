@@ -183,3 +183,27 @@ def test_a_trajectory_beyond_the_read_bound_is_refused(tmp_path, monkeypatch):
     monkeypatch.setattr(trajectory, "MAX_READ_BYTES", 100)
     one_line(invoke(["animate", str(traj)]), 1, "GiB gaz reads back; write fewer snapshots")
     assert not (tmp_path / "run.gif").exists()
+
+
+# --- 4. nothing left on disk after SIGINT or SIGTERM --------------------------------------
+@pytest.mark.parametrize("signum", [2, 15], ids=["SIGINT", "SIGTERM"])
+def test_an_interrupted_runs_scratch_file_is_deleted(tmp_path, monkeypatch, signum):
+    """A run past a million rows interrupted by SIGINT or SIGTERM left its scratch file (170 MB)
+    beside the database: the stage's discard joined the scratch thread inside a held block,
+    which raised the pending interrupt again before the file was deleted."""
+    import numpy as np
+
+    from gaz_cli import interrupts
+    from gaz_cli.errors import Interrupted
+    from gaz_cli.results import staging
+
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 10)
+    stage = staging.Stage(tmp_path / "gaz.db", {"rebond": ["a", "b"]})
+    with pytest.raises(Interrupted):
+        with interrupts.catching():
+            for _ in range(3):
+                stage.add("rebond", [np.arange(8.0), np.arange(8.0)])
+            assert stage.path is not None and stage.path.exists()
+            interrupts._pending.append(signum)  # the signal that stopped the run
+            stage.discard()
+    assert list(tmp_path.iterdir()) == []
