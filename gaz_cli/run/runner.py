@@ -146,6 +146,7 @@ def _check_writable(path: str | None, option: str) -> None:
     if path is not None and not os.fspath(path).strip():
         raise SceneError(f"{option} {os.fspath(path)!r} names no file; give a file name, or leave {option} out")
     if path:
+        _check_name(path, option)
         where = Path(path).expanduser()
         parent = where.resolve().parent
         if not parent.is_dir():
@@ -154,6 +155,26 @@ def _check_writable(path: str | None, option: str) -> None:
             example = {"--save-state": "state.csv", "--trajectory": "run.h5"}.get(option, "scene.toml")
             raise SceneError(f"{option} {str(path)!r} is a folder, not a file; give a file path "
                              f"(e.g. {str(Path(path) / example)!r})")
+
+
+def _check_name(path, option: str) -> None:
+    """Refuse a name no file system takes: a NUL character, or a file name (with the temporary
+    name it is written under first, :mod:`gaz_cli.atomic`) longer than its folder allows."""
+    text = os.fspath(path)
+    if "\0" in str(text):
+        raise SceneError(f"{option} {text!r} holds a NUL character, which no file name may hold; "
+                         "give another name")
+    temporary = atomic.temporary_name(path)
+    try:
+        longest = os.pathconf(temporary.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        longest = 255
+    if len(os.fsencode(temporary.name)) > longest:
+        room = longest - (len(os.fsencode(temporary.name)) - len(os.fsencode(Path(text).name)))
+        raise SceneError(f"{option} {text!r}: its file name is {len(os.fsencode(Path(text).name))} bytes "
+                         f"long, more than the {room} this folder's file system takes (it holds at most "
+                         f"{longest}, and gaz writes the file under a longer temporary name first); "
+                         "give a shorter name")
 
 
 def sqlite_file(db: str | None) -> str | None:
@@ -222,6 +243,9 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     if db is not None:
         from gaz_cli.results.sqlite import database_name
 
+        if isinstance(db, (str, os.PathLike)) and "\0" in str(os.fspath(db)):
+            raise SceneError(f"--db {os.fspath(db)!r} holds a NUL character, which no file name or URL "
+                             "may hold; give another name")
         db = database_name(db)
     scene = prepare(scene)
     if trajectory and scene.engine == "reference" and scene.extras.get("engine_auto"):
