@@ -21,6 +21,32 @@ __all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", 
            "sweep", "versus", "Run"]
 
 
+def _plain(value):
+    """``value`` with NumPy scalars as Python numbers and arrays as lists, through dicts, lists
+    and tuples: the scene-file checks take what TOML gives (int, float, str, list, dict)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(v) for v in value)
+    if type(value).__module__ == "numpy":
+        import numpy as np
+
+        if isinstance(value, np.generic):
+            return value.item()
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+    return value
+
+
+def _path(value, what: str):
+    """``value`` if it is a path (str or os.PathLike), else SceneError naming what was expected."""
+    import os
+
+    if not isinstance(value, (str, os.PathLike)):
+        raise SceneError(f"{what} {value!r} is not a file path; give a path (text or pathlib.Path)")
+    return value
+
+
 def make_scene(*, species, **keys) -> Scene:
     """A validated Scene from the keys of a scene file (docs/scenes.md), SI units.
 
@@ -30,6 +56,7 @@ def make_scene(*, species, **keys) -> Scene:
     other key (``temperature``, ``seed``, ``boundary``, ``engine``, ``dt``...). ``planes``:
     a list of ``{"point", "normal", "restitution"}`` tables.
     """
+    species, keys = _plain(species), _plain(keys)  # NumPy scalars taken as the numbers they are
     if isinstance(species, str):
         from gaz_cli.model.species import parse_mixture
 
@@ -56,7 +83,7 @@ def write_scene(path, scene: Scene) -> None:
     """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
     the door refuses (:func:`gaz_cli.model.scene.validate`, SceneError) is not written."""
     _checked(scene, path)
-    scenefile.write(path, scene)
+    scenefile.write(_path(path, "write_scene: path"), scene)
 
 
 def scene_text(scene: Scene) -> str:
@@ -89,6 +116,11 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     scene was read from ({'the scene file': path}): no output may be one of them. Every output
     appears under its name when the run is committed, whole (a temporary file renamed).
     """
+    if isinstance(scene, Scene) and scene.extras is None:  # (a Scene made by hand: no extras)
+        from dataclasses import replace
+
+        scene = replace(scene, extras={})
+    every = _plain(every)
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
                      save_state=save_state, write_scene=write_scene, diagnostics=diagnostics,
@@ -108,7 +140,7 @@ def analyse(db: str, sim: int | None = None, plot: str | None = None) -> dict:
     ``plot``: a folder for PNG figures."""
     from gaz_cli.analysis import report as analysis
 
-    return analysis.report(db, sim=sim, plot_dir=plot)
+    return analysis.report(db, sim=_plain(sim), plot_dir=plot)
 
 
 def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, workers: int | None = None,
