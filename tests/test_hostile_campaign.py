@@ -207,3 +207,186 @@ def test_an_interrupted_runs_scratch_file_is_deleted(tmp_path, monkeypatch, sign
             interrupts._pending.append(signum)  # the signal that stopped the run
             stage.discard()
     assert list(tmp_path.iterdir()) == []
+
+
+# --- 5. named problems, not "internal error" ----------------------------------------------
+def _gaz(args, **kwargs):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "gaz_cli", *args], capture_output=False, text=True,
+                          timeout=120, **kwargs)
+
+
+TINY = ["--dim", "2", "--n", "3", "--length", "1e-7", "--duration", "1e-12", "--seed", "1"]
+"""A run the reference engine does in a millisecond (no compiled code)."""
+
+
+@pytest.mark.parametrize("where", ["/dev/full", "closed"])
+def test_standard_output_that_cannot_be_written_fails_before_the_run(tmp_path, where):
+    """``simulate --json > /dev/full`` exited 3 after committing its run; with stdout closed
+    commands exited 0 and lost their output. Now refused first: exit 1, one line, no run."""
+    import subprocess
+    import sys
+
+    db = tmp_path / "gaz.db"
+    cmd = [sys.executable, "-m", "gaz_cli", "simulate", *TINY, "--json", "--db", str(db)]
+    if where == "closed":
+        res = subprocess.run(["sh", "-c", 'exec "$@" >&-', "sh", *cmd], stderr=subprocess.PIPE,
+                             text=True, timeout=120)
+    else:
+        with open("/dev/full", "w") as full:
+            res = subprocess.run(cmd, stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert res.returncode == 1, res.stderr
+    assert res.stderr.startswith("gaz: error: cannot write to standard output: it is ") and \
+        res.stderr.count("\n") == 1, res.stderr
+    assert not db.exists()
+
+
+@pytest.mark.parametrize("name", ["a" * 300 + ".csv", "b" * 246 + ".csv"])
+def test_a_file_name_the_file_system_refuses_is_one_line(tmp_path, name):
+    res = invoke(["simulate", *TINY, "--no-db", "--save-state", str(tmp_path / name)])
+    one_line(res, 1, "more than the")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_python_api_takes_numpy_scalars_and_names_wrong_types(tmp_path):
+    import numpy as np
+
+    import gaz_cli as gaz
+
+    scene = gaz.make_scene(dim=np.int64(2), species={"Ar": np.int64(3)}, length=np.float64(1e-7),
+                           duration=np.float32(1e-12), seed=np.int64(1))
+    assert scene.dim == 2 and scene.n == 3
+    from dataclasses import replace
+
+    run = gaz.simulate(replace(scene, extras=None), db=str(tmp_path / "gaz.db"))
+    assert run.summary["si_num"] == 1
+    assert gaz.analyse(str(tmp_path / "gaz.db"), sim=np.int64(1))
+    for call in (lambda: gaz.write_scene(5, scene), lambda: gaz.simulate(scene, save_state="a\0b"),
+                 lambda: gaz.simulate(scene, db="a\0b")):
+        with pytest.raises(gaz.GazError):
+            call()
+
+
+# --- 2. no input stalls the event engine; a signal ends any engine ------------------------
+TOUCHING = """dim = {dim}
+length = 1e-7
+duration = 1e-11
+seed = 1
+
+[[species]]
+name = "Ar"
+count = 2
+
+[initial]
+kind = "explicit"
+positions = {positions}
+velocities = {velocities}
+"""
+
+
+@pytest.mark.parametrize("dim", [1, 2])
+def test_a_pair_at_contact_approaching_does_not_hang_the_event_engine(tmp_path, dim):
+    """Two argon atoms exactly touching (3.58e-10 m apart) and approaching: the event engine
+    ran at 100 % CPU, deaf to SIGINT and SIGTERM, for as long as it was let. The delays to
+    the first events (~1e-26 s, the round-off of the contact) sized the calendar's buckets
+    at 3e-26 s, and the kernel stepped through the 3e14 empty buckets to the stop one at a
+    time, never back in Python. Now an empty turn of the calendar jumps to the next event."""
+    import subprocess
+    import sys
+
+    if dim == 1:
+        positions, velocities = "[[5e-8], [5.0358e-8]]", "[[100.0], [-100.0]]"
+    else:
+        positions, velocities = "[[5e-8, 5e-8], [5.0358e-8, 5e-8]]", "[[100.0, 0.0], [-100.0, 0.0]]"
+    scene = tmp_path / "touch.toml"
+    scene.write_text(TOUCHING.format(dim=dim, positions=positions, velocities=velocities))
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", str(scene), "--no-db", "--json",
+                          "--engine", "event", "--quiet"], capture_output=True, text=True, timeout=400)
+    assert res.returncode == 0, res.stderr
+    import json
+
+    summary = json.loads(res.stdout)
+    assert summary["collisions"] == 1 and summary["events"] == 1
+
+
+def _interrupt_after(cmd, tmp_path, wait_s: float, signum: int = 2):
+    """Start ``gaz CMD``, let it run ``wait_s`` seconds, send ``signum``; (exit code, stderr,
+    seconds from the signal to the exit)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", *cmd], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    try:
+        time.sleep(wait_s)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.perf_counter()
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=60)
+        took = time.perf_counter() - sent
+    finally:
+        proc.kill()
+    assert signal.Signals(signum)
+    return proc.returncode, err, took
+
+
+LONG_RUNS = {
+    # the worst loop of each engine we could build: seconds or minutes of one kernel call
+    # before (the event engine: 4 million events a call; the growth placement: its whole budget)
+    "event": ["simulate", "--dim", "2", "--n", "2000", "--packing", "0.6", "--boundary", "periodic",
+              "--duration", "1e-6", "--force", "--engine", "event"],
+    "reference": ["simulate", "--dim", "2", "--n", "3000", "--length", "1e-6", "--duration", "1e-6",
+                  "--force", "--engine", "reference"],
+    "ideal": ["simulate", "--dim", "3", "--n", "1", "--radius", "0", "--mass", "1e-26", "--length", "1e-9",
+              "--duration", "1e3", "--force", "--engine", "ideal"],
+    "placement": ["place", "--dim", "3", "--n", "200000", "--radius", "1", "--length", "120",
+                  "--method", "grow"],
+}
+"""The step engine's own: tests/test_stepper.py::test_ctrl_c_stops_the_step_engine."""
+
+
+@pytest.mark.parametrize("engine", list(LONG_RUNS))
+def test_sigint_ends_every_engine_at_once(tmp_path, engine):
+    """SIGINT during each engine's long loop: exit 130 within a few seconds, one line, no run stored."""
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    cmd = LONG_RUNS[engine] + (["--quiet", "--seed", "1", "--db", str(db)] if engine != "placement" else ["--seed", "1"])
+    code, err, took = _interrupt_after(cmd, tmp_path, 8)
+    assert code == 130, err
+    assert err.startswith("gaz: interrupted by SIGINT") and err.count("\n") == 1, err
+    assert "Traceback" not in err
+    assert took < 5, took
+    if db.exists():
+        con = sqlite3.connect(db)
+        assert con.execute("SELECT COUNT(*) FROM SIMULATION").fetchone() == (0,)
+        con.close()
+    assert not [p for p in tmp_path.iterdir() if p.name not in ("gaz.db",)]
+
+
+def test_the_event_engine_returns_to_python_every_signal_events(monkeypatch):
+    """Deterministic form of the above: no kernel call of the loop asks for more than
+    SIGNAL_EVENTS events (before: up to CHUNK, 4 million, seconds deaf to signals), and the
+    run gives the same events as one with the old calls."""
+    import gaz_cli as gaz
+    from gaz_cli.engines.event import driver
+
+    asked = []
+    loop = driver._Simulation._loop
+
+    def spy(self, t_stop, max_events):
+        asked.append(max_events)
+        return loop(self, t_stop, max_events)
+
+    monkeypatch.setattr(driver._Simulation, "_loop", spy)
+    scene = gaz.make_scene(dim=2, species={"Ar": 200}, length=3e-8, duration=3e-8, seed=1, engine="event")
+    run = gaz.simulate(scene, keep_state=True)
+    assert run.summary["events"] > driver.SIGNAL_EVENTS and max(asked) <= driver.SIGNAL_EVENTS
+    monkeypatch.setattr(driver, "SIGNAL_EVENTS", 1 << 40)  # the calls as before
+    again = gaz.simulate(scene, keep_state=True)
+    assert again.summary["events"] == run.summary["events"]
+    assert (again.state.positions == run.state.positions).all()
