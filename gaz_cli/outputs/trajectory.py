@@ -314,7 +314,7 @@ class H5MDWriter(TrajectoryWriter):
             pass
         try:
             f.close()
-        except OSError:
+        except (OSError, RuntimeError):  # (h5py: RuntimeError past a file-size limit, ulimit -f)
             pass
         try:
             os.unlink(self.path)
