@@ -212,6 +212,10 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
     if repeat is None:
         if histogram:
             raise click.UsageError("--histogram needs --repeat K")
+        ctx = click.get_current_context()
+        if ctx.get_parameter_source("bins") is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError("--bins needs --repeat K (the histogram of K placements); "
+                                   "drop --bins, or add --repeat")
         positions = analysis.place_once(dim, n, radius, length, method, seed)
         axes = "xyz"[:dim]
         click.echo(",".join(axes))
