@@ -390,3 +390,30 @@ def test_the_event_engine_returns_to_python_every_signal_events(monkeypatch):
     again = gaz.simulate(scene, keep_state=True)
     assert again.summary["events"] == run.summary["events"]
     assert (again.state.positions == run.state.positions).all()
+
+
+def test_a_file_size_limit_under_a_trajectory_is_one_line(tmp_path):
+    """Under ``ulimit -f`` an HDF5 trajectory ended in "internal error: RuntimeError: Can't
+    decrement id ref count (... File too large)": h5py's close of the discarded file raised
+    a RuntimeError."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (40 * 1024, 40 * 1024))
+
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", *QUICK, "--seed", "1", "--no-db", "--quiet",
+                          "--trajectory", str(tmp_path / "big.h5"), "--every", "1e-14"],
+                         capture_output=True, text=True, timeout=300, preexec_fn=limit, cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    assert res.stderr.startswith(f"gaz: error: cannot write --trajectory '{tmp_path / 'big.h5'}'") and \
+        "File too large" in res.stderr and res.stderr.count("\n") == 1, res.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bins_without_repeat_is_refused():
+    """``gaz place --bins 7`` without --repeat printed the placement and ignored --bins."""
+    res = invoke(["place", "--dim", "1", "--n", "3", "--radius", "0.5", "--length", "10", "--bins", "7"])
+    assert res.exit_code == 2 and res.stdout == ""
+    assert res.stderr.startswith("gaz place: error: --bins needs --repeat K"), res.stderr
