@@ -417,3 +417,15 @@ def test_bins_without_repeat_is_refused():
     res = invoke(["place", "--dim", "1", "--n", "3", "--radius", "0.5", "--length", "10", "--bins", "7"])
     assert res.exit_code == 2 and res.stdout == ""
     assert res.stderr.startswith("gaz place: error: --bins needs --repeat K"), res.stderr
+
+
+@pytest.mark.parametrize("query, fragment", [
+    ("mode=ro", "parameter 'mode' is read only with uri=true"),  # was: SAWarning, and written anyway
+    ("timeout=1&timeout=2", "gives timeout twice"),
+    ("timeout=1&", "holds an empty parameter"),
+])
+def test_sqlite_url_parameters_ignored_or_repeated_are_refused(tmp_path, query, fragment):
+    url = f"sqlite:///{tmp_path / 'u.db'}?{query}"
+    res = invoke(["simulate", *TINY, "--db", url])
+    one_line(res, 1, fragment)
+    assert "SAWarning" not in res.stderr and list(tmp_path.iterdir()) == []
