@@ -28,8 +28,8 @@ def target(path) -> Path:
 def in_place(path) -> bool:
     """Whether ``path`` names something other than a regular file or nothing (a device, a FIFO),
     which is written in place, not replaced."""
-    try:
-        return not stat.S_ISREG(os.stat(target(path)).st_mode)
+    try:  # (the name itself, followed: /dev/stdout leads to a pipe whose "path" is no file)
+        return not stat.S_ISREG(os.stat(os.path.expanduser(os.fspath(path))).st_mode)
     except OSError:
         return False
 
@@ -60,7 +60,7 @@ def replacing(path):
     """Yield the name to write ``path`` under; rename it into place if the block succeeds,
     delete it if not (see the module docstring). A device or FIFO yields its own name."""
     if in_place(path):
-        yield target(path)
+        yield Path(os.path.expanduser(os.fspath(path)))
         return
     temporary = temporary_name(path)
     try:

@@ -429,3 +429,16 @@ def test_sqlite_url_parameters_ignored_or_repeated_are_refused(tmp_path, query, 
     res = invoke(["simulate", *TINY, "--db", url])
     one_line(res, 1, fragment)
     assert "SAWarning" not in res.stderr and list(tmp_path.iterdir()) == []
+
+
+def test_devices_are_written_in_place_and_never_refused():
+    """/dev/null twice is no file destroyed; /dev/stdout (a pipe here) is written, not replaced."""
+    import subprocess
+    import sys
+
+    res = invoke(["simulate", *TINY, "--no-db", "--save-state", "/dev/null", "--write-scene", "/dev/null"])
+    assert res.exit_code == 0, res.output
+    out = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *TINY, "--no-db", "--json",
+                          "--save-state", "/dev/stdout"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("species,x,y,vx,vy\n")

@@ -9,13 +9,15 @@ before anything is written (:func:`check`).
 
 A VTK trajectory (.pvd or .vtu) writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu...
 beside it: each of those counts, the existing ones by identity, the ones to come by name.
-A SQLite database counts with its journal, WAL and shared-memory files beside it.
+A SQLite database counts with its journal, WAL and shared-memory files beside it. A device
+or a FIFO (``/dev/null``, ``/dev/stdout``) is no file that writing destroys: never refused.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -76,8 +78,14 @@ class Files:
 def files_of(option: str, path, sqlite: bool = False) -> Files:
     """The files ``option`` names with ``path`` (see the module docstring)."""
     given = os.fspath(path)
-    out = Files(option, given, {identity(given)})
     real = Path(os.path.realpath(os.path.expanduser(given)))
+    try:
+        mode = os.stat(os.path.expanduser(given)).st_mode
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            return Files(option, given)  # a device or FIFO (/dev/null, /dev/stdout): not a file to destroy
+    except OSError:
+        pass
+    out = Files(option, given, {identity(given)})
     if sqlite:
         out.ids |= {identity(str(real) + s) for s in SQLITE_SIDECARS if os.path.exists(str(real) + s)}
         # names only when the file exists under another name too: the real file's own name
