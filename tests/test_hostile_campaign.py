@@ -442,3 +442,150 @@ def test_devices_are_written_in_place_and_never_refused():
                           "--save-state", "/dev/stdout"], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.startswith("species,x,y,vx,vy\n")
+
+
+# --- the generated campaign (docs/stability.md lists its families) --------------------------
+OUTPUTS = {"--save-state": [], "--write-scene": [], "--trajectory": ["--every", "5e-12"],
+           "--trajectory .pvd": ["--every", "5e-12"]}
+"""Each output option, and what it needs beside it."""
+
+FORMS = ["same name", "./name", "hard link", "symbolic link", "link to a link", "folder/../name"]
+"""How an output can name an existing file."""
+
+
+def _name_of(form: str, target: Path, folder: Path, suffix: str = "") -> str:
+    """A name for ``target`` in the given form (links made in ``folder``)."""
+    if form == "same name":
+        return str(target)
+    if form == "./name":
+        return os.path.join(str(target.parent), ".", target.name)
+    if form == "folder/../name":
+        (target.parent / "sub").mkdir(exist_ok=True)
+        return str(target.parent / "sub" / ".." / target.name)
+    name = folder / f"alias{suffix}"
+    if form == "hard link":
+        os.link(target, name)
+    elif form == "symbolic link":
+        name.symlink_to(target)
+    else:  # a symbolic link to a hard link
+        os.link(target, folder / "hard")
+        name.symlink_to(folder / "hard")
+    return str(name)
+
+
+CAMPAIGN = []
+for _option in OUTPUTS:
+    for _form in FORMS:
+        for _db in ("path", "url"):
+            CAMPAIGN.append(("database", _option, _form, _db))
+        CAMPAIGN.append(("scene file", _option, _form, "path"))
+for _form in FORMS:
+    CAMPAIGN.append(("scene file", "--db", _form, "path"))
+for _first in OUTPUTS:
+    for _second in OUTPUTS:
+        if _first != _second and not (_first.startswith("--trajectory") and _second.startswith("--trajectory")):
+            for _form in FORMS:
+                CAMPAIGN.append(("output", _first + "|" + _second, _form, "path"))
+
+
+@pytest.mark.parametrize("against, option, form, db_as", CAMPAIGN,
+                         ids=[" ".join(c) for c in CAMPAIGN])
+def test_campaign_no_output_destroys_a_file(tmp_path, stored, against, option, form, db_as):
+    """Every output option, named in every form after the database, the scene file or another
+    output: refused in one line, exit 1, every file byte-identical, nothing else written."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    other = tmp_path / "other.csv"
+    other.write_text("mine\n")
+    links = tmp_path / "links"
+    links.mkdir()
+    args = ["simulate", str(scene)]
+    db_arg = str(db) if db_as == "path" else f"sqlite:///{db}"
+    if against == "scene file" and option == "--db":
+        args += ["--db", _name_of(form, scene, links)]
+    else:
+        first = option.split("|")[0]
+        flag, suffix = (first.split() + [""])[:2]
+        target = db if against == "database" else scene if against == "scene file" else other
+        args += ["--db", db_arg, flag, _name_of(form, target, links, suffix), *OUTPUTS[first]]
+        if against == "output":
+            second = option.split("|")[1]
+            flag2 = second.split()[0]
+            args += [flag2, str(other), *OUTPUTS[second]]
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    res = invoke(args)
+    assert res.exit_code == 1, res.output
+    assert res.stderr.count("\n") == 1 and "is also" in res.stderr, res.stderr
+    assert "internal error" not in res.stderr and "Traceback" not in res.output
+    after = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    assert after == before
+
+
+BAD_NAMES = {"empty": "", "blank": "   ", "a folder": "{tmp}", "a missing folder": "{tmp}/none/x",
+             "300 characters": "{tmp}/" + "n" * 300, "a NUL": "a\0b"}
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+@pytest.mark.parametrize("bad", list(BAD_NAMES))
+def test_campaign_bad_output_names(tmp_path, stored, option, bad):
+    """Every output option with every name a file system refuses: one line, exit 1 or 2,
+    the database byte-identical. (A NUL cannot pass through argv: the API takes it.)"""
+    import gaz_cli as gaz
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    name = BAD_NAMES[bad].format(tmp=tmp_path) + (".h5" if option == "--trajectory" and bad not in
+                                                   ("a folder", "blank") else "")
+    if "\0" in name:
+        scene = gaz.make_scene(dim=2, species={"Ar": 3}, length=1e-7, duration=1e-12, seed=1)
+        key = option[2:].replace("-", "_")
+        with pytest.raises(gaz.GazError):
+            gaz.simulate(scene, db=str(db), **{key: name}, **({"every": 1e-13} if key == "trajectory" else {}))
+    else:
+        res = invoke(["simulate", *TINY, "--db", str(db), option, name, "--every", "1e-13"])
+        assert res.exit_code in (1, 2), res.output
+        assert res.stderr.count("\n") == 1 and "internal error" not in res.stderr, res.stderr
+    assert digest(db) == before
+
+
+WRONG = {"None": None, "text": "x", "a list": [1], "a dict": {"a": 1}, "bytes": b"1", "nan": float("nan"),
+         "a negative": -1, "huge": 1e308, "bool": True, "an object": object()}
+KEYS = ["dim", "length", "duration", "temperature", "seed", "boundary", "gravity", "restitution", "tc",
+        "engine", "placement", "record", "dt", "drag", "print_every"]
+
+
+@pytest.mark.parametrize("key", KEYS)
+@pytest.mark.parametrize("wrong", list(WRONG))
+def test_campaign_api_wrong_values_are_gaz_errors(key, wrong):
+    """gaz.make_scene with every key given every kind of wrong value: a Scene or a GazError,
+    never a TypeError, AttributeError or the like, and no warning of a library (numpy's
+    overflow for a temperature of 1e308 was printed before gaz's own line)."""
+    import warnings
+
+    import gaz_cli as gaz
+
+    keys = {"dim": 2, "length": 1e-7, "duration": 1e-11, "seed": 1, key: WRONG[wrong]}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        try:
+            gaz.make_scene(species={"Ar": 3}, **keys)
+        except gaz.GazError:
+            pass
+
+
+@pytest.mark.parametrize("flag, value", [("--temperature", "1e308"), ("--temperature", "1.7e308"),
+                                         ("--length", "1e308"), ("--duration", "1e308")])
+def test_campaign_extreme_values_say_one_line_and_no_library_warning(flag, value):
+    """``--temperature 1e308`` printed numpy's "RuntimeWarning: overflow encountered in divide"
+    (two lines) before gaz's own."""
+    import subprocess
+    import sys
+
+    args = {"--dim": "2", "--n": "3", "--length": "1e-7", "--duration": "1e-12", "--seed": "1", flag: value}
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *sum(args.items(), ()), "--no-db"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 1 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith("gaz: error: ")
