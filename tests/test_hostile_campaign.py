@@ -349,16 +349,20 @@ LONG_RUNS = {
 """The step engine's own: tests/test_stepper.py::test_ctrl_c_stops_the_step_engine."""
 
 
-@pytest.mark.parametrize("engine", list(LONG_RUNS))
-def test_sigint_ends_every_engine_at_once(tmp_path, engine):
-    """SIGINT during each engine's long loop: exit 130 within a few seconds, one line, no run stored."""
+@pytest.mark.parametrize("engine, signum", [(e, 2) for e in LONG_RUNS] + [("event", 15)],
+                         ids=[f"{e}-SIGINT" for e in LONG_RUNS] + ["event-SIGTERM"])
+def test_sigint_ends_every_engine_at_once(tmp_path, engine, signum):
+    """SIGINT (and SIGTERM) during each engine's long loop: exit 128 + signal within a few
+    seconds, one line, no run stored."""
+    import signal
     import sqlite3
 
     db = tmp_path / "gaz.db"
     cmd = LONG_RUNS[engine] + (["--quiet", "--seed", "1", "--db", str(db)] if engine != "placement" else ["--seed", "1"])
-    code, err, took = _interrupt_after(cmd, tmp_path, 8)
-    assert code == 130, err
-    assert err.startswith("gaz: interrupted by SIGINT") and err.count("\n") == 1, err
+    code, err, took = _interrupt_after(cmd, tmp_path, 8, signum)
+    assert code == 128 + signum, err
+    name = signal.Signals(signum).name
+    assert err.startswith(f"gaz: interrupted by {name}") and err.count("\n") == 1, err
     assert "Traceback" not in err
     assert took < 5, took
     if db.exists():
