@@ -259,7 +259,7 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     file and interval (simulated s). ``diagnostics``: callable receiving the
     step engine's diagnostics (a dict) every ``scene.print_every`` steps; refused with another
     engine or without print_every (:func:`gaz_cli.model.scene.check_diagnostics`). ``write_scene``: write the scene file of the run
-    (with its seed) to this path before running. ``progress``: draw a progress bar (and a
+    (with its seed) to this path (in place once the run is committed). ``progress``: draw a progress bar (and a
     notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
     interrupted, saying what was left on disk. ``keep_state``, ``keep_bounces``,
