@@ -30,6 +30,32 @@ __all__ = ["make_scene", "load_scene", "write_scene", "scene_text", "simulate", 
            "sweep", "versus", "Run"]
 
 
+def _plain(value):
+    """``value`` with NumPy scalars as Python numbers and arrays as lists, through dicts, lists
+    and tuples: the scene-file checks take what TOML gives (int, float, str, list, dict)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(v) for v in value)
+    if type(value).__module__ == "numpy":
+        import numpy as np
+
+        if isinstance(value, np.generic):
+            return value.item()
+        if isinstance(value, np.ndarray):
+            return value.tolist()
+    return value
+
+
+def _path(value, what: str):
+    """``value`` if it is a path (str or os.PathLike), else SceneError naming what was expected."""
+    import os
+
+    if not isinstance(value, (str, os.PathLike)):
+        raise SceneError(f"{what} {value!r} is not a file path; give a path (text or pathlib.Path)")
+    return value
+
+
 def make_scene(*, species, **keys) -> Scene:
     """A validated Scene from the keys of a scene file (docs/reference/scene-file.md), SI units.
 
@@ -39,6 +65,7 @@ def make_scene(*, species, **keys) -> Scene:
     other key (``temperature``, ``seed``, ``boundary``, ``engine``, ``dt``...). ``planes``:
     a list of ``{"point", "normal", "restitution"}`` tables.
     """
+    species, keys = _plain(species), _plain(keys)  # NumPy scalars taken as the numbers they are
     if isinstance(species, str):
         from gaz_cli.model.species import parse_mixture
 
@@ -65,7 +92,7 @@ def write_scene(path, scene: Scene) -> None:
     """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
     the door refuses (:func:`gaz_cli.scenes.validate.validate`, SceneError) is not written."""
     _checked(scene, path)
-    scenefile.write(path, scene)
+    scenefile.write(_path(path, "write_scene: path"), scene)
 
 
 def scene_text(scene: Scene) -> str:
@@ -86,7 +113,7 @@ def _checked(scene, path=None) -> None:
 def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, keep_bounces: bool = False,
              keep_collisions: bool = False, trajectory: str | None = None, every: float | None = None,
              save_state: str | None = None, write_scene: str | None = None, diagnostics=None,
-             progress: bool = False) -> Run:
+             progress: bool = False, inputs: dict | None = None) -> Run:
     """Run ``scene``; returns a :class:`~gaz_cli.run.runner.Run`: ``summary`` (dict), and the final
     ``state``, the ``bounces`` and ``collisions`` (dicts of numpy arrays) when asked.
 
@@ -95,12 +122,19 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     called with a dict (time, step, kinetic, potential, energy, max_speed...) every
     ``print_every`` steps of the step engine (refused with another engine). ``progress``: a progress bar
     (:mod:`gaz_cli.progress`) on stderr, or in a notebook's cell (``pip install 'gaz[notebook]'``);
-    ``gaz simulate`` draws one when stderr is a terminal.
+    ``gaz simulate`` draws one when stderr is a terminal. ``inputs``: the files the
+    scene was read from ({'the scene file': path}): no output may be one of them. Every output
+    appears under its name when the run is committed, whole (a temporary file renamed).
     """
+    if isinstance(scene, Scene) and scene.extras is None:  # (a Scene made by hand: no extras)
+        from dataclasses import replace
+
+        scene = replace(scene, extras={})
+    every = _plain(every)
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
                      save_state=save_state, write_scene=write_scene, diagnostics=diagnostics,
-                     progress=progress)
+                     progress=progress, inputs=inputs)
 
 
 def open_store(db: str, create: bool = False) -> Store:
@@ -129,7 +163,7 @@ def analyse(db: str, sim: int | None = None, plot: str | None = None,
 
     if table is not None and table not in analysis.TABLES:
         raise QueryError(f"table {table!r} is not one of {', '.join(analysis.TABLES)}")
-    frames = analysis.report(db, sim=sim, plot_dir=plot)
+    frames = analysis.report(db, sim=_plain(sim), plot_dir=plot)
     if table is None:
         return frames
     import pandas as pd

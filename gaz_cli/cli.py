@@ -6,11 +6,14 @@ every usage error becomes one line on stderr and a non-zero exit.
 
 from __future__ import annotations
 
+import errno
 import gc
+import io
 import json
 import math
 import os
 import signal
+import stat
 import sys
 import warnings
 
@@ -230,6 +233,10 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
     if repeat is None:
         if histogram:
             raise click.UsageError("--histogram needs --repeat K")
+        ctx = click.get_current_context()
+        if ctx.get_parameter_source("bins") is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError("--bins needs --repeat K (the histogram of K placements); "
+                                   "drop --bins, or add --repeat")
         positions = analysis.place_once(dim, n, radius, length, method, seed)
         axes = "xyz"[:dim]
         click.echo(",".join(axes))
@@ -315,12 +322,13 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
-    trajectory = trajectory or outputs.get("trajectory")
+    trajectory = trajectory if trajectory is not None else outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
-    save_state = save_state or outputs.get("save_state")
+    save_state = save_state if save_state is not None else outputs.get("save_state")
     diagnostics = _print_diagnostic if scene.print_every else None  # --print-every: step engine only
     summary = api.simulate(scene, db=db, save_state=save_state, trajectory=trajectory, every=every,
-                           diagnostics=diagnostics, write_scene=write_scene, progress=progress.wanted(quiet)).summary
+                           diagnostics=diagnostics, write_scene=write_scene, progress=progress.wanted(quiet),
+                           inputs={"the scene file": scene_file} if scene_file else None).summary
     if as_json:
         click.echo(json.dumps(summary, default=_jsonable))
     else:
@@ -539,8 +547,11 @@ def animate(trajectory, output, fps):
     """
     from gaz_cli.outputs import animate as anim
 
+    from gaz_cli.scenes import paths
+
     output = os.path.splitext(trajectory)[0] + ".gif" if output is None else output
     anim.check_output(output)
+    paths.check(inputs={"the trajectory": trajectory}, outputs={"-o": output})
     anim.render_gif(trajectory, output, fps=fps)
     click.echo(f"animation written to {output}", err=True)
 
@@ -569,9 +580,67 @@ def _usage_command_path(exc: click.UsageError, argv, prog: str) -> str:
     return f"{prog} {name}" if name in cli.commands else prog
 
 
+class _StdoutError(Exception):
+    """Standard output could not be written (a full device, a closed descriptor)."""
+
+    def __init__(self, err: OSError):
+        super().__init__(err.strerror or str(err))
+
+
+class _Stdout:
+    """sys.stdout, whose write failures (other than a reader gone: BrokenPipeError, which
+    keeps its meaning) become :class:`_StdoutError`; None: a closed descriptor."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _call(self, name, *args):
+        if self._stream is None:
+            raise _StdoutError(OSError(errno.EBADF, os.strerror(errno.EBADF)))
+        try:
+            return getattr(self._stream, name)(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as err:
+            raise _StdoutError(err) from None
+
+    def write(self, text):
+        return self._call("write", text)
+
+    def flush(self):
+        return self._call("flush")
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _stdout_problem() -> str | None:
+    """Why standard output cannot take a command's output, known before it runs: a closed
+    descriptor, or /dev/full; None if none is known (a failure later is caught as it comes)."""
+    if sys.stdout is None:
+        return "it is closed"
+    try:
+        st = os.fstat(sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return None  # no real descriptor (a test's capture): its writes will tell
+    if stat.S_ISCHR(st.st_mode) and st.st_rdev == os.makedev(1, 7):
+        return "it is /dev/full, which takes nothing"
+    return None
+
+
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
+    args = sys.argv[1:] if argv is None else list(argv)
+    command = next((a for a in args if not a.startswith("-")), None)
+    problem = _stdout_problem()
+    if problem and command not in (None, "animate") and not {"-h", "--help", "--version"} & set(args):
+        # refused before anything runs: a run would be stored and its summary lost
+        click.echo(f"{prog}: error: cannot write to standard output: {problem}; redirect it to a "
+                   "file or /dev/null", err=True)
+        sys.exit(1)
+    real_stdout = sys.stdout
+    sys.stdout = _Stdout(real_stdout)
     try:
         # SIGTERM as SIGINT from here on: its default action ends the process without a word,
         # and a command's imports (NumPy, pandas, SQLAlchemy...) take about a second
@@ -579,6 +648,7 @@ def main(argv=None) -> None:
             warnings.simplefilter("always", GazWarning)
             warnings.showwarning = _show_warning
             cli.main(args=argv, prog_name=prog, standalone_mode=False)
+            sys.stdout.flush()  # a failure to write it is this command's, not the exit's
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except (_Stopped, click.Abort, KeyboardInterrupt) as exc:
@@ -607,6 +677,9 @@ def main(argv=None) -> None:
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)
+    except _StdoutError as exc:
+        click.echo(f"{prog}: error: cannot write to standard output: {exc}", err=True)
+        sys.exit(1)
     except (BrokenPipeError, _PipeClosed):
         # the reader has what it wanted: exit 0, and point stdout at /dev/null so that the
         # interpreter's last flush of it does not fail again ("Exception ignored", exit 120)
@@ -629,6 +702,7 @@ def main(argv=None) -> None:
                    "(set GAZ_DEBUG=1 for a traceback; please report it)", err=True)
         sys.exit(3)
     finally:
+        sys.stdout = real_stdout
         # the objects left (Numba's compiler state, mostly) live until exit: a last garbage
         # collection over them slowed every run's exit (measurements:
         # docs/explanation/engine_measurements.md#cli)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 import threading
 
 from gaz_cli.errors import Interrupted
@@ -32,10 +33,15 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _pending: list[int] = []
 _state = {"catching": 0, "holding": 0}
+_received: list[int] = []
+"""Every signal a handler of this module took in this process, never cleared: an exception that
+follows one (a library that swallowed the Interrupted raised in its callback, then failed)
+is reported as the interruption, not as an internal error (:func:`signal_of`)."""
 
 
 def _handler(signum, _frame):
     _pending.append(signum)
+    _received.append(signum)
     if not _state["holding"]:
         raise Interrupted(signum)
 
@@ -51,6 +57,8 @@ def catching():
         yield
         return
     previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+    hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_unraisable
     _pending.clear()
     _state["catching"] += 1
     try:
@@ -59,7 +67,18 @@ def catching():
         _state["catching"] -= 1
         for s, h in previous.items():
             signal.signal(s, h)
+        sys.unraisablehook = hook
         _pending.clear()
+
+
+def _quiet_unraisable(unraisable) -> None:
+    """An Interrupted that Python could not raise (in a ``__del__``, a weakref or a ctypes
+    callback: Numba's compiler) is recorded in :data:`_pending` already, and raised again by
+    :func:`check` or reported by the CLI: no "Exception ignored" traceback on stderr; anything
+    else goes to Python's own hook."""
+    if isinstance(unraisable.exc_value, Interrupted):
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 def check() -> None:
@@ -143,6 +162,10 @@ def interrupt_in(exc: BaseException) -> KeyboardInterrupt | None:
 
 
 def signal_of(exc: BaseException) -> int | None:
-    """The signal behind ``exc`` (see :func:`interrupt_in`), else None."""
+    """The signal behind ``exc`` (see :func:`interrupt_in`), else the last signal this process
+    took, if any (a SIGINT landing in Numba's compiler: llvmlite prints and drops the Interrupted
+    raised in its callback, then fails with a RuntimeError of its own), else None."""
     found = interrupt_in(exc)
-    return None if found is None else getattr(found, "signum", signal.SIGINT)
+    if found is not None:
+        return getattr(found, "signum", signal.SIGINT)
+    return _received[-1] if _received else None

@@ -29,12 +29,12 @@ def _edit(path: Path, text: str = "\n# an edit\n") -> None:
 
 def test_digest_follows_an_edit_in_a_new_sub_package(tree):
     # a search kind in a sub-package of neighbours/, imported by the loop
-    deep = tree / "gaz_cli" / "engine" / "neighbours" / "deep"
+    deep = tree / "gaz_cli" / "engines" / "event" / "neighbours" / "deep"
     deep.mkdir()
     (deep / "__init__.py").write_text('"""A nested package."""\n', encoding="utf-8")
     (deep / "helpers.py").write_text("from gaz_cli.engines.event.intrinsics import _inline\n\n\n"
                                      "@_inline\ndef _x(a):\n    return a\n", encoding="utf-8")
-    _edit(tree / "gaz_cli" / "engine" / "loop.py",
+    _edit(tree / "gaz_cli" / "engines" / "event" / "loop.py",
           "\nfrom gaz_cli.engines.event.neighbours.deep.helpers import _x  # noqa: E402,F401\n")
     before = sources_digest(tree)
     _edit(deep / "helpers.py", "\n\n@_inline\ndef _y(a):\n    return a + 1\n")

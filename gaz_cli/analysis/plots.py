@@ -51,10 +51,13 @@ def make_folder(path: str) -> None:
 
 def save(fig, path: str, dpi: int = 110) -> None:
     """Write ``fig`` to ``path`` and close it; GazError in one line if it cannot be written."""
+    from gaz_cli import atomic
+
     plt = _pyplot()
     try:
         fig.tight_layout()
-        fig.savefig(path, dpi=dpi)
+        with atomic.replacing(path) as name:  # whole or not at all: the old figure kept
+            fig.savefig(name, dpi=dpi)
     except OSError as err:
         raise GazError(f"cannot write figure {path!r}: {err.strerror}") from None
     finally:

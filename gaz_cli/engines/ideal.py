@@ -159,9 +159,12 @@ def _record(flights: _Flights, duration: float, total: int, start_time: float,
     """Hand every bounce to the recorder in time order, about CHUNK at a time."""
     per_window = max(CHUNK, 2 * flights.u.size)
     windows = max(1, math.ceil(total / per_window))
-    edges = np.linspace(0.0, duration, windows + 1)
-    edges[-1] = duration
-    for a, b in zip(edges[:-1], edges[1:]):
+    # the windows' edges one at a time, as np.linspace(0, duration, windows + 1) gives them:
+    # a run of 10^14 bounces (--force) asked for an array of 10^10 edges (MemoryError)
+    step = duration / windows
+    for w in range(windows):
+        a = w * step
+        b = duration if w == windows - 1 else (w + 1) * step
         t, particle, wall, speed, vperp = flights.window(a, b)
         if not len(t):
             continue

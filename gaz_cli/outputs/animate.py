@@ -152,8 +152,11 @@ def render_gif(trajectory_path: str | os.PathLike, gif_path: str | os.PathLike, 
         return [disks, title]
 
     anim = FuncAnimation(fig, draw, frames=frames, blit=False)
+    from gaz_cli import atomic
+
     try:
-        anim.save(str(gif_path), writer=PillowWriter(fps=fps))
+        with atomic.replacing(gif_path) as name:  # whole or not at all: the old GIF kept
+            anim.save(str(name), writer=PillowWriter(fps=fps))
         if frame_png is not None:
             draw(frames[-1])
             fig.savefig(frame_png)

@@ -38,7 +38,7 @@ import numpy as np
 
 from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.model.scene import Scene
-from gaz_cli.outputs.writer import DALTON, NM, PS, TrajectoryWriter, reason
+from gaz_cli.outputs.writer import DALTON, NM, PS, TrajectoryWriter, check_read_size, reason
 
 
 class GSDWriter(TrajectoryWriter):
@@ -50,7 +50,7 @@ class GSDWriter(TrajectoryWriter):
         try:
             self.file = gsd_hoomd.open(name=str(self.path), mode="w")
         except OSError as err:
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {reason(err)}") from None
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r}: {reason(err)}") from None
         self._hoomd = gsd_hoomd
         self.periodic = scene.boundary == "periodic"
         self.want_images = self.periodic
@@ -65,7 +65,7 @@ class GSDWriter(TrajectoryWriter):
 
     def _write(self, t, positions, velocities, images=None):
         if self.file is None:
-            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
+            raise SceneError(f"--trajectory {str(self.name)!r} is closed")
         n, d = positions.shape
         frame = self._hoomd.Frame()
         frame.configuration.step = self.count
@@ -93,7 +93,7 @@ class GSDWriter(TrajectoryWriter):
             self.file.append(frame)
         except OSError as err:
             self._discard()
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {self.count}): "
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r} (snapshot {self.count}): "
                              f"{reason(err)}; the file was removed") from None
 
     def close(self):
@@ -103,7 +103,7 @@ class GSDWriter(TrajectoryWriter):
                 f.close()
             except OSError as err:
                 self._remove()
-                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {reason(err)}; "
+                raise OutputError(f"cannot finish --trajectory {str(self.name)!r}: {reason(err)}; "
                                  "the file was removed") from None
 
     def _discard(self) -> None:
@@ -149,6 +149,7 @@ def read_gsd(path: str | os.PathLike) -> dict:
         box = np.asarray(first.configuration.box[:dim], dtype=np.float64) * NM
         # (every GSD box is periodic: the log says whether the run's was; a file without it does not say)
         periodic = "gaz/walls" in first.log and int(first.log["gaz/walls"][0]) == 0
+        check_read_size(path, len(f) * int(first.particles.N) * dim * 16)
         frames = [f[k] for k in range(len(f))]
     positions = np.stack([fr.particles.position[:, :dim] for fr in frames]).astype(np.float64) * NM + box / 2
     velocities = np.stack([fr.particles.velocity[:, :dim] for fr in frames]).astype(np.float64) * (NM / PS)

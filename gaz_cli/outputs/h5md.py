@@ -58,6 +58,7 @@ import numpy as np
 
 from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.model.scene import Scene
+from gaz_cli.outputs.writer import check_read_size
 from gaz_cli.outputs.writer import (LENGTH_UNITS, NM, PS, TIME_UNITS, TrajectoryWriter, reason,
                                     scene_attributes, text)
 
@@ -102,7 +103,7 @@ class H5MDWriter(TrajectoryWriter):
             # flush (it then crashed the interpreter at exit: exit 139)
             self.file = h5py.File(self.path, "w", rdcc_nbytes=0)
         except OSError as err:
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r}: {reason(err)}") from None
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r}: {reason(err)}") from None
         f = self.file
         h5md = f.create_group("h5md")
         h5md.attrs["version"] = np.array([1, 1], dtype=np.int32)
@@ -152,7 +153,7 @@ class H5MDWriter(TrajectoryWriter):
 
     def _write(self, t, positions, velocities, images=None):
         if self.file is None:
-            raise SceneError(f"--trajectory {str(self.path)!r} is closed")
+            raise SceneError(f"--trajectory {str(self.name)!r} is closed")
         k = self.count
         data = {"position": _in_space(positions / NM), "velocity": _in_space(velocities * (PS / NM)),
                 "box/edges": self._edges}
@@ -167,7 +168,7 @@ class H5MDWriter(TrajectoryWriter):
                 value[k] = data[name]
         except OSError as err:
             self._discard()
-            raise OutputError(f"cannot write --trajectory {str(self.path)!r} (snapshot {k}): "
+            raise OutputError(f"cannot write --trajectory {str(self.name)!r} (snapshot {k}): "
                              f"{reason(err)}; the file was removed") from None
 
     def close(self):
@@ -177,7 +178,7 @@ class H5MDWriter(TrajectoryWriter):
                 self.file = None
             except OSError as err:
                 self._discard()
-                raise OutputError(f"cannot finish --trajectory {str(self.path)!r}: {reason(err)}; "
+                raise OutputError(f"cannot finish --trajectory {str(self.name)!r}: {reason(err)}; "
                                  "the file was removed") from None
 
     def _discard(self) -> None:
@@ -195,7 +196,7 @@ class H5MDWriter(TrajectoryWriter):
             pass
         try:
             f.close()
-        except OSError:
+        except (OSError, RuntimeError):  # (h5py: RuntimeError past a file-size limit, ulimit -f)
             pass
         try:
             os.unlink(self.path)
@@ -247,6 +248,7 @@ def read_h5md(path: str | os.PathLike) -> dict:
 
         position = part["position/value"]
         velocity = part["velocity/value"] if "velocity" in part else None
+        check_read_size(path, position.size * 8 + (0 if velocity is None else velocity.size * 8))
         edges = part["box/edges"]
         edges = edges["value"] if isinstance(edges, h5py.Group) else edges
         out = {

@@ -16,6 +16,7 @@ A new format is one module with a writer class and a reader function, and one ro
 
 from __future__ import annotations
 
+import contextlib
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -69,11 +70,14 @@ def format_of(path: str | os.PathLike) -> TrajectoryFormat | None:
     return None if name is None else _BY_NAME[name]
 
 
-def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> TrajectoryWriter:
+def open_trajectory(path: str | os.PathLike, every: float, scene: Scene,
+                    write_to: str | os.PathLike | None = None) -> TrajectoryWriter:
     """A writer of snapshots every ``every`` simulated seconds to ``path`` (format by extension).
 
     Use as a context manager, or call ``close()``. Raises SceneError for an
-    unknown extension, a bad interval or a directory that does not exist.
+    unknown extension, a bad interval or a directory that does not exist. ``write_to``: the
+    file actually written (a temporary name that the caller renames to ``path`` when its run
+    is committed, :mod:`gaz_cli.atomic`; HDF5 and GSD only); messages name ``path``.
     """
     path = Path(path)
     fmt = format_of(path)
@@ -85,7 +89,12 @@ def open_trajectory(path: str | os.PathLike, every: float, scene: Scene) -> Traj
     directory = path.resolve().parent
     if not directory.is_dir():
         raise SceneError(f"--trajectory {str(path)!r}: directory {str(directory)!r} does not exist")
-    return fmt.writer(path, float(every), scene)
+    if write_to is None or fmt.name == "vtk":
+        return fmt.writer(path, float(every), scene)
+    writer = fmt.writer.__new__(fmt.writer)
+    writer.name = path  # the file named in messages; the one written is write_to
+    writer.__init__(Path(write_to), float(every), scene)
+    return writer
 
 
 def read_trajectory(path: str | os.PathLike) -> dict:

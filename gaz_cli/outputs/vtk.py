@@ -23,6 +23,7 @@ the earlier run is left among the new ones.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -30,7 +31,7 @@ import numpy as np
 
 from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.model.scene import Scene
-from gaz_cli.outputs.writer import TrajectoryWriter, reason
+from gaz_cli.outputs.writer import TrajectoryWriter, check_read_size, reason
 
 
 class VTKWriter(TrajectoryWriter):
@@ -142,11 +143,14 @@ def read_vtk(path: str | os.PathLike) -> dict:
         stem = path.stem.rsplit("_", 1)[0] if path.stem.rsplit("_", 1)[-1].isdigit() else path.stem
         path = path.with_name(stem + ".pvd")
     try:
+        check_read_size(path, os.stat(path).st_size)  # (the collection; each snapshot's size below)
         root = ET.parse(path, ET.XMLParser(target=ET.TreeBuilder(insert_comments=True))).getroot()
         entries = [(float(e.get("timestep")), path.parent / e.get("file")) for e in root.iter("DataSet")]
     except (OSError, ET.ParseError, TypeError, ValueError) as err:
         raise SceneError(f"cannot read trajectory {str(path)!r}: {err}") from None
     meshes = []
+    with contextlib.suppress(OSError):
+        check_read_size(path, sum(os.stat(file).st_size for _, file in entries))
     for _, file in entries:
         # meshio's own reader, not meshio.read: that one prints "Error: Couldn't read file" and
         # calls sys.exit(1) for a file it cannot parse, and raises its ReadError for a missing one

@@ -39,7 +39,8 @@ class TrajectoryWriter(Recorder):
     want_images = False
 
     def __init__(self, path: Path, every: float, scene: Scene):
-        self.path = Path(path)
+        self.path = Path(path)  # the file written
+        self.name = getattr(self, "name", self.path)  # the file named in messages
         self.snapshot_every = every
         self.scene = scene
         self.count = 0
@@ -117,3 +118,15 @@ def text(value) -> str:
     if isinstance(value, np.ndarray):
         value = value.item() if value.shape == () else value[0]
     return value.decode() if isinstance(value, bytes) else str(value)
+
+
+MAX_READ_BYTES = 4 << 30
+"""The most a trajectory read back may hold in memory (positions and velocities: 4 GiB);
+a larger file is refused in one line before it is read (issue 39: unbounded reads)."""
+
+
+def check_read_size(path, nbytes: int) -> None:
+    """SceneError when reading ``nbytes`` of snapshots from ``path`` would pass :data:`MAX_READ_BYTES`."""
+    if nbytes > MAX_READ_BYTES:
+        raise SceneError(f"trajectory {str(path)!r} holds {nbytes / 2**30:.3g} GiB of snapshots, more than the "
+                         f"{MAX_READ_BYTES >> 30} GiB gaz reads back; write fewer snapshots (a larger --every)")

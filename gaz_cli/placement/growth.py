@@ -149,6 +149,11 @@ def _ls_bounce(P, i, OS, e, gamma, D):
                 P[i, PV + d] += 2.0 * du * (n0 if d == 0 else (n1 if d == 1 else n2))
 
 
+SLICE_EVENTS = 1 << 18
+"""Growth events per kernel call (a fraction of a second): the placement returns to Python
+between calls, so that a signal ends it."""
+
+
 @njit
 def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_end, nc,
              max_events, rescale_every, OH, OS, og, oncg):
@@ -193,6 +198,7 @@ def _ls_grow(P, I, cells, GB, GS, edges, HK, HI, Q, C, D, L, periodic, gamma, f_
             t = t_end
             break
         if events >= max_events:
+            C[0], C[1], C[2] = t, events, hsize  # a call may go on from here
             return 1, gamma * t, events
         i = HI[0]
         if I[i, PART] < 0 and not I[i, CODE] & 1:  # a crossing: room in the cell entered?
@@ -306,9 +312,14 @@ def grow(dim: int, radii: np.ndarray, length: float, rng: np.random.Generator,
     HK, HI, Q = np.empty(n), np.empty(n, dtype=np.int64), np.zeros((n, 4), dtype=np.int32)
     C = np.array([0.0, 0.0, -1.0])  # where the growth stands: time, events, heap size
     while True:
+        # slices of SLICE_EVENTS: back in Python between them, where a SIGINT or SIGTERM takes
+        # effect (one call of the whole budget, 4000 N events, ran minutes deaf to them)
+        cap = min(int(budget), int(C[1]) + SLICE_EVENTS)
         status, f, events = _ls_grow(P, I, cells, *_gather_buffers(cells, dim), edges, HK, HI, Q,
                                      C, dim, float(Ls), bool(periodic), float(rate), 1.0, nc,
-                                     int(budget), int(2 * n), heads, spheres, og, oncg)
+                                     cap, int(2 * n), heads, spheres, og, oncg)
+        if status == 1 and events < budget:
+            continue
         if status != CELL_FULL:
             break
         cells = wider(cells)  # a crossing into a full cell: room, and on

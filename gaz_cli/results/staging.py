@@ -258,11 +258,14 @@ class Stage:
         """Drop the rows: stop the scratch file's thread, delete the file, if any; idempotent."""
         self._chunks = None
         writer, self._writer = self._writer, None
-        if writer is not None:
-            writer.close(keep=False)
-        if self.path is not None:
-            with contextlib.suppress(OSError):
-                self.path.unlink(missing_ok=True)
+        try:
+            if writer is not None:
+                # (held: raises again a SIGINT or SIGTERM that stopped the run, once joined)
+                writer.close(keep=False)
+        finally:
+            if self.path is not None:  # deleted all the same: nothing left on disk (issue 39)
+                with contextlib.suppress(OSError):
+                    self.path.unlink(missing_ok=True)
 
 
 SCRATCH_QUEUE = 16

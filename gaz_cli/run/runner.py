@@ -8,31 +8,32 @@ a database that cannot take the run fails here, before any simulation); let
 the engine stream its events into the run's writer (staged or
 in an open transaction, see :mod:`gaz_cli.results.store`); then everything that can
 still fail -- the trajectory's last write, the final state file, the
-summary -- and only then the commit. A failure or an interrupt (SIGINT or
+summary -- and only then the commit. The outputs (scene file, trajectory, final
+state) are written under temporary names beside them and renamed into place after
+the commit (:mod:`gaz_cli.atomic`); before anything is written each is compared with
+the database, the run's inputs and the other outputs by identity of the file
+(:mod:`gaz_cli.scenes.paths`). A failure or an interrupt (SIGINT or
 SIGTERM, see :mod:`gaz_cli.interrupts`) at any point before the commit
-leaves nothing in the database and removes the state file; the trajectory
-keeps the snapshots written so far, and the
-:class:`~gaz_cli.errors.Interrupted` raised says so.
+leaves nothing in the database and every output as it was (the temporary files
+removed), and the :class:`~gaz_cli.errors.Interrupted` raised says so.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from gaz_cli import interrupts
+from gaz_cli import atomic, interrupts
 from gaz_cli.constants import PRESSURE_UNIT
-from gaz_cli.errors import Interrupted, SceneError
+from gaz_cli.errors import Interrupted, OutputError, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.model.scene import Scene, State, fresh_seed
 from gaz_cli.placement.initial import initial_state
-from gaz_cli.results.budgets import check_database_space
-from gaz_cli.scenes.validate import check_diagnostics, check_outputs, validate
+from gaz_cli.scenes.validate import admit_outputs, validate
 
 from gaz_cli.engines.registry import engine_run
 
@@ -136,21 +137,34 @@ class Diagnostics(Recorder):
         self.callback(values)
 
 
-def _check_writable(path: str | None, option: str) -> None:
-    """Refuse, before the database is opened, an output file that cannot be written: its folder
-    missing, or the path an existing folder (the command line's flags check that too; a scene
-    file's [output] and the Python API come here)."""
-    if path is not None and not isinstance(path, (str, os.PathLike)):
-        raise SceneError(f"{option} {path!r} is not a file path; give a path (text or pathlib.Path), or None")
-    if path:
-        where = Path(path).expanduser()
-        parent = where.resolve().parent
-        if not parent.is_dir():
-            raise SceneError(f"{option} {str(path)!r}: folder {str(parent)!r} does not exist")
-        if where.is_dir():
-            example = {"--save-state": "state.csv", "--trajectory": "run.h5"}.get(option, "scene.toml")
-            raise SceneError(f"{option} {str(path)!r} is a folder, not a file; give a file path "
-                             f"(e.g. {str(Path(path) / example)!r})")
+SQLITE_URL_KEYS = ("timeout", "uri")
+"""The parameters of a ``sqlite:///`` URL gaz reads without ``uri=true`` (with it, SQLite's own
+URI parameters, ``mode``, ``cache``...)."""
+
+
+def _check_url(db: str) -> None:
+    """Refuse a ``sqlite:///`` URL whose parameters would be ignored or ambiguous: one given
+    twice, one without a name, or one SQLAlchemy drops with a warning on stderr (``?mode=ro``
+    without ``uri=true``: ignored, and the run written all the same)."""
+    if not db.startswith("sqlite:///") or "?" not in db:
+        return
+    from urllib.parse import parse_qsl
+
+    query = db.split("?", 1)[1]
+    pairs = parse_qsl(query, keep_blank_values=True)
+    names = [k for k, _ in pairs]
+    if any(not k for k in names) or ("&&" in query or query.startswith("&") or query.endswith("&")):
+        raise SceneError(f"--db {db!r} holds an empty parameter; write 'sqlite:///FILE?name=value&...', "
+                         "or leave the '?' out")
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise SceneError(f"--db {db!r} gives {twice[0]} twice; give each parameter once")
+    uri = dict(pairs).get("uri", "").lower() in ("true", "1", "yes", "on")
+    unknown = [k for k in names if k not in SQLITE_URL_KEYS]
+    if unknown and not uri:
+        raise SceneError(f"--db {db!r}: parameter {unknown[0]!r} is read only with uri=true (SQLAlchemy "
+                         f"would ignore it); add &uri=true with a file: name "
+                         "('sqlite:///file:FILE?mode=ro&uri=true'), or drop it")
 
 
 def sqlite_file(db: str | None) -> str | None:
@@ -162,41 +176,6 @@ def sqlite_file(db: str | None) -> str | None:
     path = db if is_file_path(db) else (db[len("sqlite:///"):].split("?", 1)[0]
                                         if db.startswith("sqlite:///") else None)
     return path or None
-
-
-def _check_distinct(db: str | None, outputs: dict) -> None:
-    """No two of a run's files the same: an output written over the SQLite database (or over
-    another output) would destroy it. ``outputs``: option -> path (None when not given). A VTK
-    trajectory (.pvd or .vtu) writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it:
-    each of those counts (--db run.pvd with --trajectory run.vtu lost the database to the
-    collection written over it)."""
-    taken = []
-    path = sqlite_file(db)
-    if path:
-        taken.append(("--db", db, *_written(path, "--db")))
-    for option, path in outputs.items():
-        if not path:
-            continue
-        resolved, writes = _written(path, option)
-        for other, given, where, wrote in taken:
-            if writes(where) or wrote(resolved):
-                what = "the database" if other == "--db" else f"the {other} file"
-                vtk = ("" if where == resolved else
-                       " (a VTK trajectory writes STEM.pvd and STEM_00000.vtu, STEM_00001.vtu... beside it)")
-                raise SceneError(f"{option} {str(path)!r} is also {other} {str(given)!r}{vtk}: writing it would "
-                                 f"destroy {what}; give {option} another file")
-        taken.append((option, path, resolved, writes))
-
-
-def _written(path, option: str):
-    """(the resolved path, a test of whether the output ``option`` writes a given resolved path)."""
-    resolved = Path(path).expanduser().resolve()
-    if option != "--trajectory" or resolved.suffix.lower() not in (".pvd", ".vtu"):
-        return resolved, lambda p: p == resolved
-    collection = resolved.with_suffix(".pvd")
-    snapshot = re.compile(re.escape(resolved.stem) + r"_\d{5,}\.vtu")
-    return resolved, lambda p: p in (resolved, collection) or (p.parent == resolved.parent
-                                                               and snapshot.fullmatch(p.name) is not None)
 
 
 @dataclass
@@ -235,17 +214,18 @@ class Run:
 def simulate(scene: Scene, db: str | None = None, save_state: str | None = None,
              state: State | None = None, trajectory: str | None = None,
              every: float | None = None, diagnostics=None, write_scene: str | None = None,
-             progress: bool = False) -> dict:
+             progress: bool = False, inputs: dict | None = None) -> dict:
     """Run one simulation; return its summary (a dict, JSON-ready). See :func:`run_scene`."""
     return run_scene(scene, db=db, save_state=save_state, state=state, trajectory=trajectory, every=every,
-                     diagnostics=diagnostics, write_scene=write_scene, progress=progress).summary
+                     diagnostics=diagnostics, write_scene=write_scene, progress=progress,
+                     inputs=inputs).summary
 
 
 def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None,
               state: State | None = None, trajectory: str | None = None,
               every: float | None = None, diagnostics=None, write_scene: str | None = None,
               keep_state: bool = False, keep_bounces: bool = False, keep_collisions: bool = False,
-              progress: bool = False) -> Run:
+              progress: bool = False, inputs: dict | None = None) -> Run:
     """Run one simulation; return its :class:`Run` (summary, and what ``keep_*`` asks for).
 
     ``db``: path or SQLAlchemy URL of the results store, or None for no
@@ -254,18 +234,25 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     file and interval (simulated s). ``diagnostics``: callable receiving the
     step engine's diagnostics (a dict) every ``scene.print_every`` steps; refused with another
     engine or without print_every (:func:`gaz_cli.scenes.validate.check_diagnostics`). ``write_scene``: write the scene file of the run
-    (with its seed) to this path before running. ``progress``: draw a progress bar (and a
+    (with its seed) to this path (in place once the run is committed). ``progress``: draw a progress bar (and a
     notice while the engine compiles) on stderr, see :mod:`gaz_cli.progress`. Raises
     :class:`~gaz_cli.errors.Interrupted` (a KeyboardInterrupt) when
     interrupted, saying what was left on disk. ``keep_state``, ``keep_bounces``,
     ``keep_collisions``: return the final state, the wall bounces, the collisions as arrays
     (no database needed; the bounces and collisions are kept in memory, whatever
-    ``scene.record`` says).
+    ``scene.record`` says). ``inputs``: the files the run was read from, by what they are
+    ('the scene file' -> path): no output, nor the database, may be one of them
+    (:func:`gaz_cli.scenes.paths.check`). The outputs appear under their names when the run
+    is committed, not before (:mod:`gaz_cli.atomic`).
     """
     if db is not None:
         from gaz_cli.results.sqlite import database_name
 
+        if isinstance(db, (str, os.PathLike)) and "\0" in str(os.fspath(db)):
+            raise SceneError(f"--db {os.fspath(db)!r} holds a NUL character, which no file name or URL "
+                             "may hold; give another name")
         db = database_name(db)
+        _check_url(db)
     scene = prepare(scene)
     if trajectory and scene.engine == "reference" and scene.extras.get("engine_auto"):
         # the exam's engine writes no trajectory: a tiny run with one takes the event engine
@@ -273,23 +260,19 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             **scene.extras, "engine_reason": "hard spheres: exact event-driven dynamics (a trajectory asked for)"})
         scene = with_search(scene)
     run = engine_run(scene.engine)
-    _check_writable(save_state, "--save-state")
-    _check_writable(trajectory, "--trajectory")
-    _check_writable(write_scene, "--write-scene")
-    _check_distinct(db, {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state})
-    check_outputs(scene, trajectory, every)
-    check_diagnostics(scene, diagnostics)
-    if sqlite_file(db):
-        check_database_space([scene], sqlite_file(db))
+    outputs = {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state}
+    # the door for what the run writes: every output writable, none of them the database, an
+    # input or another output (by identity of the file), the trajectory's and the database's
+    # sizes, the diagnostics; all before anything is written
+    admit_outputs(scene, sqlite_file(db), inputs, outputs, trajectory=trajectory, every=every,
+                  diagnostics=diagnostics)
     # (PostgreSQL: a run past a 32-bit row number is refused by its writer, before the engine)
-    if write_scene:
-        from gaz_cli.scenes import files as scenefile
-
-        scenefile.write(write_scene, scene)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None
     store = writer = traj = None
-    state_written = False
+    # every output goes to a temporary name beside it, renamed into place once the run is
+    # committed (gaz_cli.atomic): a failure or an interrupt leaves the old files as they were
+    pending: dict[str, Path] = {}
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts.catching())  # SIGTERM too; left last, after the commit
@@ -302,10 +285,15 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                 from gaz_cli.results.writer import open_for_writing
                 store = stack.enter_context(open_for_writing(db))  # refused or failing: before the engine
                 writer = stack.enter_context(store.simulation(scene))
+            if write_scene:
+                from gaz_cli.scenes import files as scenefile
+
+                scenefile.write(_temporary(pending, write_scene), scene, shown=write_scene)
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.outputs.trajectory import open_trajectory
-                traj = stack.enter_context(open_trajectory(trajectory, every, scene))
+                traj = stack.enter_context(open_trajectory(trajectory, every, scene,
+                                                           write_to=_temporary(pending, trajectory)))
             diag = Diagnostics(diagnostics) if diagnostics else None
             memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
             if memory is not None:
@@ -323,15 +311,18 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             if traj is not None:
                 traj.close()
             if save_state:
-                state_written = True
-                write_state(save_state, scene, stats.final)
+                write_state(_temporary(pending, save_state), scene, stats.final, shown=save_state)
             out = summary(scene, stats, None, ke_start, ke_end,
                           None if tally is None else tally.momentum)
             if writer is not None:
                 writer.finish(stats, ke_start, ke_end)
+        with interrupts.held():  # committed: the outputs take their names, all of them
+            _rename_all(pending)
     except BaseException as exc:
-        if state_written and (writer is None or writer.si_num is None):
-            _remove(save_state)
+        for temporary in pending.values():
+            atomic.discard(temporary)
+        if traj is not None and hasattr(traj, "_discard") and not pending.get(str(trajectory)):
+            traj._discard()  # (a VTK collection: its files are written in place)
         signum = interrupts.signal_of(exc)
         if signum is not None:
             raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
@@ -342,11 +333,28 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                stats, scene)
 
 
-def _remove(path: str) -> None:
-    """Delete the state file of a failed run: a regular file only (never /dev/full and the like)."""
-    with contextlib.suppress(OSError):
-        if Path(path).is_file():
-            Path(path).unlink()
+def _temporary(pending: dict, path) -> Path | None:
+    """The name to write the output ``path`` under until the run is committed, noted in
+    ``pending`` (None for a VTK trajectory, written in place, and for a device or FIFO)."""
+    if atomic.in_place(path):
+        return None
+    if Path(path).suffix.lower() in (".pvd", ".vtu"):
+        return None
+    temporary = atomic.temporary_name(path)
+    pending[str(path)] = temporary
+    return temporary
+
+
+def _rename_all(pending: dict) -> None:
+    """Rename each output's temporary file over its name (the run is committed)."""
+    while pending:
+        final, temporary = next(iter(pending.items()))
+        try:
+            atomic.commit(temporary, final)
+        except OSError as err:
+            raise OutputError(f"cannot put {final!r} in place: {err.strerror} (the run was stored; "
+                              f"its file is {str(temporary)!r})") from None
+        del pending[final]
 
 
 def _left_on_disk(store, writer, traj) -> str:
@@ -358,7 +366,7 @@ def _left_on_disk(store, writer, traj) -> str:
     else:
         said = ["no database was written"]
     if traj is not None:
-        said.append(f"trajectory {str(traj.path)!r} keeps the {traj.count} snapshots written before it")
+        said.append(f"no trajectory was written to {str(getattr(traj, 'name', traj.path))!r}")
     return "; ".join(said)
 
 
@@ -405,8 +413,11 @@ def summary(scene: Scene, stats: RunStats, si_num, ke_start: float, ke_end: floa
     return out
 
 
-def write_state(path: str, scene: Scene, state: State) -> None:
-    """Final state as CSV: species,x[,y[,z]],vx[,vy[,vz]] (species by name, SI units)."""
+def write_state(path: str | None, scene: Scene, state: State, shown: str | None = None) -> None:
+    """Final state as CSV: species,x[,y[,z]],vx[,vy[,vz]] (species by name, SI units). ``path``
+    None: ``shown`` itself (a device); ``shown``: the name the messages give (a temporary file's)."""
+    shown = path if shown is None else shown
+    path = shown if path is None else path
     axes = "xyz"[: scene.dim]
     header = ["species", *axes, *(f"v{a}" for a in axes)]
     names = np.array([s.name for s in scene.species])[state.kinds]
@@ -417,7 +428,7 @@ def write_state(path: str, scene: Scene, state: State) -> None:
                 fh.write(",".join([str(name), *(repr(float(c)) for c in x),
                                    *(repr(float(c)) for c in v)]) + "\n")
     except OSError as err:
-        raise SceneError(f"cannot write --save-state {path!r}: {err.strerror}") from None
+        raise SceneError(f"cannot write --save-state {str(shown)!r}: {err.strerror}") from None
 
 
 def run_pressure(scene: Scene, stats: RunStats, ke_start: float, ke_end: float,

@@ -36,6 +36,7 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
 import numbers
 import sys
 from dataclasses import fields, replace
@@ -132,14 +133,31 @@ def _check_keys(table: dict, allowed: dict, where: str, tables: tuple = ()) -> N
             raise SceneError(f"{where}{key} = {_shown(value)} must be {kind}")
 
 
+MAX_SCENE_BYTES = 64 << 20
+"""The most a scene file may hold (64 MiB: an explicit state of about a million particles);
+reading stops there, so that ``gaz simulate /dev/zero`` or a wrong file fails at once
+instead of filling the memory."""
+
+
 def read(path) -> dict:
-    """The parsed TOML of a scene file (a dict); SceneError if unreadable or not TOML."""
+    """The parsed TOML of a scene file (a dict); SceneError if unreadable, larger than
+    :data:`MAX_SCENE_BYTES` or not TOML."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise SceneError(f"scene file {path!r} is not a file path; give a path (text or pathlib.Path)")
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_SCENE_BYTES + 1)
     except OSError as err:
         raise SceneError(f"cannot read scene file {str(path)!r}: {err.strerror}") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"scene file {str(path)!r} holds more than {MAX_SCENE_BYTES >> 20} MiB, the most "
+                         "a scene file may hold; is it the right file?")
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise SceneError(f"scene file {str(path)!r} is not UTF-8 text") from None
+    if "\0" in text:
+        raise SceneError(f"scene file {str(path)!r} is not text (it holds NUL bytes); is it the right file?")
     return parse(text, str(path))
 
 
@@ -410,13 +428,22 @@ def dumps(scene: Scene, outputs: dict | None = None, comment: str | None = None)
     return "\n".join(lines) + "\n"
 
 
-def write(path, scene: Scene, outputs: dict | None = None) -> None:
-    """Write the scene file of ``scene`` to ``path``; SceneError if it cannot be written."""
-    require_scene(scene, path)
+def write(path, scene: Scene, outputs: dict | None = None, shown=None) -> None:
+    """Write the scene file of ``scene`` to ``path``, whole or not at all (:mod:`gaz_cli.atomic`);
+    SceneError if it cannot be written. ``shown``: the name the messages give (``path`` a
+    temporary name; None: ``path``, or ``shown`` itself when ``path`` is None)."""
+    from gaz_cli import atomic
+
+    shown = path if shown is None else shown
+    require_scene(scene, shown)
+    text = dumps(scene, outputs)
     try:
-        Path(path).write_text(dumps(scene, outputs), encoding="utf-8")
+        if path is None:
+            Path(shown).write_text(text, encoding="utf-8")
+        else:
+            atomic.write_text(path, text)
     except OSError as err:
-        raise SceneError(f"cannot write scene file {str(path)!r}: {err.strerror}") from None
+        raise SceneError(f"cannot write scene file {str(shown)!r}: {err.strerror}") from None
 
 
 def without_builtin_clash(text: str) -> str:

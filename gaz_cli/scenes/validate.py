@@ -5,8 +5,10 @@ admitted here before anything runs or is written, and the engines assume a valid
 the engine (``auto`` resolved, :func:`gaz_cli.engines.registry.choose`) and that engine's own
 checks (:func:`gaz_cli.engines.registry.accepts`); the initial state; the magnitudes double
 precision carries; the packing fraction; the memory and, unless ``force``, the work
-(:mod:`gaz_cli.model.estimates`). :func:`check_outputs` and :func:`check_diagnostics` admit
-what a run writes besides the database; :func:`check_placement` is the door of ``gaz place``.
+(:mod:`gaz_cli.model.estimates`). :func:`admit_outputs` admits what a run writes besides its
+rows (no output over the database or an input, compared by identity of the file; the
+trajectory, the diagnostics, the database's disk space), before anything is written;
+:func:`check_placement` is the door of ``gaz place``.
 """
 
 from __future__ import annotations
@@ -220,6 +222,31 @@ def check_outputs(scene: Scene, trajectory=None, every=None) -> None:
         raise field_error(f"`trajectory` {str(trajectory)!r} would take about {format_bytes(size)} "
                          f"({snapshots:.3g} snapshots of {scene.n} particles); its disk has {format_bytes(free)} "
                          "free; raise `every` or free some space (or add `force`)")
+
+
+def admit_outputs(scene: Scene, db_file, inputs, outputs: dict, *, trajectory=None, every=None,
+                  diagnostics=None) -> None:
+    """The door for what a run of ``scene`` writes besides its database rows: raise SceneError
+    (one line, naming the option and the fix) before anything is written.
+
+    ``outputs``: option -> path or None (``--save-state``, ``--write-scene``, ``--trajectory``),
+    each a name a file system takes, in an existing folder; ``db_file``: the SQLite file the
+    run is stored in (None: no file, or a server); ``inputs``: what -> path, the files the run
+    was read from. No output may be the database, an input or another output, compared by
+    identity of the file (:func:`gaz_cli.scenes.paths.check`); the trajectory's request
+    (:func:`check_outputs`), the diagnostics' callable (:func:`check_diagnostics`) and the
+    rows' disk space (:func:`gaz_cli.results.budgets.check_database_space`) follow.
+    """
+    from gaz_cli.results.budgets import check_database_space
+    from gaz_cli.scenes import paths
+
+    for option, path in outputs.items():
+        paths.check_writable(path, option)
+    paths.check(db_file, inputs, outputs)
+    check_outputs(scene, trajectory, every)
+    check_diagnostics(scene, diagnostics)
+    if db_file:
+        check_database_space([scene], db_file)
 
 
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:

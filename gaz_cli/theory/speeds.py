@@ -43,7 +43,8 @@ def mean_speed(dim: int, temperature, mass):
     dim = _dim(dim)
     kt = K_B * _positive("temperature", temperature, "K")
     m = _positive("mass", mass, "kg")
-    return _out(np.sqrt(2.0 * kt / m) * math.gamma((dim + 1) / 2.0) / math.gamma(dim / 2.0))
+    with np.errstate(over="ignore"):  # inf beyond double precision, which the door refuses in one line
+        return _out(np.sqrt(2.0 * kt / m) * math.gamma((dim + 1) / 2.0) / math.gamma(dim / 2.0))
 
 
 def rms_speed(dim: int, temperature, mass):

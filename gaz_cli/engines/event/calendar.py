@@ -124,6 +124,22 @@ def _q_remove(Q, HK, HI, BH, k, nbk, hsize, ohead):
 
 
 @_inline
+def _jump(Q, EV, cur, iw, ohead, tstop_b):
+    """The bucket to go on from when every bucket is empty: that of the earliest key of the
+    overflow list (head ``ohead``), or of the stop tstop_b if sooner, but not before ``cur``;
+    the overflow list is dealt out there (see :func:`_next_bucket`), so no event is passed."""
+    first = tstop_b
+    k = ohead
+    while k >= 0:
+        first = min(first, EV[k, KEY] * iw)
+        k = Q[k, QN]
+    first = min(first, 4.0e18)  # (int64; the calendar keeps tstop_b far below, sizing.py)
+    if first < cur + 1.0:
+        return cur
+    return np.int64(first)
+
+
+@_inline
 def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
     """Advance the calendar to the next non-empty bucket (not beyond tstop_b, in buckets).
 
@@ -137,12 +153,24 @@ def _next_bucket(Q, HK, HI, BH, EV, cur, nbk, iw, ohead, tstop_b):
     mask = nbk - 1
     hsize = 0
     steps = 0
+    quiet = 0  # buckets stepped since any could last have been filled
     while hsize == 0:
         if cur + 1 > tstop_b:
             break
         cur += 1
         steps += 1
-        if (cur & mask) == 0 and ohead >= 0:
+        quiet += 1
+        deal = (cur & mask) == 0
+        if deal and quiet >= nbk:
+            # a whole turn stepped and no event: every bucket is empty, whatever is queued
+            # waits in the overflow list. Jump to the earliest one's bucket (or the stop's)
+            # and deal the list out there, instead of stepping one empty bucket at a time: a
+            # calendar sized on delays of ~0 (a pair at contact at the start) has buckets of
+            # 1e-26 s, and stepping to a stop 1e-11 s away took 1e15 steps, a hang that no
+            # signal ended (the loop returns to Python between events only)
+            cur = _jump(Q, EV, cur, iw, ohead, tstop_b)
+        if deal and ohead >= 0:
+            quiet = 0
             k = ohead
             ohead = -1
             while k >= 0:

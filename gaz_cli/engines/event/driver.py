@@ -80,6 +80,13 @@ FIRST_CHUNK = 50_000
 CHUNK = 1 << 22
 """Events per kernel call between two checks of the calendar's tuning."""
 
+SIGNAL_EVENTS = 1 << 16
+"""At most this many events per kernel call: the kernel returns to Python (tens of
+microseconds) so that a SIGINT or SIGTERM takes effect within a fraction of a second (65536
+events: 0.03-0.3 s of the engine), where a call of CHUNK events ran seconds without a look at
+the signals. Such a return changes nothing else: the loop goes on where it was, and the
+calendar's tuning is checked every CHUNK events as before (the same events)."""
+
 REBASE_EVENTS_PER_PARTICLE = 1 << 20
 REBASE_EVENTS_PER_PARTICLE_GRAVITY = 1 << 6
 """The kernels count time from an origin moved to 'now' every this many events a particle
@@ -419,10 +426,12 @@ class _Simulation(Rows):
             if self.rec.wants_progress:
                 budget = min(budget, EVENTS_PER_REPORT)
             st["bufcap"] = self._chunk_cap()
-            status = self._loop(t_stop - self.origin, budget)
+            status = self._loop(t_stop - self.origin, min(budget, SIGNAL_EVENTS))
             self.rec.progress(float(self.st["tnow"]) + self.origin, int(st["coll"] + st["bounce"]))
             if status == DONE:
                 return
+            if status == PAUSE and budget > SIGNAL_EVENTS:
+                continue  # back from Python, where a signal took effect if one came
             if int(st["events"]) >= self._check_at:  # a chunk's worth, whatever ended the call
                 self.guard.check(float(self.st["tnow"]), int(st["events"]), self.origin)
                 self._check_at = int(st["events"]) + CHUNK

@@ -335,6 +335,9 @@ def calendar_size(keys: np.ndarray, t_now: float, duration: float, n: int) -> tu
     w = EVENTS_PER_BUCKET * med / (finite.size * math.log(2.0))
     if not (w > 0.0 and math.isfinite(w)):
         return duration / 1024.0, 16
+    # at most 2^40 buckets over the run: delays of ~0 (a pair at contact) gave 1e-26 s
+    # buckets, and bucket numbers past int64 (calendar._jump)
+    w = max(w, duration * 2.0 ** -40)
     want = max(16, min(1 << 22, int(horizon / w) + 1, 4 * n))
     nbk = 1 << int(math.ceil(math.log2(want)))
     if nbk > MAX_BUCKETS:

@@ -1,0 +1,595 @@
+"""Issue 39's campaign: nothing lost, nothing that hangs, nothing left on disk.
+
+Each reproduction of the issue is a test: an output over the database or over the run's own
+input through a hard or symbolic link (refused, the database and the input byte-identical),
+outputs written whole or not at all (a temporary name renamed into place), a pair of
+particles at contact that hung the event engine, Ctrl-C ending every engine in its worst
+loop, unbounded reads, scratch files left behind, outputs that cannot be written. The cases
+run in-process (click's CliRunner through ``gaz_cli.cli.main``) where they can, in a child
+process where a signal or a descriptor is the point; the module runs in about a minute.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+import pytest
+from cli_helpers import invoke
+
+QUICK = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-11"]
+"""A run of 20 argon disks that takes milliseconds (the event engine, compiled once)."""
+
+SCENE = """dim = 2
+length = 1e-7
+duration = 1e-11
+seed = 1
+
+[[species]]
+name = "Ar"
+count = 20
+"""
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def stored(tmp_path_factory) -> Path:
+    """A database holding two runs (seeds 1 and 2)."""
+    db = tmp_path_factory.mktemp("stored") / "base.db"
+    for seed in ("1", "2"):
+        res = invoke([*QUICK, "--seed", seed, "--db", str(db)])
+        assert res.exit_code == 0, res.output
+    return db
+
+
+def one_line(res, code: int, fragment: str) -> None:
+    assert res.exit_code == code, res.output
+    assert res.stderr.count("\n") == 1 and fragment in res.stderr, res.stderr
+    assert "Traceback" not in res.output and "internal error" not in res.output
+
+
+# --- 1. outputs against the database and the inputs, by identity of the file -------------
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+def test_an_output_hard_linked_to_the_database_is_refused(tmp_path, stored, option):
+    """``cp base.db gaz.db; ln gaz.db hard.db; gaz simulate ... --db hard.db --save-state gaz.db``
+    exited 1 with "database disk image is malformed", both names holding a CSV: the checks
+    compared names, not files. Now refused before anything is written."""
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    os.link(db, tmp_path / "hard.db")
+    before = digest(db)
+    extra = ["--every", "1e-12"] if option == "--trajectory" else []
+    res = invoke([*QUICK, "--seed", "1", "--db", str(tmp_path / "hard.db"), option, str(db), *extra])
+    one_line(res, 1, f"{option} '{db}' is also --db '{tmp_path / 'hard.db'}': writing it would "
+                     "destroy the database")
+    assert digest(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["gaz.db", "hard.db"]
+
+
+def test_an_output_through_a_symbolic_link_to_the_database_is_refused(tmp_path, stored):
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    (tmp_path / "out.h5").symlink_to(db)
+    before = digest(db)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--trajectory", str(tmp_path / "out.h5"),
+                  "--every", "1e-12"])
+    one_line(res, 1, "is also --db")
+    assert digest(db) == before
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--db"])
+def test_a_run_never_writes_over_its_own_scene_file(tmp_path, stored, option):
+    """``gaz simulate s.toml --db gaz.db --save-state s.toml`` exited 0 and replaced the scene
+    file by the CSV state."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    os.link(scene, tmp_path / "again.toml")  # the scene file under another name
+    args = (["--db", str(tmp_path / "again.toml")] if option == "--db" else
+            ["--db", str(db), option, str(tmp_path / "again.toml")])
+    res = invoke(["simulate", str(scene), *args])
+    one_line(res, 1, f"is also the scene file '{scene}'" if option != "--db" else
+             f"--db '{tmp_path / 'again.toml'}' is also the scene file")
+    assert scene.read_text() == SCENE and digest(db) == before
+
+
+def test_gaz_animate_never_writes_over_its_trajectory(tmp_path):
+    traj = tmp_path / "run.h5"
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(traj), "--every", "5e-12"])
+    assert res.exit_code == 0, res.output
+    os.link(traj, tmp_path / "run.gif")
+    before = digest(traj)
+    res = invoke(["animate", str(traj), "-o", str(tmp_path / "run.gif")])
+    one_line(res, 1, "-o")
+    assert digest(traj) == before
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+def test_an_empty_output_name_is_refused(tmp_path, stored, option):
+    """``--save-state ''`` wrote nothing and said nothing."""
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), option, "", "--every", "1e-12"])
+    one_line(res, 1, f"{option} '' names no file")
+    assert digest(db) == before
+
+
+def test_outputs_are_written_whole_or_not_at_all(tmp_path, stored, monkeypatch):
+    """A run that fails after its outputs were written (here: in the summary, just before the
+    database's commit) leaves the old files as they were, and no temporary file beside them."""
+    from gaz_cli.run import runner
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    olds = {name: f"old {name}\n" for name in ("state.csv", "scene.toml", "run.h5")}
+    for name, text in olds.items():
+        (tmp_path / name).write_text(text)
+
+    def broken(*args, **kwargs):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(runner, "summary", broken)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(db), "--save-state", str(tmp_path / "state.csv"),
+                  "--write-scene", str(tmp_path / "scene.toml"), "--trajectory", str(tmp_path / "run.h5"),
+                  "--every", "5e-12"])
+    assert res.exit_code != 0, res.output
+    for name, text in olds.items():
+        assert (tmp_path / name).read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([*olds, "gaz.db"])
+    assert digest(db) == before
+
+
+def test_a_successful_run_replaces_its_outputs_whole(tmp_path):
+    for name in ("state.csv", "scene.toml"):
+        (tmp_path / name).write_text("old\n")
+    os.link(tmp_path / "state.csv", tmp_path / "other.csv")  # another name of the old file
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--save-state", str(tmp_path / "state.csv"),
+                  "--write-scene", str(tmp_path / "scene.toml")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "state.csv").read_text().startswith("species,x,y,vx,vy\n")
+    assert "dim = 2" in (tmp_path / "scene.toml").read_text()
+    assert (tmp_path / "other.csv").read_text() == "old\n"  # renamed over: the link is left alone
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["other.csv", "scene.toml", "state.csv"]
+
+
+# --- 3. bounded reads ------------------------------------------------------------------
+def test_a_scene_file_that_never_ends_fails_at_once():
+    """``gaz simulate /dev/zero`` read until the kernel killed it (22 GB resident)."""
+    import time
+
+    start = time.perf_counter()
+    res = invoke(["simulate", "/dev/zero", "--no-db"])
+    one_line(res, 1, "scene file '/dev/zero' holds more than 64 MiB, the most a scene file may hold")
+    assert time.perf_counter() - start < 20
+
+
+def test_a_binary_scene_file_is_one_line(tmp_path):
+    (tmp_path / "nul.toml").write_bytes(b"dim = 2\n\0\0\0")
+    one_line(invoke(["simulate", str(tmp_path / "nul.toml"), "--no-db"]), 1, "is not text (it holds NUL bytes)")
+
+
+def test_a_trajectory_beyond_the_read_bound_is_refused(tmp_path, monkeypatch):
+    from gaz_cli.outputs import writer as trajectory  # (the bound every format's reader checks)
+
+    traj = tmp_path / "run.h5"
+    assert invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(traj), "--every", "5e-12"]).exit_code == 0
+    monkeypatch.setattr(trajectory, "MAX_READ_BYTES", 100)
+    one_line(invoke(["animate", str(traj)]), 1, "GiB gaz reads back; write fewer snapshots")
+    assert not (tmp_path / "run.gif").exists()
+
+
+# --- 4. nothing left on disk after SIGINT or SIGTERM --------------------------------------
+@pytest.mark.parametrize("signum", [2, 15], ids=["SIGINT", "SIGTERM"])
+def test_an_interrupted_runs_scratch_file_is_deleted(tmp_path, monkeypatch, signum):
+    """A run past a million rows interrupted by SIGINT or SIGTERM left its scratch file (170 MB)
+    beside the database: the stage's discard joined the scratch thread inside a held block,
+    which raised the pending interrupt again before the file was deleted."""
+    import numpy as np
+
+    from gaz_cli import interrupts
+    from gaz_cli.errors import Interrupted
+    from gaz_cli.results import staging
+
+    monkeypatch.setattr(staging, "MEMORY_ROWS", 10)
+    stage = staging.Stage(tmp_path / "gaz.db", {"rebond": ["a", "b"]})
+    with pytest.raises(Interrupted):
+        with interrupts.catching():
+            for _ in range(3):
+                stage.add("rebond", [np.arange(8.0), np.arange(8.0)])
+            assert stage.path is not None and stage.path.exists()
+            interrupts._pending.append(signum)  # the signal that stopped the run
+            stage.discard()
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- 5. named problems, not "internal error" ----------------------------------------------
+def _gaz(args, **kwargs):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "gaz_cli", *args], capture_output=False, text=True,
+                          timeout=120, **kwargs)
+
+
+TINY = ["--dim", "2", "--n", "3", "--length", "1e-7", "--duration", "1e-12", "--seed", "1"]
+"""A run the reference engine does in a millisecond (no compiled code)."""
+
+
+@pytest.mark.parametrize("where", ["/dev/full", "closed"])
+def test_standard_output_that_cannot_be_written_fails_before_the_run(tmp_path, where):
+    """``simulate --json > /dev/full`` exited 3 after committing its run; with stdout closed
+    commands exited 0 and lost their output. Now refused first: exit 1, one line, no run."""
+    import subprocess
+    import sys
+
+    db = tmp_path / "gaz.db"
+    cmd = [sys.executable, "-m", "gaz_cli", "simulate", *TINY, "--json", "--db", str(db)]
+    if where == "closed":
+        res = subprocess.run(["sh", "-c", 'exec "$@" >&-', "sh", *cmd], stderr=subprocess.PIPE,
+                             text=True, timeout=120)
+    else:
+        with open("/dev/full", "w") as full:
+            res = subprocess.run(cmd, stdout=full, stderr=subprocess.PIPE, text=True, timeout=120)
+    assert res.returncode == 1, res.stderr
+    assert res.stderr.startswith("gaz: error: cannot write to standard output: it is ") and \
+        res.stderr.count("\n") == 1, res.stderr
+    assert not db.exists()
+
+
+@pytest.mark.parametrize("name", ["a" * 300 + ".csv", "b" * 246 + ".csv"])
+def test_a_file_name_the_file_system_refuses_is_one_line(tmp_path, name):
+    res = invoke(["simulate", *TINY, "--no-db", "--save-state", str(tmp_path / name)])
+    one_line(res, 1, "more than the")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_python_api_takes_numpy_scalars_and_names_wrong_types(tmp_path):
+    import numpy as np
+
+    import gaz_cli as gaz
+
+    scene = gaz.make_scene(dim=np.int64(2), species={"Ar": np.int64(3)}, length=np.float64(1e-7),
+                           duration=np.float32(1e-12), seed=np.int64(1))
+    assert scene.dim == 2 and scene.n == 3
+    from dataclasses import replace
+
+    run = gaz.simulate(replace(scene, extras=None), db=str(tmp_path / "gaz.db"))
+    assert run.summary["si_num"] == 1
+    assert gaz.analyse(str(tmp_path / "gaz.db"), sim=np.int64(1))
+    for call in (lambda: gaz.write_scene(5, scene), lambda: gaz.simulate(scene, save_state="a\0b"),
+                 lambda: gaz.simulate(scene, db="a\0b")):
+        with pytest.raises(gaz.GazError):
+            call()
+
+
+# --- 2. no input stalls the event engine; a signal ends any engine ------------------------
+TOUCHING = """dim = {dim}
+length = 1e-7
+duration = 1e-11
+seed = 1
+
+[[species]]
+name = "Ar"
+count = 2
+
+[initial]
+kind = "explicit"
+positions = {positions}
+velocities = {velocities}
+"""
+
+
+@pytest.mark.parametrize("dim", [1, 2])
+def test_a_pair_at_contact_approaching_does_not_hang_the_event_engine(tmp_path, dim):
+    """Two argon atoms exactly touching (3.58e-10 m apart) and approaching: the event engine
+    ran at 100 % CPU, deaf to SIGINT and SIGTERM, for as long as it was let. The delays to
+    the first events (~1e-26 s, the round-off of the contact) sized the calendar's buckets
+    at 3e-26 s, and the kernel stepped through the 3e14 empty buckets to the stop one at a
+    time, never back in Python. Now an empty turn of the calendar jumps to the next event."""
+    import subprocess
+    import sys
+
+    if dim == 1:
+        positions, velocities = "[[5e-8], [5.0358e-8]]", "[[100.0], [-100.0]]"
+    else:
+        positions, velocities = "[[5e-8, 5e-8], [5.0358e-8, 5e-8]]", "[[100.0, 0.0], [-100.0, 0.0]]"
+    scene = tmp_path / "touch.toml"
+    scene.write_text(TOUCHING.format(dim=dim, positions=positions, velocities=velocities))
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", str(scene), "--no-db", "--json",
+                          "--engine", "event", "--quiet"], capture_output=True, text=True, timeout=400)
+    assert res.returncode == 0, res.stderr
+    import json
+
+    summary = json.loads(res.stdout)
+    assert summary["collisions"] == 1 and summary["events"] == 1
+
+
+def _interrupt_after(cmd, tmp_path, wait_s: float, signum: int = 2):
+    """Start ``gaz CMD``, let it run ``wait_s`` seconds, send ``signum``; (exit code, stderr,
+    seconds from the signal to the exit)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", *cmd], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    try:
+        time.sleep(wait_s)
+        assert proc.poll() is None, proc.communicate()
+        sent = time.perf_counter()
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=60)
+        took = time.perf_counter() - sent
+    finally:
+        proc.kill()
+    assert signal.Signals(signum)
+    return proc.returncode, err, took
+
+
+LONG_RUNS = {
+    # the worst loop of each engine we could build: seconds or minutes of one kernel call
+    # before (the event engine: 4 million events a call; the growth placement: its whole budget)
+    "event": ["simulate", "--dim", "2", "--n", "2000", "--packing", "0.6", "--boundary", "periodic",
+              "--duration", "1e-6", "--force", "--engine", "event"],
+    "reference": ["simulate", "--dim", "2", "--n", "3000", "--length", "1e-6", "--duration", "1e-6",
+                  "--force", "--engine", "reference"],
+    "ideal": ["simulate", "--dim", "3", "--n", "1", "--radius", "0", "--mass", "1e-26", "--length", "1e-9",
+              "--duration", "1e3", "--force", "--engine", "ideal"],
+    "placement": ["place", "--dim", "3", "--n", "200000", "--radius", "1", "--length", "120",
+                  "--method", "grow"],
+}
+"""The step engine's own: tests/test_stepper.py::test_ctrl_c_stops_the_step_engine."""
+
+
+@pytest.mark.parametrize("engine, signum", [(e, 2) for e in LONG_RUNS] + [("event", 15)],
+                         ids=[f"{e}-SIGINT" for e in LONG_RUNS] + ["event-SIGTERM"])
+def test_sigint_ends_every_engine_at_once(tmp_path, engine, signum):
+    """SIGINT (and SIGTERM) during each engine's long loop: exit 128 + signal within a few
+    seconds, one line, no run stored."""
+    import signal
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    cmd = LONG_RUNS[engine] + (["--quiet", "--seed", "1", "--db", str(db)] if engine != "placement" else ["--seed", "1"])
+    code, err, took = _interrupt_after(cmd, tmp_path, 8, signum)
+    assert code == 128 + signum, err
+    name = signal.Signals(signum).name
+    assert err.startswith(f"gaz: interrupted by {name}") and err.count("\n") == 1, err
+    assert "Traceback" not in err
+    assert took < 5, took
+    if db.exists():
+        con = sqlite3.connect(db)
+        assert con.execute("SELECT COUNT(*) FROM SIMULATION").fetchone() == (0,)
+        con.close()
+    assert not [p for p in tmp_path.iterdir() if p.name not in ("gaz.db",)]
+
+
+def test_the_event_engine_returns_to_python_every_signal_events(monkeypatch):
+    """Deterministic form of the above: no kernel call of the loop asks for more than
+    SIGNAL_EVENTS events (before: up to CHUNK, 4 million, seconds deaf to signals), and the
+    run gives the same events as one with the old calls."""
+    import gaz_cli as gaz
+    from gaz_cli.engines.event import driver
+
+    asked = []
+    loop = driver._Simulation._loop
+
+    def spy(self, t_stop, max_events):
+        asked.append(max_events)
+        return loop(self, t_stop, max_events)
+
+    monkeypatch.setattr(driver._Simulation, "_loop", spy)
+    scene = gaz.make_scene(dim=2, species={"Ar": 200}, length=3e-8, duration=3e-8, seed=1, engine="event")
+    run = gaz.simulate(scene, keep_state=True)
+    assert run.summary["events"] > driver.SIGNAL_EVENTS and max(asked) <= driver.SIGNAL_EVENTS
+    monkeypatch.setattr(driver, "SIGNAL_EVENTS", 1 << 40)  # the calls as before
+    again = gaz.simulate(scene, keep_state=True)
+    assert again.summary["events"] == run.summary["events"]
+    assert (again.state.positions == run.state.positions).all()
+
+
+def test_a_file_size_limit_under_a_trajectory_is_one_line(tmp_path):
+    """Under ``ulimit -f`` an HDF5 trajectory ended in "internal error: RuntimeError: Can't
+    decrement id ref count (... File too large)": h5py's close of the discarded file raised
+    a RuntimeError."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (40 * 1024, 40 * 1024))
+
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", *QUICK, "--seed", "1", "--no-db", "--quiet",
+                          "--trajectory", str(tmp_path / "big.h5"), "--every", "1e-14"],
+                         capture_output=True, text=True, timeout=300, preexec_fn=limit, cwd=tmp_path)
+    assert res.returncode == 1, res.stderr
+    assert res.stderr.startswith(f"gaz: error: cannot write --trajectory '{tmp_path / 'big.h5'}'") and \
+        "File too large" in res.stderr and res.stderr.count("\n") == 1, res.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_bins_without_repeat_is_refused():
+    """``gaz place --bins 7`` without --repeat printed the placement and ignored --bins."""
+    res = invoke(["place", "--dim", "1", "--n", "3", "--radius", "0.5", "--length", "10", "--bins", "7"])
+    assert res.exit_code == 2 and res.stdout == ""
+    assert res.stderr.startswith("gaz place: error: --bins needs --repeat K"), res.stderr
+
+
+@pytest.mark.parametrize("query, fragment", [
+    ("mode=ro", "parameter 'mode' is read only with uri=true"),  # was: SAWarning, and written anyway
+    ("timeout=1&timeout=2", "gives timeout twice"),
+    ("timeout=1&", "holds an empty parameter"),
+])
+def test_sqlite_url_parameters_ignored_or_repeated_are_refused(tmp_path, query, fragment):
+    url = f"sqlite:///{tmp_path / 'u.db'}?{query}"
+    res = invoke(["simulate", *TINY, "--db", url])
+    one_line(res, 1, fragment)
+    assert "SAWarning" not in res.stderr and list(tmp_path.iterdir()) == []
+
+
+def test_devices_are_written_in_place_and_never_refused():
+    """/dev/null twice is no file destroyed; /dev/stdout (a pipe here) is written, not replaced."""
+    import subprocess
+    import sys
+
+    res = invoke(["simulate", *TINY, "--no-db", "--save-state", "/dev/null", "--write-scene", "/dev/null"])
+    assert res.exit_code == 0, res.output
+    out = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *TINY, "--no-db", "--json",
+                          "--save-state", "/dev/stdout"], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("species,x,y,vx,vy\n")
+
+
+# --- the generated campaign (docs/stability.md lists its families) --------------------------
+OUTPUTS = {"--save-state": [], "--write-scene": [], "--trajectory": ["--every", "5e-12"],
+           "--trajectory .pvd": ["--every", "5e-12"]}
+"""Each output option, and what it needs beside it."""
+
+FORMS = ["same name", "./name", "hard link", "symbolic link", "link to a link", "folder/../name"]
+"""How an output can name an existing file."""
+
+
+def _name_of(form: str, target: Path, folder: Path, suffix: str = "") -> str:
+    """A name for ``target`` in the given form (links made in ``folder``)."""
+    if form == "same name":
+        return str(target)
+    if form == "./name":
+        return os.path.join(str(target.parent), ".", target.name)
+    if form == "folder/../name":
+        (target.parent / "sub").mkdir(exist_ok=True)
+        return str(target.parent / "sub" / ".." / target.name)
+    name = folder / f"alias{suffix}"
+    if form == "hard link":
+        os.link(target, name)
+    elif form == "symbolic link":
+        name.symlink_to(target)
+    else:  # a symbolic link to a hard link
+        os.link(target, folder / "hard")
+        name.symlink_to(folder / "hard")
+    return str(name)
+
+
+CAMPAIGN = []
+for _option in OUTPUTS:
+    for _form in FORMS:
+        for _db in ("path", "url"):
+            CAMPAIGN.append(("database", _option, _form, _db))
+        CAMPAIGN.append(("scene file", _option, _form, "path"))
+for _form in FORMS:
+    CAMPAIGN.append(("scene file", "--db", _form, "path"))
+for _first in OUTPUTS:
+    for _second in OUTPUTS:
+        if _first != _second and not (_first.startswith("--trajectory") and _second.startswith("--trajectory")):
+            for _form in FORMS:
+                CAMPAIGN.append(("output", _first + "|" + _second, _form, "path"))
+
+
+@pytest.mark.parametrize("against, option, form, db_as", CAMPAIGN,
+                         ids=[" ".join(c) for c in CAMPAIGN])
+def test_campaign_no_output_destroys_a_file(tmp_path, stored, against, option, form, db_as):
+    """Every output option, named in every form after the database, the scene file or another
+    output: refused in one line, exit 1, every file byte-identical, nothing else written."""
+    scene = tmp_path / "s.toml"
+    scene.write_text(SCENE)
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    other = tmp_path / "other.csv"
+    other.write_text("mine\n")
+    links = tmp_path / "links"
+    links.mkdir()
+    args = ["simulate", str(scene)]
+    db_arg = str(db) if db_as == "path" else f"sqlite:///{db}"
+    if against == "scene file" and option == "--db":
+        args += ["--db", _name_of(form, scene, links)]
+    else:
+        first = option.split("|")[0]
+        flag, suffix = (first.split() + [""])[:2]
+        target = db if against == "database" else scene if against == "scene file" else other
+        args += ["--db", db_arg, flag, _name_of(form, target, links, suffix), *OUTPUTS[first]]
+        if against == "output":
+            second = option.split("|")[1]
+            flag2 = second.split()[0]
+            args += [flag2, str(other), *OUTPUTS[second]]
+    before = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    res = invoke(args)
+    assert res.exit_code == 1, res.output
+    assert res.stderr.count("\n") == 1 and "is also" in res.stderr, res.stderr
+    assert "internal error" not in res.stderr and "Traceback" not in res.output
+    after = {p: digest(p) for p in tmp_path.rglob("*") if p.is_file()}
+    assert after == before
+
+
+BAD_NAMES = {"empty": "", "blank": "   ", "a folder": "{tmp}", "a missing folder": "{tmp}/none/x",
+             "300 characters": "{tmp}/" + "n" * 300, "a NUL": "a\0b"}
+
+
+@pytest.mark.parametrize("option", ["--save-state", "--write-scene", "--trajectory"])
+@pytest.mark.parametrize("bad", list(BAD_NAMES))
+def test_campaign_bad_output_names(tmp_path, stored, option, bad):
+    """Every output option with every name a file system refuses: one line, exit 1 or 2,
+    the database byte-identical. (A NUL cannot pass through argv: the API takes it.)"""
+    import gaz_cli as gaz
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    before = digest(db)
+    name = BAD_NAMES[bad].format(tmp=tmp_path) + (".h5" if option == "--trajectory" and bad not in
+                                                   ("a folder", "blank") else "")
+    if "\0" in name:
+        scene = gaz.make_scene(dim=2, species={"Ar": 3}, length=1e-7, duration=1e-12, seed=1)
+        key = option[2:].replace("-", "_")
+        with pytest.raises(gaz.GazError):
+            gaz.simulate(scene, db=str(db), **{key: name}, **({"every": 1e-13} if key == "trajectory" else {}))
+    else:
+        res = invoke(["simulate", *TINY, "--db", str(db), option, name, "--every", "1e-13"])
+        assert res.exit_code in (1, 2), res.output
+        assert res.stderr.count("\n") == 1 and "internal error" not in res.stderr, res.stderr
+    assert digest(db) == before
+
+
+WRONG = {"None": None, "text": "x", "a list": [1], "a dict": {"a": 1}, "bytes": b"1", "nan": float("nan"),
+         "a negative": -1, "huge": 1e308, "bool": True, "an object": object()}
+KEYS = ["dim", "length", "duration", "temperature", "seed", "boundary", "gravity", "restitution", "tc",
+        "engine", "placement", "record", "dt", "drag", "print_every"]
+
+
+@pytest.mark.parametrize("key", KEYS)
+@pytest.mark.parametrize("wrong", list(WRONG))
+def test_campaign_api_wrong_values_are_gaz_errors(key, wrong):
+    """gaz.make_scene with every key given every kind of wrong value: a Scene or a GazError,
+    never a TypeError, AttributeError or the like, and no warning of a library (numpy's
+    overflow for a temperature of 1e308 was printed before gaz's own line)."""
+    import warnings
+
+    import gaz_cli as gaz
+
+    keys = {"dim": 2, "length": 1e-7, "duration": 1e-11, "seed": 1, key: WRONG[wrong]}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        try:
+            gaz.make_scene(species={"Ar": 3}, **keys)
+        except gaz.GazError:
+            pass
+
+
+@pytest.mark.parametrize("flag, value", [("--temperature", "1e308"), ("--temperature", "1.7e308"),
+                                         ("--length", "1e308"), ("--duration", "1e308")])
+def test_campaign_extreme_values_say_one_line_and_no_library_warning(flag, value):
+    """``--temperature 1e308`` printed numpy's "RuntimeWarning: overflow encountered in divide"
+    (two lines) before gaz's own."""
+    import subprocess
+    import sys
+
+    args = {"--dim": "2", "--n": "3", "--length": "1e-7", "--duration": "1e-12", "--seed": "1", flag: value}
+    res = subprocess.run([sys.executable, "-m", "gaz_cli", "simulate", *sum(args.items(), ()), "--no-db"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 1 and res.stderr.count("\n") == 1, res.stderr
+    assert res.stderr.startswith("gaz: error: ")
