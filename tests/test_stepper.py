@@ -489,7 +489,7 @@ def test_snapshots_at_multiples_of_every_and_diagnostics():
     assert set(frames.diags[0]) >= {"time", "step", "kinetic", "potential", "max_speed", "n",
                                     "collisions", "bounces"}
     phases = rs.extras["phase_times"]
-    assert set(phases) == {"push", "collisions", "walls", "output"} and min(phases.values()) >= 0
+    assert set(phases) == {"push", "collisions", "walls", "exchange", "output"} and min(phases.values()) >= 0
 
 
 def test_diagnostics_of_more_than_two_attracting_bodies():

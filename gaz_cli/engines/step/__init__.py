@@ -159,11 +159,14 @@ def energies(scene: Scene, positions: np.ndarray, velocities: np.ndarray) -> tup
 
 
 def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFAULT_DETECTION,
-        max_passes: int = MAX_PASSES) -> RunStats:
+        max_passes: int = MAX_PASSES, patches: int | None = None) -> RunStats:
     """Simulate ``scene`` from ``state`` with fixed steps scene.dt; events go to ``recorder``.
 
     ``detection``: 'overlap' (default, seed 002's rule) or 'swept', see
-    :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step.
+    :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step. ``patches``: about
+    how many patches the box is cut into (default: one per thread, Numba's
+    ``get_num_threads()``, set by NUMBA_NUM_THREADS or ``gaz simulate --threads``); the
+    numbers do not depend on it nor on the threads.
     The caller's arrays are not modified. RunStats.extras holds 'steps',
     'passes', 'max_passes_per_step', 'pass_limit_hits', 'plane_bounces',
     'folded_bounces' (bounces of hop series longer than codes.MAX_HOP_ROWS
@@ -180,13 +183,14 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     check_in_front_of_planes(scene, state.positions)
     if detection not in DETECTIONS:
         raise SceneError(f"detection {detection!r} is not one of {', '.join(DETECTIONS)}")
-    return _Stepper(scene, state, recorder, detection, int(max_passes)).run()
+    return _Stepper(scene, state, recorder, detection, int(max_passes), patches).run()
 
 
 class _Stepper:
     """The arrays of one run and the loop that hands blocks of steps to the kernel."""
 
-    def __init__(self, scene: Scene, state: State, recorder: Recorder, detection: str, max_passes: int):
+    def __init__(self, scene: Scene, state: State, recorder: Recorder, detection: str, max_passes: int,
+                 patches: int | None = None):
         self.scene = scene
         self.recorder = recorder
         self.pos = np.array(state.positions, dtype=np.float64, order="C", copy=True)
@@ -205,6 +209,7 @@ class _Stepper:
         self.detection = detection
         self.max_passes = max(1, max_passes)
         self.nthreads = int(numba.get_num_threads())
+        self.patches = max(1, int(patches if patches is not None else self.nthreads))
         self.want_b = bool(recorder.want_bounces)
         self.want_c = bool(recorder.want_collisions)
         self.bf = np.empty((1024, 3))
@@ -275,7 +280,7 @@ class _Stepper:
                     float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
                     self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
-                    _deadline())
+                    _deadline(), self.patches)
             except SystemError as err:
                 interrupt = interrupt_in(err)
                 if interrupt is not None:  # a signal seen as the kernel returned: the same
@@ -373,7 +378,7 @@ class _Stepper:
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
-                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf)
+                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches)
         if sc.pair_gravity > 0 and sc.print_every:
             _pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
         self.recorder.progress(0.0, 0)  # compiled: the run starts
@@ -433,6 +438,7 @@ class _Stepper:
                 "push": float(self.clocks[_c.T_PUSH]),
                 "collisions": float(self.clocks[_c.T_COLLISIONS]),
                 "walls": float(self.clocks[_c.T_WALLS]),
+                "exchange": float(self.clocks[_c.T_EXCHANGE]),
                 "output": float(self.output_time),
             },
         }

@@ -59,8 +59,8 @@ SWEEP_BOUNCES = 1 << 20
 """Box-wall bounces of one particle in the safety net after the pass limit (:func:`_walls_sweep`):
 a particle crossing the box that many times in one step is put back on the wall."""
 # phase clocks (float64 array, seconds)
-T_PUSH, T_COLLISIONS, T_WALLS = range(3)
-N_TIMERS = 3
+T_PUSH, T_COLLISIONS, T_WALLS, T_EXCHANGE = range(4)
+N_TIMERS = 4
 
 _clock_gettime = types.ExternalFunction("clock_gettime", types.int32(types.int32, types.voidptr))
 

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from gaz_cli.engines.step.cells import _bin, _cell_coord, _cell_list
+from gaz_cli.engines.step.cells import _cell_coord, _cells_per_axis
 from gaz_cli.engines.step.codes import OVERLAP_TOL, SPEED_ROUND_OFF
 from gaz_cli.engines.step.resting import _pass_on, _release, _rest_on, _wall_takes
 from gaz_cli.engines.step.wall_contact import _velocity_at
@@ -26,15 +26,19 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
     is refined on it (:func:`_held_root`).
     """
     dim = pos.shape[1]
+    c = -sigma * sigma
+    for d in range(dim):
+        dr = pos[j, d] - pos[i, d]
+        c += dr * dr
+    if c >= 0.0 and not swept:
+        return -1.0, c  # apart: no contact under the overlap rule (most pairs a search meets)
     a = 0.0
     b = 0.0
-    c = -sigma * sigma
     for d in range(dim):
         dr = pos[j, d] - pos[i, d]
         dv = vel[j, d] - vel[i, d]
         a += dv * dv
         b += dr * dv
-        c += dr * dr
     if b < 0.0:
         if c >= 0.0:
             return -1.0, c  # approaching but apart: a future contact
@@ -109,36 +113,41 @@ def _held_root(pos, vel, support, i, j, sigma, tau0):
 
 
 @njit
-def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, dt, length, nc,
-            cell_of, start, order, swept, k, cand_i, cand_j, cand_tau, left, support):
-    """Write the pairs in contact with at least one active particle from row k; returns the new count.
+def _search_rows(rows, first, last, pos, vel, radius, age, act, tick, ident, all_active, speed, vmax, sigma_max,
+                 slack, dt, length, nc, cstart, cend, swept, k, cand_i, cand_j, cand_tau, left, support):
+    """Write the pairs in contact with the active particles i = rows[first:last] (rows of the
+    arrays first to last when ``rows`` is empty) from row k; returns the new count. (One call
+    for many particles: a Numba call passing arrays costs reference counts, tens of ns.)
 
-    With ``all_active`` (a step's first pass) also tallies in ``left`` (2,) the pairs the
-    contact rule leaves alone although closer than (1 - OVERLAP_TOL) sigma (overlapping and
-    separating: a contact missed in this step or before): left[0] their number, left[1] the
-    smallest |dr| / sigma among them (the caller sets 0 and 1.0 first).
+    ``act`` (rows,) int64: the particles whose stamp equals ``tick`` are active in this pass.
 
-    Each pair is reported once; rows beyond the arrays' size are counted,
-    not written (the caller grows the arrays and calls again). Search
-    radius around an active particle i (m), over the cells it covers:
+    The particles are in cell order (:mod:`.patches`): those of global cell g are the rows
+    cstart[g] to cend[g], binned where they were ``slack`` m (largest move since, along an
+    axis) ago. With ``all_active`` (a step's first pass) also tallies in ``left`` (2,) the
+    pairs the contact rule leaves alone although closer than (1 - OVERLAP_TOL) sigma
+    (overlapping and separating: a contact missed in this step or before): left[0] their
+    number, left[1] the smallest |dr| / sigma among them.
 
-    * overlap detection: sigma_max (a pair of two active particles is
-      examined from the lower index);
+    Each pair is reported once, by the same member whatever the layout; rows beyond the
+    arrays' size are counted, not written (the caller grows the arrays and searches again).
+    Search radius around i (m), plus the slack, over the cells it covers:
+
+    * overlap detection: sigma_max (a pair of two active particles is examined from the
+      lower ``ident``);
     * swept detection: a pair can have touched during the step only if
       |dr| <= sigma + (|v_i| + |v_j|) dt. When every particle is active
-      (first pass) each pair is examined from its faster member, within
-      sigma_max + 2 |v_i| dt; otherwise within sigma_max + (|v_i| + vmax) dt,
+      (first pass) each pair is examined from its faster member (ties: the lower ident),
+      within sigma_max + 2 |v_i| dt; otherwise within sigma_max + (|v_i| + vmax) dt,
       a pair of two active particles still from the faster. So only the fast
-      particles search far. ``speed`` (N,) |v| m/s, ``vmax`` its maximum.
-    ``support`` (N, D + 1) m/s^2: the push of the wall holding each particle at rest (0: free),
-    for the contacts of a held particle (:func:`_contact_tau`).
+      particles search far. ``speed`` |v| m/s, ``vmax`` at least its maximum.
+    ``support`` (rows, D + 1) m/s^2: the push of the wall holding each particle at rest (0:
+    free), for the contacts of a held particle (:func:`_contact_tau`).
     """
-    n, dim = pos.shape
+    dim = pos.shape[1]
     side = length / nc
     shrink = (1.0 - OVERLAP_TOL) * (1.0 - OVERLAP_TOL) - 1.0
-    for i in range(n):
-        if not active[i]:
-            continue
+    for m in range(first, last):
+        i = rows[m] if rows.size > 0 else m
         if swept:
             if all_active:
                 rho = sigma_max + 2.0 * speed[i] * dt
@@ -146,7 +155,7 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
                 rho = sigma_max + (speed[i] + vmax) * dt
         else:
             rho = sigma_max
-        m = int(math.ceil(rho * 1.000001 / side))
+        m = int(math.ceil((rho + slack) * 1.000001 / side))
         if m < 1:
             m = 1
         c0 = _cell_coord(pos[i, 0], length, nc)
@@ -156,22 +165,29 @@ def _detect(pos, vel, radius, age, active, all_active, speed, vmax, sigma_max, d
         m2 = m if dim > 2 else 0
         lo0 = c0 - m if c0 - m > 0 else 0
         hi0 = c0 + m if c0 + m < nc else nc - 1
+        idi = ident[i]
         for k2 in range(max(c2 - m2, 0), min(c2 + m2, nc - 1) + 1):
             for k1 in range(max(c1 - m1, 0), min(c1 + m1, nc - 1) + 1):
-                # the cells along axis 0 are consecutive: one range of ``order``
+                # the cells along axis 0 are consecutive rows of one patch: one range
                 row = (k2 * nc + k1) * nc
-                for q in range(start[row + lo0], start[row + hi0 + 1]):
-                    j = order[q]
+                for j in range(cstart[row + lo0], cend[row + hi0]):
                     if j == i:
                         continue
-                    if active[j]:
+                    if act[j] == tick:  # j active too: the pair is examined from one of the two
                         if swept:
-                            if speed[j] > speed[i] or (speed[j] == speed[i] and j < i):
+                            if speed[j] > speed[i] or (speed[j] == speed[i] and ident[j] < idi):
                                 continue
-                        elif j < i:
+                        elif ident[j] < idi:
+                            continue
+                    sigma = radius[i] + radius[j]
+                    if not swept:  # apart: no contact under the overlap rule (most pairs met; the
+                        c = -sigma * sigma  # same sum as _contact_tau's)
+                        for d in range(dim):
+                            dr = pos[j, d] - pos[i, d]
+                            c += dr * dr
+                        if c >= 0.0:
                             continue
                     amax = age[i] if age[i] < age[j] else age[j]
-                    sigma = radius[i] + radius[j]
                     tau, c = _contact_tau(pos, vel, i, j, sigma, amax, swept, support)
                     if tau < 0.0:
                         if all_active and c < shrink * sigma * sigma:
@@ -311,12 +327,107 @@ def _collide(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc, acc, h
 def _overlaps_approaching(pos, vel, radius, length):
     """Number of pairs overlapping and approaching (cell list), for tests and checks."""
     n, dim = pos.shape
-    rmax, nc, start, cell_of, order = _cell_list(radius, length, dim)
-    _bin(pos, length, nc, cell_of, start, order)
-    active = np.ones(n, np.uint8)
+    rmax = 0.0
+    for i in range(n):
+        rmax = max(rmax, radius[i])
+    nc = _cells_per_axis(length, 2.0 * rmax * 1.00001, n, dim)
+    cell = np.empty(n, np.int64)
+    for i in range(n):
+        g = 0
+        for d in range(dim - 1, -1, -1):
+            g = g * nc + _cell_coord(pos[i, d], length, nc)
+        cell[i] = g
+    order = np.argsort(cell, kind="mergesort")
+    cpos = np.empty((n, dim))
+    cvel = np.empty((n, dim))
+    crad = np.empty(n)
+    cend = np.zeros(nc ** dim, np.int64)
+    for q in range(n):
+        cpos[q] = pos[order[q]]
+        cvel[q] = vel[order[q]]
+        crad[q] = radius[order[q]]
+        cend[cell[q]] += 1
+    for g in range(1, nc ** dim):
+        cend[g] += cend[g - 1]
+    cstart = cend.copy()
+    for q in range(n):
+        cstart[cell[q]] -= 1
+    act = np.ones(n, np.int64)
     age = np.full(n, np.inf)
     ci = np.empty(16, np.int64)
     cj = np.empty(16, np.int64)
     ct = np.empty(16, np.float64)
-    return _detect(pos, vel, radius, age, active, True, np.zeros(n), 0.0, 2.0 * rmax, 0.0, length, nc, cell_of, start,
-                   order, False, 0, ci, cj, ct, np.array([0.0, 1.0]), np.zeros((n, dim + 1)))
+    left = np.array([0.0, 1.0])
+    support = np.zeros((n, dim + 1))
+    return _search_rows(np.empty(0, np.int64), 0, n, cpos, cvel, crad, age, act, 1, order, True, np.zeros(n), 0.0,
+                        2.0 * rmax, 0.0, 0.0, length, nc, cstart, cend, False, 0, ci, cj, ct, left, support)
+
+
+@njit
+def _search_cells(lo1, hi1, lo2, hi2, pos, vel, radius, age, ident, sigma_max, nc, cstart, cend, k, cand_i,
+                  cand_j, cand_tau, left, support):
+    """The first pass's pairs in contact under the overlap rule with a member in the cells (c0,
+    c1, c2), c1 in [lo1, hi1), c2 in [lo2, hi2) (a patch), cells at least sigma_max wide, every
+    particle active: each pair of neighbouring cells
+    is examined once, from the cell of the two that comes first in the half shell (the same
+    cell, the next along axis 0, the next row, the next plane), so each pair is met once,
+    without an ident test: half the work of :func:`_search` from every particle. A pair is
+    written with the lower ident first (as :func:`_search` would); ``left`` as there. Returns
+    the new count."""
+    dim = pos.shape[1]
+    s2 = sigma_max * sigma_max * (1.0 + 1e-9)  # above any pair's sigma^2 and its round-off
+    shrink = (1.0 - OVERLAP_TOL) * (1.0 - OVERLAP_TOL) - 1.0
+    for c2 in range(lo2, hi2):
+        for c1 in range(lo1, hi1):
+            for c0 in range(nc):
+                g = (c2 * nc + c1) * nc + c0
+                lo0 = c0 - 1 if c0 > 0 else 0
+                hi0 = c0 + 1 if c0 + 1 < nc else nc - 1
+                nrows = 1
+                if dim > 1 and c1 + 1 < nc:
+                    nrows = 2
+                if dim > 2 and c2 + 1 < nc:
+                    nrows = 5
+                k1lo = c1 - 1 if c1 > 0 else 0
+                for i in range(cstart[g], cend[g]):
+                    for r in range(nrows):
+                        if r == 0:  # the same cell (j after i) and the next one along axis 0
+                            lo = i + 1
+                            hi = cend[hi0 + g - c0]
+                        elif r == 1:  # the next row of the same plane
+                            if not (dim > 1 and c1 + 1 < nc):
+                                continue
+                            row = (c2 * nc + c1 + 1) * nc
+                            lo = cstart[row + lo0]
+                            hi = cend[row + hi0]
+                        else:  # three rows of the next plane
+                            k1 = k1lo + r - 2
+                            if k1 >= nc or k1 > c1 + 1:
+                                continue
+                            row = ((c2 + 1) * nc + k1) * nc
+                            lo = cstart[row + lo0]
+                            hi = cend[row + hi0]
+                        for j in range(lo, hi):
+                            r2 = 0.0
+                            for d in range(dim):
+                                dr = pos[j, d] - pos[i, d]
+                                r2 += dr * dr
+                            if r2 >= s2:
+                                continue  # farther apart than the widest pair: most of those met
+                            a, b = (i, j) if ident[i] < ident[j] else (j, i)
+                            amax = age[a] if age[a] < age[b] else age[b]
+                            sigma = radius[a] + radius[b]
+                            tau, c = _contact_tau(pos, vel, a, b, sigma, amax, False, support)
+                            if tau < 0.0:
+                                if c < shrink * sigma * sigma:
+                                    left[0] += 1.0
+                                    ratio = math.sqrt(c / (sigma * sigma) + 1.0)
+                                    if ratio < left[1]:
+                                        left[1] = ratio
+                                continue
+                            if k < cand_i.shape[0]:
+                                cand_i[k] = a
+                                cand_j[k] = b
+                                cand_tau[k] = tau
+                            k += 1
+    return k

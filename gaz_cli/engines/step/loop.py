@@ -7,24 +7,29 @@ counts and (possibly reallocated) buffers. One module per seam of the step:
 * :mod:`.wall_contact`: one particle and one flat wall (contact time, bounce, hops, rest);
 * :mod:`.walls`: the box walls and extra planes (first wall met, bounce and rows, safety net);
 * :mod:`.resting`: particles held at rest by a wall or by a held particle;
-* :mod:`.cells`, :mod:`.contacts`: the cell list, the pairs in contact, the collision rule;
+* :mod:`.cells`, :mod:`.contacts`: the cells, the pairs in contact, the collision rule;
+* :mod:`.patches`: the box cut into patches, the seed's exchange, the sort by cell;
 * :mod:`.passes`: the contact passes of one step;
 * :mod:`.codes`: status codes, counters, clocks, tolerances;
 * this module: :func:`_advance`, a block of steps.
 
-:func:`_advance` runs a block of steps; each step is, in order:
+:func:`_advance` lays the caller's arrays out in patches (:mod:`.patches`), runs a block
+of steps, and puts them back in the caller's order; each step is, in order:
 
 1. half kick  ``v <- v e^{-gamma h} + a (1 - e^{-gamma h}) / gamma`` over
    h = dt/2, the exact solution for a constant acceleration a (gravity plus
    pair attraction at the current positions) and linear friction; ``v += a h``
    without friction; skipped entirely when the scene has no force;
 2. drift ``x += v dt`` (straight lines, so going back along them is exact);
-3. contact passes. Each pass lists the contacts of the *active* particles
+   1 and 2 one patch a thread;
+3. exchange: the particles that left their patch move to their new one, and each patch
+   sorts its particles by cell (:func:`.patches._exchange`, one patch a thread);
+4. contact passes (:mod:`.passes`; the first one patch a thread). Each pass lists the contacts of the *active* particles
    (all of them in the first pass): the first crossing of a box wall or an
    extra plane (one it ends beyond, or one a path bending away from it went
    beyond and came back from: :func:`_earliest_wall`), and pairs in contact
-   found with a cell list (never O(N^2)). They
-   are sorted by contact time, earliest first, and applied in that order, a
+   found with the cells (never O(N^2)). They are sorted by contact time,
+   earliest first, ties by particle identity, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
    along the line of centres (any masses, restitution e, TC model; the
@@ -39,8 +44,15 @@ counts and (possibly reallocated) buffers. One module per seam of the step:
    active set; passes repeat until a pass finds nothing or the pass limit
    is hit (then every particle still beyond a box wall bounces until it is
    inside, and off the planes once: :func:`_walls_sweep`);
-4. pair accelerations at the new positions (when pair gravity is on);
-5. half kick.
+5. pair accelerations at the new positions (when pair gravity is on; the sum taken in the
+   caller's order);
+6. half kick (one patch a thread).
+
+Nothing a step computes depends on the layout: per-particle work is the same whatever
+the row, contacts are resolved in an order of their own, and sums over particles
+(the virial, the counters) follow that order; so the numbers are the same bit for bit
+whatever the number of patches and threads. (One exception: pair forces of 1024 bodies
+or more on several threads, whose per-thread partial sums are added in another order.)
 
 Contact rule (physics.md section 9): with dr = r_j - r_i, dv = v_j - v_i at the
 end of the step, a = |dv|^2, b = dr.dv, c = |dr|^2 - sigma^2, going back by tau
@@ -66,11 +78,12 @@ import pathlib
 import numpy as np
 
 from gaz_cli.engines.event.intrinsics import kernel_sources
-from gaz_cli.engines.step.cells import _cell_list
+from gaz_cli.engines.step.cells import _cells_per_axis
 from gaz_cli.engines.step.codes import (C_MAX_PASSES, C_PAIR_EVALS, C_PASSES, C_STEPS, DONE, FLUSH, PAUSE,
-                                       T_COLLISIONS, T_PUSH, T_WALLS, _now)
+                                       T_COLLISIONS, T_EXCHANGE, T_PUSH, T_WALLS, _now)
 from gaz_cli.engines.step.passes import _contact_passes
-from gaz_cli.engines.step.push import _drift, _kick, _pair_acc
+from gaz_cli.engines.step.patches import _exchange, _layout_in, _layout_out, _patch_grid, _sort_all
+from gaz_cli.engines.step.push import _pair_acc, _push_patches
 from gaz_cli.numba_config import njit
 
 
@@ -100,7 +113,7 @@ def build():
     def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
                  length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
                  want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
-                 counters, clocks, virial, overlap, clock_id, nthreads, deadline):
+                 counters, clocks, virial, overlap, clock_id, nthreads, deadline, patches):
         """Run up to ``nsteps`` steps of dt s (see the module docstring).
 
         Step s of the call ends at t0 + (k0 + s + 1) dt s: with t0 = 0 and k0 the index of the
@@ -113,11 +126,12 @@ def build():
         RE_DIR) from row nb, collisions to cf (k, 2: t, |J|) / ci (k, 2: i, j)
         from row ncoll; buffers grow as needed. counters (int64), clocks
         (float64, s) and virial (1,) accumulate. The pairs each step leaves overlapping (closer
-        than (1 - OVERLAP_TOL) sigma and not resolved: see :func:`_detect`) are counted in the
-        C_OVERLAP_* counters; overlap (2,) keeps the smallest |dr| / sigma seen and the time of
-        the first step with one. clock_id: the clock_gettime
-        clock (-1: no phase timing); nthreads: threads for the pair forces. Stops early (status FLUSH) once
-        either buffer holds ``flush_at`` rows.
+        than (1 - OVERLAP_TOL) sigma and not resolved: see :func:`.contacts._search`) are
+        counted in the C_OVERLAP_* counters; overlap (2,) keeps the smallest |dr| / sigma seen
+        and the time of the first step with one. clock_id: the clock_gettime
+        clock (-1: no phase timing); nthreads: threads for the pair forces; patches: about
+        how many patches the box is cut into (:mod:`.patches`; the numbers do not depend on
+        it). Stops early (status FLUSH) once either buffer holds ``flush_at`` rows.
 
         Returns (status, steps_done, bf, bi, nb, cf, ci, ncoll).
         """
@@ -129,18 +143,41 @@ def build():
         h = 0.5 * dt
         hr = math.expm1(gamma * h) / gamma if gamma > 0.0 else h  # (see _wall_contact)
         tbuf = np.zeros(2, np.int64)
-        rmax, nc_max, start, cell_of, order = _cell_list(radius, length, dim)
-        active = np.zeros(n, np.uint8)
-        last = np.full(n, -1, np.int64)  # the wall each particle's path last bent at in this step (-1: none)
-        support = np.zeros((n, dim + 1))  # a wall's push on the particles it holds at rest in this step, m/s^2, and
-        # its restitution (_hold)
-        hold_row = np.full(n, -1, np.int64)  # the bounce row of that rest (-1: none)
-        done = np.zeros(n, np.uint8)
-        speed = np.zeros(n)
+        if nsteps <= 0 or n == 0:
+            return DONE, 0, bf, bi, nb, cf, ci, ncoll
+        # cells as wide as the reach of a particle at twice the rms speed (nearly all of them);
+        # the few faster ones search further
+        rmax = 0.0
+        vsum2 = 0.0
+        for i in range(n):
+            rmax = max(rmax, radius[i])
+            for d in range(dim):
+                vsum2 += vel[i, d] * vel[i, d]
+        nc = _cells_per_axis(length, (2.0 * rmax + 4.0 * math.sqrt(vsum2 / n) * dt) * 1.00001, n, dim)
+        p1, p2 = _patch_grid(patches, dim, nc)
+        npatch = p1 * p2
+        cap = n if npatch == 1 else min(n, 2 * (n // npatch) + 64)
+        L, S, cap = _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap)
+        rows = npatch * cap
+        xb = np.empty((rows, dim))
+        cellof = np.empty(rows, np.int64)
+        cstart = np.zeros(nc ** dim, np.int64)
+        cend = np.zeros(nc ** dim, np.int64)
+        _sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb)
+        L, S = S, L
+        W = _work(rows, dim, npatch, n)
+        act, done, last, support, hold_row, speed, touched, sendid, dest = W[0], W[1], W[2], W[3], W[4], W[5], W[6], \
+            W[7], W[8]
+        sendbuf, pmax, pk, pleft, sendcount, byident = W[9], W[10], W[11], W[12], W[13], W[14]
+        pci = np.empty(64 * npatch, np.int64)
+        pcj = np.empty(64 * npatch, np.int64)
+        pct = np.empty(64 * npatch, np.float64)
         cand_i = np.empty(64, np.int64)
         cand_j = np.empty(64, np.int64)
         cand_tau = np.empty(64, np.float64)
-        left = np.zeros(2)
+        ipos = np.empty((n, dim)) if has_pair else np.empty((0, dim))
+        iacc = np.empty((n, dim)) if has_pair else np.empty((0, dim))
+        tick = 0
         steps = 0
         status = DONE
         for s in range(nsteps):
@@ -148,46 +185,106 @@ def build():
                 status = FLUSH
                 break
             t_end = t0 + (k0 + s + 1) * dt
-            # --- push: half kick, drift
+            lpos, lvel, lacc, ident, count = L[0], L[1], L[2], L[7], L[8]
+            # --- push: half kick, drift (one patch a thread)
             c0 = _now(clock_id, tbuf)
-            if has_kick:
-                _kick(vel, acc, has_pair, g, gamma, h)
-            _drift(pos, vel, dt, age)
+            _push_patches(npatch, cap, count, lpos, lvel, lacc, L[5], has_kick, has_pair, g, gamma, h, dt, True, last,
+                          hold_row, support)
             c1 = _now(clock_id, tbuf)
             clocks[T_PUSH] += c1 - c0
+            # --- exchange between patches, sort by cell (one patch a thread)
+            if not _exchange(L, S, cap, length, nc, p1, p2, sendbuf, sendid, sendcount, dest, cstart, cend, cellof,
+                             xb):
+                # a patch overflowed: all back in the caller's arrays, laid out again with more room
+                _layout_out(L, cap, npatch, pos, vel, acc, age, tlast)
+                L, S, cap = _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, 2 * cap)
+                rows = npatch * cap
+                xb = np.empty((rows, dim))
+                cellof = np.empty(rows, np.int64)
+                _sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb)
+                W = _work(rows, dim, npatch, n)
+                act, done, last, support, hold_row, speed, touched, sendid, dest = W[0], W[1], W[2], W[3], W[4], \
+                    W[5], W[6], W[7], W[8]
+                sendbuf, pmax, pk, pleft, sendcount, byident = W[9], W[10], W[11], W[12], W[13], W[14]
+                tick = 0
+            L, S = S, L  # sorted by cell: S holds the rows now
+            c2 = _now(clock_id, tbuf)
+            clocks[T_EXCHANGE] += c2 - c1
             # --- contact passes: walls, planes and pairs, earliest first
-            for i in range(n):
-                active[i] = 1
-                last[i] = -1
-                hold_row[i] = -1
-                for d in range(dim):
-                    support[i, d] = 0.0
-            passes, wall_time, bf, bi, nb, cf, ci, ncoll, cand_i, cand_j, cand_tau = _contact_passes(
-                t_end, dt, pos, vel, acc, mass, radius, age, tlast, planes, length, g, gamma, e, ew, tc,
-                has_pair, h, hr, max_passes, swept, want_b, want_c, bf, bi, nb, cf, ci, ncoll,
-                counters, virial, overlap, clock_id, tbuf, rmax, nc_max, start, cell_of, order, active, last,
-                support, hold_row, done, speed, cand_i, cand_j, cand_tau, left)
+            nb0 = nb
+            nc0 = ncoll
+            (passes, wall_time, tick, bf, bi, nb, cf, ci, ncoll, cand_i, cand_j, cand_tau, pci, pcj,
+             pct) = _contact_passes(t_end, dt, L, cap, p1, p2, L[2], planes, length, g, gamma, e, ew, tc, has_pair,
+                                    h, hr, max_passes, swept, want_b, want_c, bf, bi, nb, cf, ci, ncoll, counters,
+                                    virial, overlap, clock_id, tbuf, 2.0 * rmax, nc, cstart, cend, xb, act, done,
+                                    tick, last, support, hold_row, speed, pmax, touched, cand_i, cand_j, cand_tau,
+                                    pci, pcj, pct, pk, pleft, byident)
+            ident = L[7]
+            for r in range(nb0, nb):  # rows name the particles by the caller's numbers
+                bi[r, 0] = ident[bi[r, 0]]
+            for r in range(nc0, ncoll):
+                ci[r, 0] = ident[ci[r, 0]]
+                ci[r, 1] = ident[ci[r, 1]]
             counters[C_PASSES] += passes
             if passes > counters[C_MAX_PASSES]:
                 counters[C_MAX_PASSES] = passes
             c3 = _now(clock_id, tbuf)
-            clocks[T_COLLISIONS] += c3 - c1 - wall_time
+            clocks[T_COLLISIONS] += c3 - c2 - wall_time
             clocks[T_WALLS] += wall_time
-            # --- forces at the new positions, second half kick
+            # --- forces at the new positions (in the caller's order: the sums' order is fixed), second half kick
+            lpos, lacc, count = L[0], L[2], L[8]
             if has_pair:
-                _pair_acc(pos, mass, G, eps2, acc, nthreads)
+                for p in range(npatch):
+                    for r in range(p * cap, p * cap + count[p]):
+                        for d in range(dim):
+                            ipos[ident[r], d] = lpos[r, d]
+                _pair_acc(ipos, mass, G, eps2, iacc, nthreads)
+                for p in range(npatch):
+                    for r in range(p * cap, p * cap + count[p]):
+                        for d in range(dim):
+                            lacc[r, d] = iacc[ident[r], d]
                 counters[C_PAIR_EVALS] += 1
             if has_kick:
-                _kick(vel, acc, has_pair, g, gamma, h)
+                _push_patches(npatch, cap, count, lpos, L[1], lacc, L[5], has_kick, has_pair, g, gamma, h, dt, False,
+                              last, hold_row, support)
             clocks[T_PUSH] += _now(clock_id, tbuf) - c3
             steps += 1
             if clock_id >= 0 and steps < nsteps and _now(clock_id, tbuf) >= deadline:
                 status = PAUSE
                 break
+        _layout_out(L, cap, npatch, pos, vel, acc, age, tlast)
         counters[C_STEPS] += steps
         return status, steps, bf, bi, nb, cf, ci, ncoll
 
     return _advance
+
+
+@njit
+def _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap):
+    """(L, S, cap): the particle arrays laid out in patches of cap rows (:func:`.patches._layout_in`,
+    cap doubled until every patch fits), not yet sorted by cell; S the same shapes, the other
+    half of the double buffer (the same ``count``)."""
+    dim = pos.shape[1]
+    npatch = p1 * p2
+    while True:
+        rows = npatch * cap
+        L = (np.empty((rows, dim)), np.empty((rows, dim)), np.empty((rows, dim)), np.empty(rows), np.empty(rows),
+             np.empty(rows), np.empty(rows), np.empty(rows, np.int64), np.zeros(npatch, np.int64))
+        if _layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap, L):
+            break
+        cap *= 2
+    S = (np.empty((rows, dim)), np.empty((rows, dim)), np.empty((rows, dim)), np.empty(rows), np.empty(rows),
+         np.empty(rows), np.empty(rows), np.empty(rows, np.int64), L[8])
+    return L, S, cap
+
+
+@njit
+def _work(rows, dim, npatch, n):
+    """The scratch arrays of the steps (see :func:`.passes._contact_passes` and :mod:`.patches`)."""
+    return (np.zeros(rows, np.int64), np.zeros(rows, np.int64), np.full(rows, -1, np.int64), np.zeros((rows, dim + 1)),
+            np.full(rows, -1, np.int64), np.zeros(rows), np.empty(rows, np.int64), np.empty(rows, np.int64),
+            np.empty(rows, np.int64), np.empty((rows, 3 * dim + 4)), np.zeros(npatch), np.zeros(npatch, np.int64),
+            np.zeros((npatch, 2)), np.zeros((npatch, npatch), np.int64), np.empty(n, np.int64))
 
 
 _advance = build()
