@@ -292,13 +292,16 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--quiet", is_flag=True,
               help="No progress bar and no compile notice on stderr (shown only on a terminal, "
                    "for runs longer than about a second).")
+@click.option("--threads", type=click.IntRange(1), default=None,
+              help="Threads of the step engine, one patch of the box each (default: NUMBA_NUM_THREADS, "
+                   "else every core). The rows do not depend on it.")
 @click.option("--force", is_flag=True,
               help="Run even when the estimated work is beyond its bound: more than 1e11 events "
                    "(event engine), 1e11 steps x particles (step engine), 1e10 events x particles "
                    "(reference engine), 1e4 snapshots, or a trajectory or a SQLite file's rows larger "
                    "than their disk's free space. The refusal prints the estimate. Memory and double-precision ranges are "
                    "never overridden.")
-def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
+def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, threads, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
     The scene comes from the options, or from SCENE.toml (a scene file, docs/scenes.md) or
@@ -320,6 +323,10 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         from gaz_cli.results.store import shown
 
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
+    if threads is not None:  # read by Numba when it starts (set_num_threads if it already has)
+        os.environ["NUMBA_NUM_THREADS"] = str(threads)
+        if "numba" in sys.modules:
+            sys.modules["numba"].set_num_threads(min(threads, sys.modules["numba"].config.NUMBA_NUM_THREADS))
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory or outputs.get("trajectory")

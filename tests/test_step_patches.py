@@ -5,6 +5,7 @@ exchange keeps every particle exactly once."""
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 
 import numba
@@ -124,3 +125,26 @@ def test_the_exchange_moves_the_leavers_and_keeps_everyone_once():
                 assert cstart[g] <= r < cend[g]
                 moved += before[int(L[7][r])] != p
     assert moved > 50
+
+
+def test_the_threads_option_sets_the_threads_and_changes_no_number(monkeypatch):
+    """``gaz simulate --threads N``: Numba's threads (and so the patches) are N; the summary is
+    the same as on one thread, run time aside."""
+    import json
+
+    from cli_helpers import invoke
+
+    monkeypatch.setenv("NUMBA_NUM_THREADS", os.environ.get("NUMBA_NUM_THREADS", ""))  # restored after
+    before = numba.get_num_threads()
+    args = ["simulate", "--engine", "step", "--dim", "2", "--n", "200", "--packing", "0.2", "--species", "Ar",
+            "--duration", "2e-12", "--dt", "2e-14", "--seed", "3", "--no-db", "--json", "--quiet"]
+    out = {}
+    try:
+        for t in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
+            code, stdout, stderr = invoke(args + ["--threads", str(t)])
+            assert code == 0, stderr
+            assert numba.get_num_threads() == t
+            out[t] = {k: v for k, v in json.loads(stdout).items() if "time" not in k and "per_second" not in k}
+    finally:
+        numba.set_num_threads(before)
+    assert len({json.dumps(v, sort_keys=True) for v in out.values()}) == 1
