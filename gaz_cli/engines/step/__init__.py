@@ -60,12 +60,20 @@ are taken up by the next step.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import replace
 import time
 import warnings
 
 import numba
 import numpy as np
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+"""Threads waiting at the end of a parallel region sleep instead of spinning (read when Numba
+starts OpenMP, its usual threading layer). The step engine opens several short regions a step:
+on a shared machine (load 6 on 2 cores) spinning threads took the cores from the working
+ones, 2 threads ran 6x slower than 1 (24 s for 4 s on issue 40's scene); passive, 1.2x slower
+there. Set OMP_WAIT_POLICY=ACTIVE on a dedicated machine to spin."""
 
 from gaz_cli.errors import EngineError, GazWarning, SceneError
 from gaz_cli.interrupts import interrupt_in
@@ -83,6 +91,11 @@ the step); 'swept' also catches the pairs that touched during the step and alrea
 DEFAULT_DETECTION = "overlap"
 """Seed 002's rule: on the benchmark scene (docs/run_time_vs_error.md) halving dt with it
 buys more accuracy per second than switching to 'swept'."""
+
+PATCH_MIN = 5000
+"""Particles a patch holds at least, by default: one patch a thread, but no more patches than
+N / PATCH_MIN (a small scene runs as one patch, without parallel regions, whose start costs
+more than its work). The numbers do not depend on it."""
 
 MAX_PASSES = 100
 """Collision passes per step before giving up (counted in extras['pass_limit_hits'])."""
@@ -165,8 +178,8 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     ``detection``: 'overlap' (default, seed 002's rule) or 'swept', see
     :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step. ``patches``: about
     how many patches the box is cut into (default: one per thread, Numba's
-    ``get_num_threads()``, set by NUMBA_NUM_THREADS or ``gaz simulate --threads``); the
-    numbers do not depend on it nor on the threads.
+    ``get_num_threads()``, set by NUMBA_NUM_THREADS or ``gaz simulate --threads``, and at
+    most N / PATCH_MIN); the numbers do not depend on it nor on the threads.
     The caller's arrays are not modified. RunStats.extras holds 'steps',
     'passes', 'max_passes_per_step', 'pass_limit_hits', 'plane_bounces',
     'folded_bounces' (bounces of hop series longer than codes.MAX_HOP_ROWS
@@ -209,7 +222,9 @@ class _Stepper:
         self.detection = detection
         self.max_passes = max(1, max_passes)
         self.nthreads = int(numba.get_num_threads())
-        self.patches = max(1, int(patches if patches is not None else self.nthreads))
+        if patches is None:
+            patches = min(self.nthreads, max(1, n // PATCH_MIN))
+        self.patches = max(1, int(patches))
         self.want_b = bool(recorder.want_bounces)
         self.want_c = bool(recorder.want_collisions)
         self.bf = np.empty((1024, 3))

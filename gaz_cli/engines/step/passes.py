@@ -123,31 +123,54 @@ def _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma
     p ccap... of pci, pcj, pct (ccap = their rows / npatch) after the pk[p] already there
     (pk[p] = 0 and pleft[p] = (0, 1) first with ``walls``), its overlap tally to pleft[p]."""
     ccap = pci.shape[0] // npatch
+    if npatch == 1:  # no parallel region (its threads' wake-up costs more than one patch's work)
+        _first_scan_patch(0, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
+                          sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls,
+                          ccap)
+        return
     for p in prange(npatch):
-        if walls:
-            pk[p] = 0
-            pleft[p, 0] = 0.0
-            pleft[p, 1] = 1.0
-        lo = p * ccap
-        pk[p] = _scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max,
-                            dt, nc, cstart, cend, act, tick, last, support, pci[lo:lo + ccap], pcj[lo:lo + ccap],
-                            pct[lo:lo + ccap], pk[p], pleft[p], walls)
+        _first_scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
+                          sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls,
+                          ccap)
+
+
+@njit
+def _first_scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max,
+                      dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls, ccap):
+    """Patch p's part of :func:`_first_scan`."""
+    if walls:
+        pk[p] = 0
+        pleft[p, 0] = 0.0
+        pleft[p, 1] = 1.0
+    lo = p * ccap
+    pk[p] = _scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max,
+                        dt, nc, cstart, cend, act, tick, last, support, pci[lo:lo + ccap], pcj[lo:lo + ccap],
+                        pct[lo:lo + ccap], pk[p], pleft[p], walls)
 
 
 @pnjit
 def _speeds(npatch, cap, vel, count, speed, pmax):
     """|v| of every particle (speed), the largest of each patch (pmax), one patch a thread."""
-    dim = vel.shape[1]
+    if npatch == 1:
+        _speeds_patch(0, cap, vel, count, speed, pmax)
+        return
     for p in prange(npatch):
-        vmax = 0.0
-        for i in range(p * cap, p * cap + count[p]):
-            v2 = 0.0
-            for d in range(dim):
-                v2 += vel[i, d] * vel[i, d]
-            speed[i] = math.sqrt(v2)
-            if speed[i] > vmax:
-                vmax = speed[i]
-        pmax[p] = vmax
+        _speeds_patch(p, cap, vel, count, speed, pmax)
+
+
+@njit
+def _speeds_patch(p, cap, vel, count, speed, pmax):
+    """Patch p's part of :func:`_speeds`."""
+    dim = vel.shape[1]
+    vmax = 0.0
+    for i in range(p * cap, p * cap + count[p]):
+        v2 = 0.0
+        for d in range(dim):
+            v2 += vel[i, d] * vel[i, d]
+        speed[i] = math.sqrt(v2)
+        if speed[i] > vmax:
+            vmax = speed[i]
+    pmax[p] = vmax
 
 
 @njit

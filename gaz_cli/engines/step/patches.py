@@ -15,7 +15,9 @@ Each step, after the drift, the seed's three-step exchange (:func:`_exchange`):
    (:func:`_receive`);
 
 then each patch sorts its rows by cell (:func:`_sort_by_cell`). Steps 1-2, 3 and the sort run
-one patch a thread (``prange``): a patch writes only its own rows, buffers and cells.
+one patch a thread (Numba's ``prange`` over the patches: a patch writes only its own rows,
+buffers and cells, so the threads need no lock and the result no order; one patch runs
+without a parallel region).
 
 Halo: the contact search of a particle reads the cells around it, those of the neighbouring
 patches included (their border cells, read in place: threads share memory), so that a
@@ -152,16 +154,24 @@ def _layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap,
 def _layout_out(L, cap, npatch, pos, vel, acc, age, tlast):
     """The layout's particle arrays back into the caller's (ident order)."""
     lpos, lvel, lacc, lage, ltlast, ident, count = L[0], L[1], L[2], L[5], L[6], L[7], L[8]
-    dim = pos.shape[1]
+    if npatch == 1:
+        _layout_out_patch(0, cap, lpos, lvel, lacc, lage, ltlast, ident, count, pos, vel, acc, age, tlast)
+        return
     for p in prange(npatch):
-        for row in range(p * cap, p * cap + count[p]):
-            k = ident[row]
-            for d in range(dim):
-                pos[k, d] = lpos[row, d]
-                vel[k, d] = lvel[row, d]
-                acc[k, d] = lacc[row, d]
-            age[k] = lage[row]
-            tlast[k] = ltlast[row]
+        _layout_out_patch(p, cap, lpos, lvel, lacc, lage, ltlast, ident, count, pos, vel, acc, age, tlast)
+
+
+@njit
+def _layout_out_patch(p, cap, lpos, lvel, lacc, lage, ltlast, ident, count, pos, vel, acc, age, tlast):
+    """Patch p's part of :func:`_layout_out`."""
+    for row in range(p * cap, p * cap + count[p]):
+        k = ident[row]
+        for d in range(pos.shape[1]):
+            pos[k, d] = lpos[row, d]
+            vel[k, d] = lvel[row, d]
+            acc[k, d] = lacc[row, d]
+        age[k] = lage[row]
+        tlast[k] = ltlast[row]
 
 
 @njit
@@ -335,5 +345,8 @@ def _exchange(L, S, cap, length, nc, p1, p2, sendbuf, sendid, sendcount, dest, c
 @pnjit
 def _sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb):
     """:func:`_sort_by_cell` of every patch into S, one a thread (the caller then swaps L and S)."""
+    if p1 * p2 == 1:
+        _sort_by_cell(L, S, 0, cap, length, nc, p1, p2, cstart, cend, cellof, xb)
+        return
     for p in prange(p1 * p2):
         _sort_by_cell(L, S, p, cap, length, nc, p1, p2, cstart, cend, cellof, xb)

@@ -136,15 +136,27 @@ def _push_patches(npatch, cap, count, pos, vel, acc, age, has_kick, has_pair, g,
     """Half kick (when ``has_kick``) and, with ``drift``, the drift and the reset of the step's
     wall bookkeeping (last = -1, hold_row = -1, support[:, :D] = 0), one patch a thread (patch p's
     particles are the rows p cap to p cap + count[p])."""
+    if npatch == 1:
+        _push_patch(0, cap, count, pos, vel, acc, age, has_kick, has_pair, g, gamma, h, dt, drift, last, hold_row,
+                    support)
+        return
     for p in prange(npatch):
-        lo = p * cap
-        hi = lo + count[p]
-        if has_kick:
-            _kick(vel[lo:hi], acc[lo:hi], has_pair, g, gamma, h)
-        if drift:
-            _drift(pos[lo:hi], vel[lo:hi], dt, age[lo:hi])
-            for i in range(lo, hi):
-                last[i] = -1
-                hold_row[i] = -1
-                for d in range(support.shape[1] - 1):
-                    support[i, d] = 0.0
+        _push_patch(p, cap, count, pos, vel, acc, age, has_kick, has_pair, g, gamma, h, dt, drift, last, hold_row,
+                    support)
+
+
+@njit
+def _push_patch(p, cap, count, pos, vel, acc, age, has_kick, has_pair, g, gamma, h, dt, drift, last, hold_row,
+                support):
+    """Patch p's part of :func:`_push_patches`."""
+    lo = p * cap
+    hi = lo + count[p]
+    if has_kick:
+        _kick(vel[lo:hi], acc[lo:hi], has_pair, g, gamma, h)
+    if drift:
+        _drift(pos[lo:hi], vel[lo:hi], dt, age[lo:hi])
+        for i in range(lo, hi):
+            last[i] = -1
+            hold_row[i] = -1
+            for d in range(support.shape[1] - 1):
+                support[i, d] = 0.0
