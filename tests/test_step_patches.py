@@ -97,9 +97,11 @@ def test_the_exchange_moves_the_leavers_and_keeps_everyone_once():
     age, tlast = np.zeros(n), np.zeros(n)
     p1, p2 = P._patch_grid(4, dim, nc)
     assert (p1, p2) == (2, 2)
-    from gaz_cli.engines.step.loop import _new_layout, _work
-    L, S, cap = _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, 2 * n // 4 + 64)
+    from gaz_cli.engines.step.loop import _layout_arrays, _work
+    cap = 2 * n // 4 + 64
     rows = 4 * cap
+    L, S = _layout_arrays(rows, dim, 4)
+    assert P._layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap, L)
     xb, cellof = np.empty((rows, dim)), np.empty(rows, np.int64)
     cstart, cend = np.zeros(nc ** dim, np.int64), np.zeros(nc ** dim, np.int64)
     P._sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb)

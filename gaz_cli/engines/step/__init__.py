@@ -80,7 +80,7 @@ from gaz_cli.interrupts import interrupt_in
 from gaz_cli.model.recording import Recorder, RunStats
 from gaz_cli.model.scene import Scene, State, check_in_front_of_planes, validate
 from gaz_cli.engines.step import codes as _c
-from gaz_cli.engines.step.loop import _advance
+from gaz_cli.engines.step.loop import _advance, workspace
 from gaz_cli.engines.step.push import _pair_acc, _pair_potential
 
 DETECTIONS = ("overlap", "swept")
@@ -233,6 +233,7 @@ class _Stepper:
         self.ci = np.empty((1024, 2), dtype=np.int64)
         self.nb = 0
         self.nc = 0
+        self.ws = workspace(d, n)
         self.counters = np.zeros(_c.N_COUNTERS, dtype=np.int64)
         self.clocks = np.zeros(_c.N_TIMERS)
         self.virial = np.zeros(1)
@@ -288,14 +289,14 @@ class _Stepper:
             if cap is not None:
                 count = min(count, int(cap))
             try:
-                (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc) = _advance(
+                (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc, self.ws) = _advance(
                     count, t0, k0, dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), float(sc.gravity), float(sc.drag),
                     float(sc.pair_gravity), float(sc.softening) ** 2, float(sc.restitution),
                     float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
                     self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
-                    _deadline(), self.patches)
+                    _deadline(), self.patches, self.ws)
             except SystemError as err:
                 interrupt = interrupt_in(err)
                 if interrupt is not None:  # a signal seen as the kernel returned: the same
@@ -393,7 +394,7 @@ class _Stepper:
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
-                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches)
+                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches, self.ws)
         if sc.pair_gravity > 0 and sc.print_every:
             _pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
         self.recorder.progress(0.0, 0)  # compiled: the run starts

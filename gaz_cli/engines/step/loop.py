@@ -113,7 +113,7 @@ def build():
     def _advance(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
                  length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
                  want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
-                 counters, clocks, virial, overlap, clock_id, nthreads, deadline, patches):
+                 counters, clocks, virial, overlap, clock_id, nthreads, deadline, patches, ws):
         """Run up to ``nsteps`` steps of dt s (see the module docstring).
 
         Step s of the call ends at t0 + (k0 + s + 1) dt s: with t0 = 0 and k0 the index of the
@@ -133,10 +133,13 @@ def build():
         how many patches the box is cut into (:mod:`.patches`; the numbers do not depend on
         it). Stops early (status FLUSH) once either buffer holds ``flush_at`` rows.
 
-        Returns (status, steps_done, bf, bi, nb, cf, ci, ncoll).
+        ws: the workspace (:func:`workspace`), kept by the caller from call to call so that
+        its arrays are allocated once (a call lays the particles out again in them).
+
+        Returns (status, steps_done, bf, bi, nb, cf, ci, ncoll, ws).
         """
         if SOURCES < 0:  # never (the digest is >= 0): keys Numba's cache on every module
-            return DONE, 0, bf, bi, nb, cf, ci, ncoll
+            return DONE, 0, bf, bi, nb, cf, ci, ncoll, ws
         n, dim = pos.shape
         has_pair = G > 0.0
         has_kick = has_pair or g > 0.0 or gamma > 0.0
@@ -144,7 +147,7 @@ def build():
         hr = math.expm1(gamma * h) / gamma if gamma > 0.0 else h  # (see _wall_contact)
         tbuf = np.zeros(2, np.int64)
         if nsteps <= 0 or n == 0:
-            return DONE, 0, bf, bi, nb, cf, ci, ncoll
+            return DONE, 0, bf, bi, nb, cf, ci, ncoll, ws
         # cells as wide as the reach of a particle at twice the rms speed (nearly all of them);
         # the few faster ones search further
         rmax = 0.0
@@ -157,24 +160,20 @@ def build():
         p1, p2 = _patch_grid(patches, dim, nc)
         npatch = p1 * p2
         cap = n if npatch == 1 else min(n, 2 * (n // npatch) + 64)
-        L, S, cap = _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap)
-        rows = npatch * cap
-        xb = np.empty((rows, dim))
-        cellof = np.empty(rows, np.int64)
-        cstart = np.zeros(nc ** dim, np.int64)
-        cend = np.zeros(nc ** dim, np.int64)
+        while True:  # the caller's arrays laid out in patches (the workspace kept from call to call)
+            ws = _fit(ws, npatch * cap, dim, npatch, n, nc ** dim)
+            if _layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap, ws[0]):
+                break
+            cap *= 2
+        L, S, xb, cellof, cstart, cend, W = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
+        pci, pcj, pct, cand_i, cand_j, cand_tau = ws[7]
         _sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb)
         L, S = S, L
-        W = _work(rows, dim, npatch, n)
         act, done, last, support, hold_row, speed, touched, sendid, dest = W[0], W[1], W[2], W[3], W[4], W[5], W[6], \
             W[7], W[8]
         sendbuf, pmax, pk, pleft, sendcount, byident = W[9], W[10], W[11], W[12], W[13], W[14]
-        pci = np.empty(64 * npatch, np.int64)
-        pcj = np.empty(64 * npatch, np.int64)
-        pct = np.empty(64 * npatch, np.float64)
-        cand_i = np.empty(64, np.int64)
-        cand_j = np.empty(64, np.int64)
-        cand_tau = np.empty(64, np.float64)
+        act[:] = 0  # stamps of the passes (tick starts again at 0)
+        done[:] = 0
         ipos = np.empty((n, dim)) if has_pair else np.empty((0, dim))
         iacc = np.empty((n, dim)) if has_pair else np.empty((0, dim))
         tick = 0
@@ -197,15 +196,18 @@ def build():
                              xb):
                 # a patch overflowed: all back in the caller's arrays, laid out again with more room
                 _layout_out(L, cap, npatch, pos, vel, acc, age, tlast)
-                L, S, cap = _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, 2 * cap)
-                rows = npatch * cap
-                xb = np.empty((rows, dim))
-                cellof = np.empty(rows, np.int64)
+                while True:
+                    cap *= 2
+                    ws = _fit(ws, npatch * cap, dim, npatch, n, nc ** dim)
+                    if _layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap, ws[0]):
+                        break
+                L, S, xb, cellof, cstart, cend, W = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
                 _sort_all(L, S, cap, length, nc, p1, p2, cstart, cend, cellof, xb)
-                W = _work(rows, dim, npatch, n)
                 act, done, last, support, hold_row, speed, touched, sendid, dest = W[0], W[1], W[2], W[3], W[4], \
                     W[5], W[6], W[7], W[8]
                 sendbuf, pmax, pk, pleft, sendcount, byident = W[9], W[10], W[11], W[12], W[13], W[14]
+                act[:] = 0
+                done[:] = 0
                 tick = 0
             L, S = S, L  # sorted by cell: S holds the rows now
             c2 = _now(clock_id, tbuf)
@@ -254,28 +256,50 @@ def build():
                 break
         _layout_out(L, cap, npatch, pos, vel, acc, age, tlast)
         counters[C_STEPS] += steps
-        return status, steps, bf, bi, nb, cf, ci, ncoll
+        ws = (ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6], (pci, pcj, pct, cand_i, cand_j, cand_tau))
+        return status, steps, bf, bi, nb, cf, ci, ncoll, ws
 
     return _advance
 
 
 @njit
-def _new_layout(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap):
-    """(L, S, cap): the particle arrays laid out in patches of cap rows (:func:`.patches._layout_in`,
-    cap doubled until every patch fits), not yet sorted by cell; S the same shapes, the other
-    half of the double buffer (the same ``count``)."""
-    dim = pos.shape[1]
-    npatch = p1 * p2
-    while True:
-        rows = npatch * cap
-        L = (np.empty((rows, dim)), np.empty((rows, dim)), np.empty((rows, dim)), np.empty(rows), np.empty(rows),
-             np.empty(rows), np.empty(rows), np.empty(rows, np.int64), np.zeros(npatch, np.int64))
-        if _layout_in(pos, vel, acc, mass, radius, age, tlast, length, nc, p1, p2, cap, L):
-            break
-        cap *= 2
+def _layout_arrays(rows, dim, npatch):
+    """(L, S): the particle arrays of the layout (:mod:`.patches`) and the other half of its double
+    buffer, ``rows`` rows each, sharing ``count`` (npatch,)."""
+    L = (np.empty((rows, dim)), np.empty((rows, dim)), np.empty((rows, dim)), np.empty(rows), np.empty(rows),
+         np.empty(rows), np.empty(rows), np.empty(rows, np.int64), np.zeros(npatch, np.int64))
     S = (np.empty((rows, dim)), np.empty((rows, dim)), np.empty((rows, dim)), np.empty(rows), np.empty(rows),
          np.empty(rows), np.empty(rows), np.empty(rows, np.int64), L[8])
-    return L, S, cap
+    return L, S
+
+
+@njit
+def workspace(dim, n):
+    """An empty workspace for :func:`_advance` (its arrays are sized at the first call)."""
+    L, S = _layout_arrays(0, dim, 0)
+    return (L, S, np.empty((0, dim)), np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0, np.int64),
+            _work(0, dim, 0, n), (np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0), np.empty(64, np.int64),
+                                  np.empty(64, np.int64), np.empty(64)))
+
+
+@njit
+def _fit(ws, rows, dim, npatch, n, ncells):
+    """The workspace ws with room for ``rows`` rows in ``npatch`` patches and ``ncells`` cells:
+    its own arrays where they are large enough, new ones otherwise."""
+    L, S, xb, cellof, cstart, cend, W, C = ws
+    if L[0].shape[0] < rows or L[8].shape[0] != npatch:
+        L, S = _layout_arrays(rows, dim, npatch)
+        xb = np.empty((rows, dim))
+        cellof = np.empty(rows, np.int64)
+        W = _work(rows, dim, npatch, n)
+    if cstart.shape[0] < ncells:
+        cstart = np.zeros(ncells, np.int64)
+        cend = np.zeros(ncells, np.int64)
+    pci = C[0]
+    if pci.shape[0] < 64 * npatch or pci.shape[0] % npatch != 0:
+        C = (np.empty(64 * npatch, np.int64), np.empty(64 * npatch, np.int64), np.empty(64 * npatch), C[3], C[4],
+             C[5])
+    return L, S, xb, cellof, cstart, cend, W, C
 
 
 @njit
