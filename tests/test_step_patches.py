@@ -40,6 +40,9 @@ SCENES = {
     "planes": lambda: gas(gravity=2.0, restitution=0.9, planes=(((0.04, 0.0), NRM, 0.8),)),
     "marbles": lambda: (lambda sc_st: (replace(sc_st[0], duration=0.1, print_every=0), sc_st[1]))(
         PRESETS["marbles"]()),
+    # steps far too long (pairs left overlapping): many contacts met at the same time back, the
+    # age, so ties in time are common and resolved by particle identity
+    "ties": lambda: gas(n=400, radius=0.012, dt=0.02, duration=0.4, restitution=0.9),
 }
 
 
@@ -66,6 +69,7 @@ def _same(a, b):
     assert keep(ra.extras) == keep(rb.extras)
 
 
+@pytest.mark.filterwarnings("ignore::gaz_cli.errors.GazWarning")
 @pytest.mark.parametrize("name", sorted(SCENES))
 def test_same_rows_whatever_the_patches_and_threads(name):
     """1, 2 and 4 patches on one thread, 2 patches on two threads: every row, the final state,

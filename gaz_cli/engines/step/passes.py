@@ -117,8 +117,8 @@ def _scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, sti
 
 
 @pnjit
-def _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max, dt, nc,
-                cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls):
+def _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max, dt,
+                nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls):
     """:func:`_scan_patch` for every patch, one a thread: patch p's candidates go to rows
     p ccap... of pci, pcj, pct (ccap = their rows / npatch) after the pk[p] already there
     (pk[p] = 0 and pleft[p] = (0, 1) first with ``walls``), its overlap tally to pleft[p]."""
