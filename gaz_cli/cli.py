@@ -297,8 +297,11 @@ def place(dim, n, radius, length, method, seed, repeat, bins, histogram):
 @click.option("--quiet", is_flag=True,
               help="No progress bar and no compile notice on stderr (shown only on a terminal, "
                    "for runs longer than about a second).")
+@click.option("--threads", type=click.IntRange(1), default=None,
+              help="Threads of the step engine, one patch of the box each (default: NUMBA_NUM_THREADS, "
+                   "else every core). The rows do not depend on it.")
 @scene_option("force")
-def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, **options):
+def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, write_scene, quiet, threads, **options):
     """Place particles, draw Maxwell-Boltzmann velocities, simulate T seconds, record every wall bounce.
 
     The scene comes from the options, or from SCENE.toml (a scene file, docs/reference/scene-file.md) or
@@ -320,6 +323,10 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         from gaz_cli.results.store import shown
 
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
+    if threads is not None:  # read by Numba when it starts (set_num_threads if it already has)
+        os.environ["NUMBA_NUM_THREADS"] = str(threads)
+        if "numba" in sys.modules:
+            sys.modules["numba"].set_num_threads(min(threads, sys.modules["numba"].config.NUMBA_NUM_THREADS))
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory if trajectory is not None else outputs.get("trajectory")

@@ -196,3 +196,30 @@ def test_the_scene_rows_columns_are_the_tables_stored_options():
 
     columns = {c.name for c in scene_table.columns} - {"si_num", "sc_version", "sc_file"}
     assert columns == {f"sc_{name}" for name, row in OPTIONS.items() if row.column}
+
+
+MAX_LINES = 1000
+"""A module a reader can hold; the exam's own functions (engines/reference.py) are exempt."""
+
+
+def test_no_module_over_a_thousand_lines_but_the_exams():
+    long = {m: n for m, p in _modules().items()
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES and m != "gaz_cli.engines.reference"}
+    assert not long, long
+
+
+def test_one_name_per_concept():
+    """No two engines' kernels, classes or initial states share a name with different meanings."""
+    defined: dict[str, list[str]] = {}
+    for module, path in _modules().items():
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            names = [node.name] if isinstance(node, (ast.FunctionDef, ast.ClassDef)) else \
+                [t.id for t in node.targets if isinstance(t, ast.Name)] if isinstance(node, ast.Assign) else []
+            for name in names:
+                if name in CLASHED:
+                    defined.setdefault(name, []).append(module)
+    assert all(len(where) == 1 for where in defined.values()), defined
+
+
+CLASHED = ("Run", "_advance", "_collide", "initial_state", "FORMATS")
+"""Names that once meant two things (issue 37): each now defined once."""

@@ -97,7 +97,7 @@ def test_a_stack_of_balls_on_the_floor_stays_standing(e, ew, dt):
     """Three balls stacked on a floor (restitution ew) stay at R, 3 R, 5 R at rest for 1 s, pair
     restitution e, and the floor carries their weight: one row a step, the rows summing to
     3 m g T. The ball on the floor is held by it, the one on it by that one, and so on up
-    (kernels._rest_on): a contact at rest gives back no speed, whatever e, and the weight of
+    (resting._rest_on): a contact at rest gives back no speed, whatever e, and the weight of
     the balls above reaches the floor through the ones below within the step.
 
     Met on the true path with the held ball released, the upper ones' contacts became a series
@@ -188,7 +188,7 @@ def test_a_ball_at_rest_on_a_wall_costs_one_contact_a_step_when_hit_along_it(dt,
     and met it again, one more contact a ball for every collision (2 steps + 2 here; in the
     marbles preset's pile on its ramp, 6.0 plane contacts a ball and step at t = 2.6 s, 2.9
     before db25495's holds, 3.0 now). On the ramp the two balls' line of centres is parallel
-    to it only to round-off (kernels.LIFT_ROUND_OFF): taken for a lift, it released one ball
+    to it only to round-off (codes.LIFT_ROUND_OFF): taken for a lift, it released one ball
     (2 steps + 1). Exact in the kernel: the exchange to round-off, the counts exactly."""
     sc, st, rec, stats = two_balls_sliding_on_a_wall(dt, slope)
     steps = stats.extras["steps"]

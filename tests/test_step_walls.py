@@ -11,7 +11,7 @@ from gaz_cli.engines import step as stepper
 from gaz_cli.model.recording import MemoryRecorder
 from gaz_cli.model.scene import Scene, State
 from gaz_cli.model.species import Species
-from gaz_cli.engines.step import kernels
+from gaz_cli.engines.step import codes
 
 BALL = Species("ball", 1.0, 0.01)
 G = 9.81
@@ -103,7 +103,7 @@ def test_a_series_of_hops_longer_than_the_row_limit_folds_the_rest_into_its_last
     rs = stepper.run(sc, st, rec)
     b = rec.bounces()
     bounces = math.floor(dt / t0)
-    assert b["t"].size == rs.wall_bounces == kernels.MAX_HOP_ROWS + 1
+    assert b["t"].size == rs.wall_bounces == codes.MAX_HOP_ROWS + 1
     assert rs.extras["folded_bounces"] == bounces - b["t"].size
     np.testing.assert_allclose(b["t"], t0 * np.arange(1, b["t"].size + 1), rtol=hop_round_off)
     vy = rs.final.velocities[0, 1]

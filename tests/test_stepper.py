@@ -15,7 +15,7 @@ from gaz_cli.model.scene import Scene, State
 from gaz_cli.placement.initial import initial_state
 from gaz_cli.scenes.validate import validate
 from gaz_cli.model.species import Species
-from gaz_cli.engines.step import kernels
+from gaz_cli.engines.step import contacts, push
 from gaz_cli.scenes.presets import PRESETS
 
 from cli_helpers import invoke
@@ -186,8 +186,8 @@ def test_parallel_pair_forces_equal_the_serial_ones():
     rng = np.random.default_rng(7)
     pos, mass = rng.uniform(0, 1, (300, 3)), rng.uniform(1, 2, 300)
     serial, parallel = np.zeros((300, 3)), np.full((300, 3), np.nan)
-    kernels._pair_acc_serial(pos, mass, 2.0, 1e-4, serial)
-    kernels._pair_acc_parallel(pos, mass, 2.0, 1e-4, parallel, 3)
+    push._pair_acc_serial(pos, mass, 2.0, 1e-4, serial)
+    push._pair_acc_parallel(pos, mass, 2.0, 1e-4, parallel, 3)
     np.testing.assert_allclose(parallel, serial, rtol=1e-10, atol=1e-12 * np.abs(serial).max())
     assert abs(np.sum(mass[:, None] * serial, axis=0)).max() < 1e-10 * np.abs(mass[:, None] * serial).sum()
 
@@ -244,7 +244,7 @@ def test_dense_scene_stays_in_the_box_without_approaching_overlaps(dim):
     assert len(frames.pos) == round(sc.duration / sc.dt) + 1
     for pos, vel in zip(frames.pos, frames.vel):
         assert np.all(pos >= r) and np.all(pos <= sc.length - r)
-        assert kernels._overlaps_approaching(pos, vel, sc.radii(), sc.length) == 0
+        assert contacts._overlaps_approaching(pos, vel, sc.radii(), sc.length) == 0
 
 
 def test_restitution_removes_the_predicted_energy_in_one_collision():
@@ -491,7 +491,7 @@ def test_snapshots_at_multiples_of_every_and_diagnostics():
     assert set(frames.diags[0]) >= {"time", "step", "kinetic", "potential", "max_speed", "n",
                                     "collisions", "bounces"}
     phases = rs.extras["phase_times"]
-    assert set(phases) == {"push", "collisions", "walls", "output"} and min(phases.values()) >= 0
+    assert set(phases) == {"push", "collisions", "walls", "exchange", "output"} and min(phases.values()) >= 0
 
 
 def test_diagnostics_of_more_than_two_attracting_bodies():
@@ -684,7 +684,7 @@ def test_a_signal_seen_as_the_kernel_returns_keeps_its_number(monkeypatch):
     import gaz_cli.engines.step as stepper_mod
     from gaz_cli.errors import Interrupted
 
-    real = stepper_mod._k._advance
+    real = stepper_mod._run_steps
 
     def advance(count, *args):
         if count == 0:  # the warm-up call (compiles the kernel)
@@ -694,7 +694,7 @@ def test_a_signal_seen_as_the_kernel_returns_keeps_its_number(monkeypatch):
         except Interrupted as cause:
             raise SystemError("returned a result with an exception set") from cause
 
-    monkeypatch.setattr(stepper_mod._k, "_advance", advance)
+    monkeypatch.setattr(stepper_mod, "_run_steps", advance)
     scene, state = PRESETS["marbles"](n=5)
     with pytest.raises(Interrupted) as info:
         stepper_mod.run(scene, state, Recorder())

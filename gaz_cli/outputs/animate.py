@@ -21,7 +21,7 @@ from gaz_cli.errors import OutputError, SceneError
 MAX_FRAMES = 400
 """At most this many frames: longer trajectories are subsampled evenly."""
 
-FORMATS = (".gif",)
+GIF_SUFFIXES = (".gif",)
 """Extensions of the animations written (matplotlib's PillowWriter, animated GIF)."""
 
 
@@ -31,8 +31,8 @@ def check_output(gif_path) -> None:
         raise OutputError(f"-o {str(gif_path)!r} names no file; give one such as run.gif, or drop -o "
                           "to write the trajectory's name with .gif")
     suffix = os.path.splitext(str(gif_path))[1].lower()
-    if suffix not in FORMATS:
-        raise OutputError(f"-o {str(gif_path)!r}: gaz animate writes {', '.join(FORMATS)} files only; "
+    if suffix not in GIF_SUFFIXES:
+        raise OutputError(f"-o {str(gif_path)!r}: gaz animate writes {', '.join(GIF_SUFFIXES)} files only; "
                           f"name the output like run.gif")
 
 

@@ -16,7 +16,6 @@ A new format is one module with a writer class and a reader function, and one ro
 
 from __future__ import annotations
 
-import contextlib
 import os
 from collections.abc import Callable
 from dataclasses import dataclass

@@ -7,14 +7,14 @@ between bodies ``scene.pair_gravity``; contacts are found with a cell list
 and resolved by going back to the contact time (the seed-002 collision
 operator, repeated passes); box walls (restitution ``scene.wall_restitution``)
 and extra planes ``scene.planes``. The order of operations inside a step is in
-:mod:`gaz_cli.engines.step.kernels`.
+:mod:`gaz_cli.engines.step.loop`.
 
 What reaches the recorder is what the exact engine sends: wall bounces
 (time of contact, RE_DIR, |v| and |v_perp| just before; a particle hopping
 on a floor within a step records each bounce of the series, up to
-kernels.MAX_HOP_ROWS a contact; one that comes to rest within the step
+codes.MAX_HOP_ROWS a contact; one that comes to rest within the step
 records one bounce whose (1 + e_w) m |v_perp| is the momentum the floor gave
-it in the step, its weight included: see :func:`kernels._wall_contact`), collisions (time of
+it in the step, its weight included: see :func:`wall_contact._wall_contact`), collisions (time of
 contact, i, j, |J|) when wanted, snapshots at t = 0, every, 2 every, ...
 (linear interpolation between the two step ends around each snapshot time),
 and, every ``scene.print_every`` steps, a diagnostic dict (time, step,
@@ -33,20 +33,20 @@ energy error O(dt^2): tests/test_stepper.py measures the ratio 4 between dt
 and dt/2) and friction mixed with walls (a bounce under friction and a
 constant acceleration changes the velocity with an O(dt^2) error; the hops of
 a series within one step fly without friction). A bounce's row holds the
-velocity at its contact time (kernels._velocity_at), as a collision's impulse
+velocity at its contact time (wall_contact._velocity_at), as a collision's impulse
 does, not the drift velocity of the step's middle, which is off by O(dt). A
 ball resting on a floor is held there until the end of the step: an impact
 on it is found and met on its true path (at rest), not on its drift line
-(kernels._held_root; a ball merely resting on it is held by it in turn, the
+(contacts._held_root; a ball merely resting on it is held by it in turn, the
 contact stopping their approach on the drift lines whatever the restitution,
-its weight passed down to the floor's row within the step: kernels._rest_on,
+its weight passed down to the floor's row within the step: resting._rest_on,
 so a stack stands exactly; a ball resting on several at once, in a pile,
 still settles by repeated collisions each step); one that a
-collision takes off it flies freely from the contact (kernels._release: it
+collision takes off it flies freely from the contact (resting._release: it
 ends the step on the free parabola, and its floor row loses the support of
 the time left), friction aside; one that a collision pushes along the floor,
 or into it and to rest again within the step, stays held, the floor taking
-the push (kernels._wall_takes: one contact a step, its row the momentum).
+the push (resting._wall_takes: one contact a step, its row the momentum).
 
 Limitations: hard walls only (periodic boundaries raise SceneError); pair
 forces are an O(N^2) sum (threads from PARALLEL_PAIR_MIN bodies on); bounces
@@ -60,18 +60,28 @@ are taken up by the next step.
 from __future__ import annotations
 
 import math
+import os
 import time
 import warnings
 
 import numba
 import numpy as np
 
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+"""Threads waiting at the end of a parallel region sleep instead of spinning (read when Numba
+starts OpenMP, its usual threading layer). The step engine opens several short regions a step:
+on a shared machine (load 6 on 2 cores) spinning threads took the cores from the working
+ones, 2 threads ran 6x slower than 1 (24 s for 4 s on issue 40's scene); passive, 1.2x slower
+there. Set OMP_WAIT_POLICY=ACTIVE on a dedicated machine to spin."""
+
 from gaz_cli.errors import EngineError, GazWarning, SceneError
 from gaz_cli.interrupts import interrupt_in
 from gaz_cli.model.recording import Recorder, RunStats
 from gaz_cli.engines.step.accepts import check_in_front_of_planes, check_step_scene
 from gaz_cli.model.scene import Scene, State
-from gaz_cli.engines.step import kernels as _k
+from gaz_cli.engines.step import codes as _c
+from gaz_cli.engines.step.loop import _run_steps, workspace
+from gaz_cli.engines.step.push import _pair_acc, _pair_potential
 
 DETECTIONS = ("overlap", "swept")
 """Contact detection: 'overlap' is seed 002's rule (overlapping and approaching at the end of
@@ -81,6 +91,11 @@ the step); 'swept' also catches the pairs that touched during the step and alrea
 DEFAULT_DETECTION = "overlap"
 """Seed 002's rule: on the benchmark scene (docs/explanation/run_time_vs_error.md) halving dt with it
 buys more accuracy per second than switching to 'swept'."""
+
+PATCH_MIN = 5000
+"""Particles a patch holds at least, by default: one patch a thread, but no more patches than
+N / PATCH_MIN (a small scene runs as one patch, without parallel regions, whose start costs
+more than its work). The numbers do not depend on it."""
 
 MAX_PASSES = 100
 """Collision passes per step before giving up (counted in extras['pass_limit_hits'])."""
@@ -151,25 +166,28 @@ def energies(scene: Scene, positions: np.ndarray, velocities: np.ndarray) -> tup
     if scene.gravity > 0:
         potential += float(scene.gravity * np.sum(masses * positions[:, scene.dim - 1]))
     if scene.pair_gravity > 0:
-        potential += float(_k._pair_potential(np.ascontiguousarray(positions), masses,
+        potential += float(_pair_potential(np.ascontiguousarray(positions), masses,
                                               scene.pair_gravity, scene.softening ** 2))
     return kinetic, potential
 
 
 def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFAULT_DETECTION,
-        max_passes: int = MAX_PASSES) -> RunStats:
+        max_passes: int = MAX_PASSES, patches: int | None = None) -> RunStats:
     """Simulate ``scene`` from ``state`` with fixed steps scene.dt; events go to ``recorder``.
 
     ``detection``: 'overlap' (default, seed 002's rule) or 'swept', see
-    :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step.
+    :data:`DETECTIONS`. ``max_passes``: collision passes allowed per step. ``patches``: about
+    how many patches the box is cut into (default: one per thread, Numba's
+    ``get_num_threads()``, set by NUMBA_NUM_THREADS or ``gaz simulate --threads``, and at
+    most N / PATCH_MIN); the numbers do not depend on it nor on the threads.
     The caller's arrays are not modified. RunStats.extras holds 'steps',
     'passes', 'max_passes_per_step', 'pass_limit_hits', 'plane_bounces',
-    'folded_bounces' (bounces of hop series longer than kernels.MAX_HOP_ROWS
+    'folded_bounces' (bounces of hop series longer than codes.MAX_HOP_ROWS
     that share their series' last row),
     'pair_force_evaluations', 'phase_times' (s: push, collisions, walls,
     output), 'forces', 'detection', 'dt', and the overlaps the steps left:
     'overlap_steps' (steps that ended with a pair closer than (1 -
-    kernels.OVERLAP_TOL) sigma), 'overlapping_pairs_max' (most such pairs at
+    codes.OVERLAP_TOL) sigma), 'overlapping_pairs_max' (most such pairs at
     one step end), 'closest_pair' (smallest |dr| / sigma at a step end),
     'dt_without_overlaps' (s, or None). The first step that leaves such a
     pair raises a GazWarning (once a run) naming a dt that avoids them.
@@ -178,13 +196,14 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     check_in_front_of_planes(scene, state.positions)
     if detection not in DETECTIONS:
         raise SceneError(f"detection {detection!r} is not one of {', '.join(DETECTIONS)}")
-    return _Stepper(scene, state, recorder, detection, int(max_passes)).run()
+    return _Stepper(scene, state, recorder, detection, int(max_passes), patches).run()
 
 
 class _Stepper:
     """The arrays of one run and the loop that hands blocks of steps to the kernel."""
 
-    def __init__(self, scene: Scene, state: State, recorder: Recorder, detection: str, max_passes: int):
+    def __init__(self, scene: Scene, state: State, recorder: Recorder, detection: str, max_passes: int,
+                 patches: int | None = None):
         self.scene = scene
         self.recorder = recorder
         self.pos = np.array(state.positions, dtype=np.float64, order="C", copy=True)
@@ -203,6 +222,9 @@ class _Stepper:
         self.detection = detection
         self.max_passes = max(1, max_passes)
         self.nthreads = int(numba.get_num_threads())
+        if patches is None:
+            patches = min(self.nthreads, max(1, n // PATCH_MIN))
+        self.patches = max(1, int(patches))
         self.want_b = bool(recorder.want_bounces)
         self.want_c = bool(recorder.want_collisions)
         self.bf = np.empty((1024, 3))
@@ -211,10 +233,11 @@ class _Stepper:
         self.ci = np.empty((1024, 2), dtype=np.int64)
         self.nb = 0
         self.nc = 0
-        self.counters = np.zeros(_k.N_COUNTERS, dtype=np.int64)
-        self.clocks = np.zeros(_k.N_TIMERS)
+        self.ws = workspace(d, n)
+        self.counters = np.zeros(_c.N_COUNTERS, dtype=np.int64)
+        self.clocks = np.zeros(_c.N_TIMERS)
         self.virial = np.zeros(1)
-        self.overlap = np.array([1.0, np.nan])  # kernels.G_CLOSEST, G_FIRST_TIME
+        self.overlap = np.array([1.0, np.nan])  # codes.G_CLOSEST, G_FIRST_TIME
         self.warned = False
         self.output_time = 0.0
         # the schedule: n_full steps of dt, then one shorter step to land on the duration
@@ -251,7 +274,7 @@ class _Stepper:
         return min(max(k, 0), self.total)
 
     # --- kernel calls
-    def _advance(self, nsteps: int) -> None:
+    def _run_steps(self, nsteps: int) -> None:
         """Run ``nsteps`` steps (fewer if the buffers ask for a flush, then continue)."""
         sc = self.scene
         cap = MAX_STEPS_PER_CALL
@@ -266,14 +289,14 @@ class _Stepper:
             if cap is not None:
                 count = min(count, int(cap))
             try:
-                (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc) = _k._advance(
+                (status, done, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc, self.ws) = _run_steps(
                     count, t0, k0, dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), float(sc.gravity), float(sc.drag),
                     float(sc.pair_gravity), float(sc.softening) ** 2, float(sc.restitution),
                     float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
                     self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
-                    _deadline())
+                    _deadline(), self.patches, self.ws)
             except SystemError as err:
                 interrupt = interrupt_in(err)
                 if interrupt is not None:  # a signal seen as the kernel returned: the same
@@ -282,10 +305,10 @@ class _Stepper:
             self.step += done
             nsteps -= done
             c = self.counters
-            self.recorder.progress(self.time_at(self.step), int(c[_k.C_BOUNCES] + c[_k.C_COLLISIONS]))
-            if status == _k.FLUSH:
+            self.recorder.progress(self.time_at(self.step), int(c[_c.C_BOUNCES] + c[_c.C_COLLISIONS]))
+            if status == _c.FLUSH:
                 self._flush()
-            if not self.warned and self.counters[_k.C_OVERLAP_STEPS] > 0:
+            if not self.warned and self.counters[_c.C_OVERLAP_STEPS] > 0:
                 self._warn_overlaps()
 
     def dt_without_overlaps(self) -> float:
@@ -299,17 +322,17 @@ class _Stepper:
         0.005 sigma apart; suggested 0.025 tau), 50 of 50 at 1 tau (suggested 0.010 tau), 46
         of 667 at 0.3 tau (suggested 0.022 tau); none at 0.1, 0.05, 0.03, 0.01 tau.
         """
-        depth = max(1.0 - float(self.overlap[_k.G_CLOSEST]), _k.OVERLAP_TOL)
-        return 0.5 * self.dt * _k.OVERLAP_TOL / depth
+        depth = max(1.0 - float(self.overlap[_c.G_CLOSEST]), _c.OVERLAP_TOL)
+        return 0.5 * self.dt * _c.OVERLAP_TOL / depth
 
     def _warn_overlaps(self) -> None:
         """Warn (once a run) that a step ended with pairs overlapping, and suggest a dt."""
         self.warned = True
         c = self.counters
         warnings.warn(GazWarning(
-            f"the step engine left {int(c[_k.C_OVERLAP_MAX])} pair(s) overlapping by more than "
-            f"{_k.OVERLAP_TOL:.0%} of their contact distance at the end of a step (first at "
-            f"t = {self.overlap[_k.G_FIRST_TIME]:.3g} s, the closest {self.overlap[_k.G_CLOSEST]:.3g} sigma "
+            f"the step engine left {int(c[_c.C_OVERLAP_MAX])} pair(s) overlapping by more than "
+            f"{_c.OVERLAP_TOL:.0%} of their contact distance at the end of a step (first at "
+            f"t = {self.overlap[_c.G_FIRST_TIME]:.3g} s, the closest {self.overlap[_c.G_CLOSEST]:.3g} sigma "
             f"apart): --dt {self.dt:.3g} s is too long for this scene; --dt "
             f"{self.dt_without_overlaps():.2g} s or shorter should avoid them (or use --engine event)"),
             stacklevel=1)
@@ -341,16 +364,16 @@ class _Stepper:
             "energy": kinetic + potential,
             "max_speed": float(np.sqrt(np.max(np.sum(self.vel ** 2, axis=1)))),
             "n": int(self.pos.shape[0]),
-            "collisions": int(self.counters[_k.C_COLLISIONS]),
-            "bounces": int(self.counters[_k.C_BOUNCES]),
-            "passes": int(self.counters[_k.C_PASSES]),
+            "collisions": int(self.counters[_c.C_COLLISIONS]),
+            "bounces": int(self.counters[_c.C_BOUNCES]),
+            "passes": int(self.counters[_c.C_PASSES]),
         })
         self.output_time += time.perf_counter() - t0
 
     def _snapshot_step(self) -> None:
         """Advance one step and send every snapshot whose time falls inside it (interpolated)."""
         xp, vp, tp = self.pos.copy(), self.vel.copy(), self.time_at(self.step)
-        self._advance(1)
+        self._run_steps(1)
         t0 = time.perf_counter()
         t = self.time_at(self.step)
         while self._snap_pending() and self._snap_time(self.next_snap) <= t * (1 + 1e-12):
@@ -367,17 +390,17 @@ class _Stepper:
     def run(self) -> RunStats:
         sc = self.scene
         # compile (or load from the cache) before the clock starts
-        _k._advance(0, 0.0, 0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
+        _run_steps(0, 0.0, 0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
-                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf)
+                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches, self.ws)
         if sc.pair_gravity > 0 and sc.print_every:
-            _k._pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
+            _pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
         self.recorder.progress(0.0, 0)  # compiled: the run starts
         start = time.perf_counter()
         if sc.pair_gravity > 0:
-            _k._pair_acc(self.pos, self.mass, float(sc.pair_gravity), float(sc.softening) ** 2, self.acc,
+            _pair_acc(self.pos, self.mass, float(sc.pair_gravity), float(sc.softening) ** 2, self.acc,
                          self.nthreads)
         if self._snap_pending() and self._snap_time(0) == 0.0:
             t0 = time.perf_counter()
@@ -399,7 +422,7 @@ class _Stepper:
                         self._diagnostic()
                     continue
                 target = min(target, crossing - 1)
-            self._advance(target - self.step)
+            self._run_steps(target - self.step)
             if pe > 0 and self.step % pe == 0:
                 self._diagnostic()
         if pe > 0 and self.step % pe != 0:
@@ -410,27 +433,28 @@ class _Stepper:
             raise EngineError("the step engine produced non-finite positions or velocities; "
                               "lower --dt or add --softening")
         c = self.counters
-        bounces, collisions = int(c[_k.C_BOUNCES]), int(c[_k.C_COLLISIONS])
-        steps = int(c[_k.C_STEPS])
+        bounces, collisions = int(c[_c.C_BOUNCES]), int(c[_c.C_COLLISIONS])
+        steps = int(c[_c.C_STEPS])
         extras = {
             "steps": steps,
             "dt": self.dt,
             "detection": self.detection,
             "forces": ",".join(forces(sc)) or "none",
-            "passes": int(c[_k.C_PASSES]),
-            "max_passes_per_step": int(c[_k.C_MAX_PASSES]),
-            "pass_limit_hits": int(c[_k.C_PASS_LIMIT]),
-            "plane_bounces": int(c[_k.C_PLANE]),
-            "folded_bounces": int(c[_k.C_FOLDED]),
-            "pair_force_evaluations": int(c[_k.C_PAIR_EVALS]),
-            "overlap_steps": int(c[_k.C_OVERLAP_STEPS]),
-            "overlapping_pairs_max": int(c[_k.C_OVERLAP_MAX]),
-            "closest_pair": float(self.overlap[_k.G_CLOSEST]),
-            "dt_without_overlaps": self.dt_without_overlaps() if c[_k.C_OVERLAP_STEPS] else None,
+            "passes": int(c[_c.C_PASSES]),
+            "max_passes_per_step": int(c[_c.C_MAX_PASSES]),
+            "pass_limit_hits": int(c[_c.C_PASS_LIMIT]),
+            "plane_bounces": int(c[_c.C_PLANE]),
+            "folded_bounces": int(c[_c.C_FOLDED]),
+            "pair_force_evaluations": int(c[_c.C_PAIR_EVALS]),
+            "overlap_steps": int(c[_c.C_OVERLAP_STEPS]),
+            "overlapping_pairs_max": int(c[_c.C_OVERLAP_MAX]),
+            "closest_pair": float(self.overlap[_c.G_CLOSEST]),
+            "dt_without_overlaps": self.dt_without_overlaps() if c[_c.C_OVERLAP_STEPS] else None,
             "phase_times": {
-                "push": float(self.clocks[_k.T_PUSH]),
-                "collisions": float(self.clocks[_k.T_COLLISIONS]),
-                "walls": float(self.clocks[_k.T_WALLS]),
+                "push": float(self.clocks[_c.T_PUSH]),
+                "collisions": float(self.clocks[_c.T_COLLISIONS]),
+                "walls": float(self.clocks[_c.T_WALLS]),
+                "exchange": float(self.clocks[_c.T_EXCHANGE]),
                 "output": float(self.output_time),
             },
         }
