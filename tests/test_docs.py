@@ -60,11 +60,13 @@ def have(tool: str, lang: str, path: str) -> bool:
 
 
 def groups(page_blocks: list[dict]):
-    """Consecutive python blocks merged into one script; each bash block on its own."""
+    """Consecutive python blocks merged into one script, which needs every tool any of them
+    needs; each bash block on its own."""
     out: list[dict] = []
     for block in page_blocks:
         if block["lang"] == "python" and out and out[-1]["lang"] == "python":
             out[-1]["code"] += "\n" + block["code"]
+            out[-1]["needs"] = [*out[-1]["needs"], *(n for n in block["needs"] if n not in out[-1]["needs"])]
         else:
             out.append(dict(block))
     return out

@@ -4,6 +4,11 @@ Each function takes plain arrays (SI units) already computed by
 :mod:`gaz_cli.analysis.figures`, draws one figure and writes it to ``path``; none
 reads the database or computes physics beyond evaluating a theory curve from
 :mod:`gaz_cli.theory`.
+
+Readable by rule (issue 42): legends outside the axes (:func:`legend_outside`), never over
+the data; times in the unit that keeps tick labels short (ns, ps...: :func:`time_unit`),
+no offset printed beside an axis; counts compared as points with error bars on an axis
+that does not start at 0; symbols typeset by matplotlib's mathtext (``$k_\\mathrm{B}$``).
 """
 
 from __future__ import annotations
@@ -28,6 +33,41 @@ IDEAL = {"color": "tab:gray", "ls": ":", "lw": 1.2}
 def series_color(k: int) -> str:
     """Colour of the k-th data series (the colour cycle: never the theory's black)."""
     return f"C{k % 10}"
+
+
+TIME_UNITS = ((1.0, "s"), (1e-3, "ms"), (1e-6, "µs"), (1e-9, "ns"), (1e-12, "ps"), (1e-15, "fs"))
+"""Units of a time axis, largest first: (seconds per unit, name)."""
+
+
+def time_unit(longest: float) -> tuple[float, str]:
+    """(seconds per unit, name) of the largest unit in which ``longest`` (s) is at least 1:
+    a run of 2e-9 s is drawn in ns (0 to 2), not in s with an offset 1e-9."""
+    for scale, name in TIME_UNITS:
+        if math.isfinite(longest) and longest >= scale:
+            return scale, name
+    return TIME_UNITS[-1]
+
+
+def legend_outside(fig, ax, ncols: int = 2) -> None:
+    """The legend of ``ax`` above the axes (below any suptitle), never over the data; the
+    figure needs ``layout="constrained"`` (as :func:`_figure` makes it) to leave it room."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside upper center", ncols=ncols, fontsize=8, frameon=False)
+
+
+def _figure(*args, **kwargs):
+    """``plt.subplots`` with constrained layout (room for :func:`legend_outside`)."""
+    return _pyplot().subplots(*args, layout="constrained", **kwargs)
+
+
+def _plain_numbers(ax) -> None:
+    """Tick labels without an offset ('+1.06e5' printed beside the axis): each label reads as
+    the value itself (a power-of-ten factor may remain for very large or small values)."""
+    for axis in (ax.xaxis, ax.yaxis):
+        formatter = axis.get_major_formatter()
+        if hasattr(formatter, "set_useOffset"):
+            formatter.set_useOffset(False)
 
 
 def _pyplot():
@@ -55,7 +95,8 @@ def save(fig, path: str, dpi: int = 110) -> None:
 
     plt = _pyplot()
     try:
-        fig.tight_layout()
+        if fig.get_layout_engine() is None:
+            fig.tight_layout()
         with atomic.replacing(path) as name:  # whole or not at all: the old figure kept
             fig.savefig(name, dpi=dpi)
     except OSError as err:
@@ -76,13 +117,12 @@ def placement_histogram(path: str, edges, counts, exact, repeat: int, title: str
 
     ``edges`` (B+1,) m; ``counts`` (B,); ``exact`` callable x -> density or None.
     """
-    plt = _pyplot()
     edges = np.asarray(edges, dtype=float)
     counts = np.asarray(counts, dtype=float)
     width = np.diff(edges)
     total = counts.sum()
     density = counts / (total * width) if total else counts
-    fig, ax = plt.subplots(figsize=(7.5, 4.2))
+    fig, ax = _figure(figsize=(7.5, 4.4))
     ax.bar(edges[:-1], density, width=width, align="edge", color="tab:blue", alpha=0.55,
            edgecolor="white", linewidth=0.4, label=f"{repeat} placements")
     if total:
@@ -98,7 +138,7 @@ def placement_histogram(path: str, edges, counts, exact, repeat: int, title: str
     ax.set_ylabel("probability density (1/m)")
     ax.set_title(title, fontsize=10)
     ax.set_ylim(bottom=0)
-    ax.legend(loc="upper center", fontsize=9)
+    legend_outside(fig, ax)
     save(fig, path)
 
 
@@ -110,10 +150,9 @@ def wall_hit_speeds(path: str, dim: int, speeds, normal_speeds, temperature: flo
     ``speeds``, ``normal_speeds`` (k,) m/s (RE_VIT, RE_VP); ``species`` list of
     (name, mass kg, share of the hits, share of the particles); ``temperature`` K.
     """
-    plt = _pyplot()
     speeds = np.asarray(speeds, dtype=float)
     normal_speeds = np.asarray(normal_speeds, dtype=float)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = _figure(1, 2, figsize=(11, 4.6))
     known = math.isfinite(temperature) and temperature > 0 and species
     for ax, data, normal in ((axes[0], speeds, False), (axes[1], normal_speeds, True)):
         top = float(np.quantile(data, 0.999)) * 1.15 if data.size else 1.0
@@ -130,41 +169,45 @@ def wall_hit_speeds(path: str, dim: int, speeds, normal_speeds, temperature: flo
                 gas = sum(c * theory.speed_pdf(dim, v, temperature, m) for _, m, _, c in species)
                 ax.plot(v, gas, **IDEAL, label="speeds in the gas (not weighted)")
                 mean_hit = sum(w * theory.wall_hit_mean_speed(dim, temperature, m) for _, m, w, _ in species)
-                ax.axvline(mean_hit, color="k", ls=":", lw=1.0)
-                ax.axvline(float(data.mean()) if data.size else mean_hit, color="tab:red", ls=":", lw=1.2,
-                           label=f"means: measured {data.mean():.4g}, theory {mean_hit:.4g} m/s"
-                           if data.size else None)
-        ax.set_xlabel("|v_perp| of a wall hit (m/s)" if normal else "speed |v| of a wall hit (m/s)")
+                ax.axvline(mean_hit, color="k", ls=":", lw=1.0, label=f"theory's mean, {mean_hit:.4g} m/s")
+                if data.size:
+                    ax.axvline(float(data.mean()), color="tab:red", ls=":", lw=1.2,
+                               label=f"measured mean, {data.mean():.4g} m/s")
+        ax.set_xlabel(r"normal speed $|v_\perp|$ of a wall hit (m/s)" if normal
+                      else "speed $|v|$ of a wall hit (m/s)")
         ax.set_ylabel("probability density (s/m)")
         ax.set_xlim(0, top)
-        ax.legend(fontsize=8)
     axes[0].set_title("speeds of the particles hitting a wall (Q35)", fontsize=10)
     axes[1].set_title("normal speed: Rayleigh, any dimension", fontsize=10)
+    # one legend for both panels (the left one holds every kind of line), above them
+    handles, labels = axes[0].get_legend_handles_labels()
     fig.suptitle(title + (f"  [T = {temperature:.4g} K]" if known else "  [no theory: T unknown]"), fontsize=9)
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncols=3, fontsize=8, frameon=False)
     save(fig, path)
 
 
 def bounces_per_wall(path: str, dim: int, walls, counts, expected, title: str, gravity: bool = False) -> None:
-    """Bar chart of the bounces recorded on each wall, with the expected counts (or None)."""
-    plt = _pyplot()
+    """The bounces recorded on each wall as points with their Poisson error bars (± √count),
+    beside the expected counts (or None), on an axis fitted to them (not from 0): the walls'
+    differences, a few per cent, stay visible."""
     labels = [wall_label(w, dim) for w in walls]
     x = np.arange(len(walls))
-    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(walls) + 2), 4.0))
+    fig, ax = _figure(figsize=(max(5.0, 1.3 * len(walls) + 2), 4.2))
     counts = np.asarray(counts, dtype=float)
-    ax.bar(x, counts, width=0.6, color="tab:blue", alpha=0.7, label="recorded (REBOND)")
-    ax.errorbar(x, counts, yerr=np.sqrt(counts), fmt="none", ecolor="k", elinewidth=1, capsize=3,
-                label="± sqrt(count)")
+    ax.errorbar(x, counts, yerr=np.sqrt(counts), fmt="o", color="tab:blue", ms=6, elinewidth=1.2,
+                capsize=4, label=r"recorded (REBOND), $\pm\sqrt{\mathrm{count}}$")
     if expected is not None:
-        ax.scatter(x, expected, marker="_", s=900, color="tab:red", linewidths=2.2, zorder=3,
-                   label="theory: P A t / sqrt(2 pi m kT)")
+        ax.scatter(x, expected, marker="_", s=700, color=THEORY["color"], linewidths=1.8, zorder=3,
+                   label=r"theory: $P A t/\sqrt{2\pi m k_\mathrm{B} T}$")
     ax.set_xticks(x, labels)
+    ax.set_xlim(-0.5, len(walls) - 0.5)
     ax.set_ylabel("number of bounces")
     ax.set_xlabel("wall" + (f" (gravity pulls towards {WALL_NAMES[dim]} = 0)" if gravity else ""))
     ax.set_title(title, fontsize=9)
-    top = max(float(counts.max()) if counts.size else 1.0,
-              float(np.max(expected)) if expected is not None else 0.0)
-    ax.set_ylim(0, 1.3 * top)
-    ax.legend(fontsize=8, loc="upper center", ncol=3)
+    ax.margins(y=0.15)
+    _plain_numbers(ax)
+    legend_outside(fig, ax)
     save(fig, path)
 
 
@@ -174,16 +217,17 @@ def pressure_against_time(path: str, times, running, band, block_times, block_va
 
     ``others``: (label, value) of further models, drawn dotted (kept in view).
     """
-    plt = _pyplot()
-    times = np.asarray(times, dtype=float)
+    scale, tname = time_unit(float(np.max(times)) if np.size(times) else math.nan)
+    times = np.asarray(times, dtype=float) / scale
     running = np.asarray(running, dtype=float)
-    fig, ax = plt.subplots(figsize=(8, 4.4))
+    fig, ax = _figure(figsize=(8, 4.8))
     ax.plot(times, running, color="tab:blue", lw=1.6, label=f"running mean of the {what}")
     if band is not None:
         ax.fill_between(times, running - band, running + band, color="tab:blue", alpha=0.2,
                         label="± 1 standard error (from the blocks)")
     bv = np.asarray(block_values, dtype=float)
-    ax.plot(block_times, bv, "o", color="tab:orange", ms=4, alpha=0.8, label=f"pressure in each of {bv.size} time blocks")
+    ax.plot(np.asarray(block_times, dtype=float) / scale, bv, "o", color="tab:orange", ms=4, alpha=0.8,
+            label=f"pressure in each of {bv.size} time blocks")
     if theory is not None:
         ax.axhline(theory, **THEORY, label=f"theory: {theory_label}")
     styles = iter([("tab:red", ":"), ("tab:purple", "-."), ("tab:green", ":")])
@@ -198,40 +242,41 @@ def pressure_against_time(path: str, times, running, band, block_times, block_va
         lo, hi = float(np.min(finite)), float(np.max(finite))
         pad = 0.15 * (hi - lo) if hi > lo else 0.05 * abs(hi) or 1.0
         ax.set_ylim(lo - pad, hi + pad)
-    ax.set_xlabel("simulated time (s)")
+    ax.set_xlabel(f"simulated time ({tname})")
     ax.set_ylabel(f"pressure ({unit})")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8, loc="best")
+    _plain_numbers(ax)
+    legend_outside(fig, ax)
     save(fig, path)
 
 
 def density_profile(path: str, heights, measured, expected, scale_height: float, title: str) -> None:
     """Number of centres per unit height against height, with the barometric law."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 4.4))
+    fig, ax = _figure(figsize=(7.5, 4.6))
     heights = np.asarray(heights, dtype=float)
     ax.step(heights, measured, where="mid", color="tab:blue", lw=1.5,
             label="rebuilt from the floor hits (free flights)")
-    ax.plot(heights, expected, **THEORY, label=f"barometric law, kT/(mg) = {scale_height:.3g} m")
+    ax.plot(heights, expected, **THEORY, label=rf"barometric law, $k_\mathrm{{B}}T/(mg)$ = {scale_height:.3g} m")
     ax.set_xlabel("height of a centre above the floor (m)")
     ax.set_ylabel("centres per unit height (1/m)")
     ax.set_ylim(bottom=0)
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8)
+    legend_outside(fig, ax)
     save(fig, path)
 
 
 def cooling(path: str, times, temperatures, haff, t_end: float, title: str) -> None:
     """Temperature of a cooling granular gas against time, with Haff's law."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7.5, 4.4))
+    fig, ax = _figure(figsize=(7.5, 4.6))
+    scale, tname = time_unit(float(np.max(times)) if np.size(times) else math.nan)
+    times = np.asarray(times, dtype=float) / scale
     ax.plot(times, temperatures, color="tab:blue", lw=1.6, label="from the collision impulses (CHOC)")
     if haff is not None:
-        ax.plot(times, haff, **THEORY, label="Haff: T0/(1 + t/t0)^2, Enskog rate")
+        ax.plot(times, haff, **THEORY, label=r"Haff: $T_0/(1 + t/t_0)^2$, Enskog rate")
     ax.plot([times[-1]], [t_end], "o", color="tab:red", label="final kinetic energy (RESULTAT)")
-    ax.set_xlabel("simulated time (s)")
+    ax.set_xlabel(f"simulated time ({tname})")
     ax.set_ylabel("kinetic temperature (K)")
     ax.set_yscale("log")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=8)
+    legend_outside(fig, ax)
     save(fig, path)
