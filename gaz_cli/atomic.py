@@ -42,11 +42,19 @@ def temporary_name(path) -> Path:
 
 def commit(temporary, path) -> None:
     """Rename ``temporary`` over ``path``'s target (atomic), keeping the old file's permission
-    bits when it had one."""
+    bits when it had one, else those a new file takes under the process's umask (a library that
+    wrote the temporary file may have chosen its own: the gsd package makes 0640 files)."""
     final = target(path)
     with contextlib.suppress(OSError):
-        os.chmod(temporary, stat.S_IMODE(os.stat(final).st_mode))
+        os.chmod(temporary, stat.S_IMODE(os.stat(final).st_mode) if final.exists() else 0o666 & ~_umask())
     os.replace(temporary, final)
+
+
+def _umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def discard(temporary) -> None:

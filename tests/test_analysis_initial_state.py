@@ -70,4 +70,4 @@ def test_vs_takes_the_peculiar_temperature_too(tmp_path):
     with Store(db, create=False) as store:
         row = studies.versus(store, "temperature").iloc[0]
     # Z's error from the run's own collision virial, reblocked: within 3 of it (Gaussian, 1 in 370)
-    assert row.Z_ESTIMATOR == "reblocking within runs" and abs(row.Z_DEV_SIGMA) < 3.0, row
+    assert row.Z_ESTIMATOR == "autocorrelation window within runs" and abs(row.Z_DEV_SIGMA) < 3.0, row

@@ -39,3 +39,15 @@ def test_new_files_take_the_umask(tmp_path, umask, mask, expected):
     made = sorted(p.name for p in tmp_path.iterdir())
     assert made == ["gaz.db", "run.gif", "run.h5md", "scene.toml", "state.csv"], made
     assert {name: oct(mode(tmp_path / name)) for name in made} == {name: oct(expected) for name in made}
+
+
+@pytest.mark.parametrize("mask,expected", [(0o022, 0o644), (0o077, 0o600)], ids=["022", "077"])
+def test_a_gsd_trajectory_takes_the_umask_too(tmp_path, umask, mask, expected):
+    """The gsd package creates its files 0640 whatever the umask: the rename into place sets
+    the mode a new file takes (gaz_cli.atomic.commit)."""
+    pytest.importorskip("gsd")
+    umask(mask)
+    res = invoke(["simulate", "--dim", "2", "--n", "5", "--length", "1e-7", "--duration", "1e-11", "--seed", "1",
+                  "--no-db", "--trajectory", str(tmp_path / "run.gsd"), "--every", "5e-12"])
+    assert res.exit_code == 0, res.stderr
+    assert oct(mode(tmp_path / "run.gsd")) == oct(expected)

@@ -220,7 +220,7 @@ def versus(store, key: str) -> pd.DataFrame:
                 row["Z_ESTIMATOR"] = "spread over runs"
                 if np.all(np.isfinite(within)):
                     err = float(np.sqrt(np.sum(within ** 2)) / len(within))
-                    row["Z_ESTIMATOR"] = "reblocking within runs"
+                    row["Z_ESTIMATOR"] = "autocorrelation window within runs"
             measured = np.isfinite(g[name].to_numpy(dtype=float))  # theory of the runs averaged
             theory_ = g[f"{name}_THEORY"][measured].mean() if measured.any() else g[f"{name}_THEORY"].mean()
             row.update({name: mean, f"{name}_ERR": err, f"{name}_THEORY": theory_,
