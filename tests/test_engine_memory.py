@@ -207,7 +207,8 @@ _PROBE = """
 import sys
 from gaz_cli.engines import event as engine
 from gaz_cli.model.recording import Recorder
-from gaz_cli.model.scene import Scene, initial_state
+from gaz_cli.model.scene import Scene
+from gaz_cli.placement.initial import initial_state
 from gaz_cli.model.species import Species
 sc = Scene(dim=3, length=12.0, duration=1e-9, components=((Species("X", 1.0, 0.5), 500),),
            temperature=1.0 / 1.380649e-23, seed=1, boundary="periodic", record="none")

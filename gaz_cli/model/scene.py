@@ -1,17 +1,20 @@
 """What one run is: the :class:`Scene` (everything that defines it) and the :class:`State`
 (positions and velocities). A description with no engine, no disk and no check beyond its
 types: the scene is admitted by the one door, :func:`gaz_cli.scenes.validate.validate`, and
-turned into a state by :func:`gaz_cli.placement.initial.initial_state`.
+turned into a state by :func:`gaz_cli.placement.initial.initial_state`. It imports no NumPy
+(its methods do, when called): the CLI reads the table of options before any command runs,
+and a signal in those first tenths of a second must already find gaz's handlers in place.
 """
 
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields, replace
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from gaz_cli.geometry import packing_fraction
 from gaz_cli.model.species import Species
+
+if TYPE_CHECKING:
+    import numpy as np
 
 ENGINES = ("auto", "event", "ideal", "reference", "step")
 """What a scene's ``engine`` may say (the registry, :mod:`gaz_cli.engines.registry`, runs each
@@ -203,14 +206,20 @@ class Scene:
 
     def kinds(self) -> np.ndarray:
         """(N,) int64: index of each particle's species in :attr:`species`."""
+        import numpy as np
+
         return np.repeat(np.arange(len(self.components)), [k for _, k in self.components])
 
     def masses(self) -> np.ndarray:
         """(N,) float64, kg."""
+        import numpy as np
+
         return np.array([s.mass for s in self.species])[self.kinds()]
 
     def radii(self) -> np.ndarray:
         """(N,) float64, m."""
+        import numpy as np
+
         return np.array([s.radius for s in self.species])[self.kinds()]
 
     def mean_mass(self) -> float:
@@ -230,6 +239,8 @@ class Scene:
     @property
     def packing_fraction(self) -> float:
         """Fraction of the box covered by the particles (eta)."""
+        from gaz_cli.geometry import packing_fraction
+
         return packing_fraction(self.dim, [s.radius for s, _ in self.components], self.length,
                                 [k for _, k in self.components])
 
@@ -254,6 +265,8 @@ class State:
 
     def kinetic_energy(self, masses: np.ndarray) -> float:
         """Total kinetic energy, J."""
+        import numpy as np
+
         return float(0.5 * np.sum(masses * np.sum(self.velocities ** 2, axis=1)))
 
     def copy(self) -> "State":
@@ -262,4 +275,6 @@ class State:
 
 def fresh_seed() -> int:
     """A random seed from the operating system, to be recorded so the run can be repeated."""
+    import numpy as np
+
     return int(np.random.SeedSequence().generate_state(1, dtype=np.uint64)[0] >> np.uint64(1))
