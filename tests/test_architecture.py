@@ -223,3 +223,21 @@ def test_one_name_per_concept():
 
 CLASHED = ("Run", "_advance", "_collide", "initial_state", "FORMATS")
 """Names that once meant two things (issue 37): each now defined once."""
+
+
+def test_the_door_reads_no_database():
+    """scenes/ admits a scene without the store: nothing of results/ is imported there."""
+    graph = import_graph()
+    reads = {m: sorted(d for d in deps if d.startswith("gaz_cli.results"))
+             for m, deps in graph.items() if m.startswith("gaz_cli.scenes")}
+    assert not any(reads.values()), reads
+
+
+def test_every_folders_init_imports_nothing():
+    """Importing gaz_cli.x.y runs gaz_cli/x/__init__.py first: an import there would load more
+    than the module asked for, and join every circle through the folder. Two faces are their
+    names: theory/ (``theory.NAME`` for every formula) and placement/ (``place``)."""
+    folders = [p for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()]
+    graph = import_graph()
+    assert {f"gaz_cli.{p.name}": sorted(graph[f"gaz_cli.{p.name}"]) for p in folders
+            if p.name not in ("placement", "theory") and graph[f"gaz_cli.{p.name}"]} == {}

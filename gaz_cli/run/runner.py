@@ -33,6 +33,7 @@ from gaz_cli.errors import Interrupted, OutputError, SceneError
 from gaz_cli.model.recording import MemoryRecorder, Recorder, RunStats, hand_snapshot
 from gaz_cli.model.scene import Scene, State, fresh_seed
 from gaz_cli.placement.initial import initial_state
+from gaz_cli.results.budgets import check_database_space
 from gaz_cli.scenes.validate import admit_outputs, validate
 
 from gaz_cli.engines.registry import engine_run
@@ -262,10 +263,12 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
     run = engine_run(scene.engine)
     outputs = {"--write-scene": write_scene, "--trajectory": trajectory, "--save-state": save_state}
     # the door for what the run writes: every output writable, none of them the database, an
-    # input or another output (by identity of the file), the trajectory's and the database's
-    # sizes, the diagnostics; all before anything is written
+    # input or another output (by identity of the file), the trajectory, the diagnostics; then
+    # the database's disk space; all before anything is written
     admit_outputs(scene, sqlite_file(db), inputs, outputs, trajectory=trajectory, every=every,
                   diagnostics=diagnostics)
+    if sqlite_file(db):
+        check_database_space([scene], sqlite_file(db))
     # (PostgreSQL: a run past a 32-bit row number is refused by its writer, before the engine)
     masses = scene.masses()
     tally = WallMomentum(scene) if scene.boundary == "walls" and scene.record != "none" else None

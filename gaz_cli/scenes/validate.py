@@ -7,7 +7,7 @@ checks (:func:`gaz_cli.engines.registry.accepts`); the initial state; the magnit
 precision carries; the packing fraction; the memory and, unless ``force``, the work
 (:mod:`gaz_cli.model.estimates`). :func:`admit_outputs` admits what a run writes besides its
 rows (no output over the database or an input, compared by identity of the file; the
-trajectory, the diagnostics, the database's disk space), before anything is written;
+trajectory, the diagnostics), before anything is written;
 :func:`check_placement` is the door of ``gaz place``.
 """
 
@@ -234,10 +234,9 @@ def admit_outputs(scene: Scene, db_file, inputs, outputs: dict, *, trajectory=No
     run is stored in (None: no file, or a server); ``inputs``: what -> path, the files the run
     was read from. No output may be the database, an input or another output, compared by
     identity of the file (:func:`gaz_cli.scenes.paths.check`); the trajectory's request
-    (:func:`check_outputs`), the diagnostics' callable (:func:`check_diagnostics`) and the
-    rows' disk space (:func:`gaz_cli.results.budgets.check_database_space`) follow.
+    (:func:`check_outputs`) and the diagnostics' callable (:func:`check_diagnostics`) follow.
+    (The rows' disk space is the store's to check: :func:`gaz_cli.results.budgets.check_database_space`.)
     """
-    from gaz_cli.results.budgets import check_database_space
     from gaz_cli.scenes import paths
 
     for option, path in outputs.items():
@@ -245,8 +244,6 @@ def admit_outputs(scene: Scene, db_file, inputs, outputs: dict, *, trajectory=No
     paths.check(db_file, inputs, outputs)
     check_outputs(scene, trajectory, every)
     check_diagnostics(scene, diagnostics)
-    if db_file:
-        check_database_space([scene], db_file)
 
 
 def check_placement(dim: int, n: int, radius: float, length: float) -> None:
