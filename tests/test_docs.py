@@ -8,10 +8,12 @@
   tutorial's later cells use its earlier ones' names, as in a notebook). A block marked
   ``<!-- test needs=TOOL[,TOOL] -->`` runs only where each TOOL is a program on the PATH (a
   bash block: sqlite3, sqlite-utils) or an importable module (a python block: MDAnalysis,
-  freud): skipped elsewhere, and
-  said so in the test's output. Blocks without a marker are not run: those that need a
-  PostgreSQL server, a Dask cluster started by hand or a graphical program (ParaView,
-  OVITO), and the full-size versions of commands whose small version is marked.
+  freud, ovito, pyvista): skipped elsewhere, and said so in the test's output. ``needs=postgres``
+  runs against the server of GAZ_TEST_POSTGRES_URL (.ci/run starts one), the page's example
+  URL (:data:`EXAMPLE_URL`) replaced by a fresh schema of it. Blocks without a marker are not
+  run: installing, creating a database, a Dask cluster started by hand, a graphical program
+  (ParaView, OVITO's window), and the full-size versions of commands whose small version is
+  marked.
 - The rule for the command-line reference: docs/reference/cli.md is rendered with
   mkdocs-click, as the site renders it, and the result must hold a section for every command
   of the ``gaz`` group (walked recursively), headed by its full name, naming every option
@@ -26,6 +28,7 @@ The docs build itself (``mkdocs build --strict``) runs in .ci/run, after the sui
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import os
 import re
@@ -54,6 +57,8 @@ def blocks(page: Path) -> list[dict]:
 
 def have(tool: str, lang: str, path: str) -> bool:
     """A bash block needs a program on ``path``, a python block an importable module."""
+    if tool == "postgres":  # a server to write to (tests/backends.py's)
+        return bool(os.environ.get("GAZ_TEST_POSTGRES_URL"))
     if lang == "bash":
         return shutil.which(tool, path=path) is not None
     return importlib.util.find_spec(tool) is not None
@@ -83,6 +88,31 @@ def test_the_pages_have_marked_blocks():
         assert text.count("<!-- test") == len(blocks(page)), f"{page.name}: a marker not followed by a bash/python block"
 
 
+EXAMPLE_URL = "postgresql://user@localhost/gaz"
+"""The PostgreSQL URL the pages show; a block marked ``needs=postgres`` runs against the
+server of GAZ_TEST_POSTGRES_URL (.ci/run starts one), in a schema of its own."""
+
+
+@contextlib.contextmanager
+def _postgres_schema():
+    """A URL into a fresh schema of the test server, dropped after."""
+    import uuid
+
+    import sqlalchemy as sa
+
+    schema = f"gaz_docs_{uuid.uuid4().hex[:12]}"
+    admin = sa.create_engine(os.environ["GAZ_TEST_POSTGRES_URL"])
+    with admin.begin() as conn:
+        conn.exec_driver_sql(f"CREATE SCHEMA {schema}")
+    url = sa.make_url(os.environ["GAZ_TEST_POSTGRES_URL"]).update_query_dict({"options": f"-csearch_path={schema}"})
+    try:
+        yield url.render_as_string(hide_password=False)
+    finally:
+        with admin.begin() as conn:
+            conn.exec_driver_sql(f"DROP SCHEMA {schema} CASCADE")
+        admin.dispose()
+
+
 @pytest.mark.parametrize("page", [p for p in PAGES if blocks(p)], ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_the_marked_blocks_run(page, tmp_path, capsys):
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
@@ -91,20 +121,27 @@ def test_the_marked_blocks_run(page, tmp_path, capsys):
                MPLBACKEND="Agg")
     env.pop("PYTHONPATH", None)
     skipped = []
-    for block in groups(blocks(page)):
-        missing = [tool for tool in block["needs"] if not have(tool, block["lang"], env["PATH"])]
-        if missing:
-            skipped.append(f"line {block['line']} (needs {', '.join(missing)})")
-            continue
-        if block["lang"] == "bash":
-            argv = ["bash", "-euo", "pipefail", "-c", block["code"]]
-        else:
-            argv = [sys.executable, "-c", block["code"]]
-        done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=BLOCK_TIMEOUT_S,
-                              stdin=subprocess.DEVNULL)
-        assert done.returncode == 0, (f"{page.relative_to(ROOT)} line {block['line']} exit {done.returncode}\n"
-                                      f"--- code\n{block['code']}--- stdout\n{done.stdout[-3000:]}"
-                                      f"--- stderr\n{done.stderr[-3000:]}")
+    stack = contextlib.ExitStack()  # the PostgreSQL schemas of the blocks that need one
+    try:
+        for block in groups(blocks(page)):
+            missing = [tool for tool in block["needs"] if not have(tool, block["lang"], env["PATH"])]
+            if missing:
+                skipped.append(f"line {block['line']} (needs {', '.join(missing)})")
+                continue
+            if "postgres" in block["needs"]:  # the page's example URL becomes a fresh schema of the test server
+                url = stack.enter_context(_postgres_schema())
+                block = {**block, "code": block["code"].replace(EXAMPLE_URL, f"'{url}'")}
+            if block["lang"] == "bash":
+                argv = ["bash", "-euo", "pipefail", "-c", block["code"]]
+            else:
+                argv = [sys.executable, "-c", block["code"]]
+            done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=BLOCK_TIMEOUT_S,
+                                  stdin=subprocess.DEVNULL)
+            assert done.returncode == 0, (f"{page.relative_to(ROOT)} line {block['line']} exit {done.returncode}\n"
+                                          f"--- code\n{block['code']}--- stdout\n{done.stdout[-3000:]}"
+                                          f"--- stderr\n{done.stderr[-3000:]}")
+    finally:
+        stack.close()
     if skipped:
         with capsys.disabled():
             print(f"\n{page.relative_to(ROOT)}: not run here: {'; '.join(skipped)}")
