@@ -9,7 +9,7 @@ import pytest
 
 from gaz_cli.engines import reference
 from gaz_cli.engines.event.calendar import (_build_queue, _heap_remove, _next_bucket, _q_insert,
-                                     _q_remove)
+                                            _q_remove)
 from gaz_cli.engines.event.layout import NONE, QB, STATE
 
 

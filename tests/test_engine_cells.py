@@ -12,9 +12,9 @@ from conftest import KERNEL_RTOL
 
 from gaz_cli.engines import reference
 from gaz_cli.engines.event.layout import (C0, CELL, DONE, GATHER_SLOTS, I_WIDTH, INF, NEW, P_WIDTH,
-                                   PR, PT, PV, SLOT)
+                                          PR, PT, PV, SLOT)
 from gaz_cli.engines.event.neighbours.cells import (_assign_cells, _cell_of, _gather_cells, _move,
-                                             _scan_gathered)
+                                                    _scan_gathered)
 
 L = 10.0
 

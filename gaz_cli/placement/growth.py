@@ -12,7 +12,7 @@ from gaz_cli.engines.event.calendar import _heap_push, _heap_remove
 from gaz_cli.engines.event.dynamics import _advance, _relative_at
 from gaz_cli.engines.event.interactions import _contact_dt
 from gaz_cli.engines.event.layout import (C0, CELL, CELL_FULL, CNT, CODE, DONE, HP, I_WIDTH, INF,
-                                   P_WIDTH, PART, PCNT, PR, PT, PV)
+                                          P_WIDTH, PART, PCNT, PR, PT, PV)
 from gaz_cli.engines.event.neighbours.cells import _cell_entered, _cross_face, _gather_cells, wider
 from gaz_cli.errors import PlacementError
 from gaz_cli.geometry import packing_fraction

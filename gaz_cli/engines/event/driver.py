@@ -33,7 +33,7 @@ from gaz_cli.engines.event.dynamics import _state_at
 from gaz_cli.engines.event.guards import RunawayGuard
 from gaz_cli.engines.event.interactions import pair_params, pair_reach
 from gaz_cli.engines.event.layout import (BUFFER_FULL, CELL_FULL, DONE, KEY, NL_FULL, NONE, PAUSE, QB,
-                                   STATE, Tables)
+                                          STATE, Tables)
 from gaz_cli.engines.event.loop import build
 from gaz_cli.engines.event.memory import _alloc
 from gaz_cli.engines.event.neighbours import classes

@@ -58,12 +58,12 @@ from gaz_cli.engines.event.dynamics import _advance
 from gaz_cli.engines.event.interactions import _collide
 from gaz_cli.engines.event.intrinsics import _borrow, _inline, _sources_digest
 from gaz_cli.engines.event.layout import (BUFFER_FULL, C0, CELL, CELL_FULL, CNT, CODE, DONE, KEY,
-                                   NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, SLOT, TCOL,
-                                   TX)
+                                          NL_FULL, NLCODE, NONE, PART, PAUSE, PCNT, QB, SLOT, TCOL,
+                                          TX)
 from gaz_cli.engines.event.neighbours.cells import (_block_entered, _cell_entered, _cell_of,
-                                             _cross_face, _gather_cells, _predict_pairs)
+                                                    _cross_face, _gather_cells, _predict_pairs)
 from gaz_cli.engines.event.neighbours.classes_events import (_cross_face_classes, _gather_classes,
-                                                      _room_to_cross)
+                                                             _room_to_cross)
 from gaz_cli.engines.event.neighbours.dilute import _mirror, _mirror_all, _predict_all
 from gaz_cli.engines.event.neighbours.lists import _gather_nl, _recentre
 from gaz_cli.engines.event.neighbours.wide import _mirror as _wmirror
@@ -71,7 +71,7 @@ from gaz_cli.engines.event.neighbours.wide import _mirror_all as _wmirror_all
 from gaz_cli.engines.event.neighbours.wide import _moved_out, _path_block, _predict_wide
 from gaz_cli.engines.event.predict import _next_boundary, _next_partner, _take_second
 from gaz_cli.engines.event.prefetch import (_prefetch_after_event, _prefetch_block, _prefetch_list,
-                                     _prefetch_listed, _prefetch_next_events)
+                                            _prefetch_listed, _prefetch_next_events)
 from gaz_cli.engines.event.records import _record_bounce, _record_collision
 from gaz_cli.numba_config import njit
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from gaz_cli.engines.event.boundaries import _crossing
 from gaz_cli.engines.event.intrinsics import _inline
 from gaz_cli.engines.event.layout import (CNT, CODE, INF, NLCODE, PART, PART2, PCNT, PCNT2, RANK, SURE,
-                                   TCOL, TCOL2, TX)
+                                          TCOL, TCOL2, TX)
 from gaz_cli.engines.event.neighbours.line import _scan_1d
 from gaz_cli.engines.event.neighbours.lists import _nl_exit, _scan_nl
 

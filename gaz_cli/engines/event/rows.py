@@ -13,7 +13,7 @@ import numpy as np
 from gaz_cli.engines.event import sizing
 from gaz_cli.engines.event.dynamics import _state_at
 from gaz_cli.engines.event.layout import (DONE, EV_WIDTH, GATHER_SLOTS, I_WIDTH, NONE, P_WIDTH, PART,
-                                   PART2, PR, PT, PV, QB, RANK)
+                                          PART2, PR, PT, PV, QB, RANK)
 from gaz_cli.engines.event.memory import _alloc, _morton
 from gaz_cli.engines.event.neighbours import classes
 from gaz_cli.engines.event.neighbours.cells import _assign_cells, wider

@@ -80,7 +80,7 @@ import numpy as np
 from gaz_cli.engines.event.intrinsics import kernel_sources
 from gaz_cli.engines.step.cells import _cells_per_axis
 from gaz_cli.engines.step.codes import (C_MAX_PASSES, C_PAIR_EVALS, C_PASSES, C_STEPS, DONE, FLUSH, PAUSE,
-                                       T_COLLISIONS, T_EXCHANGE, T_PUSH, T_WALLS, _now)
+                                        T_COLLISIONS, T_EXCHANGE, T_PUSH, T_WALLS, _now)
 from gaz_cli.engines.step.passes import _contact_passes
 from gaz_cli.engines.step.patches import _exchange, _layout_in, _layout_out, _patch_grid, _sort_all
 from gaz_cli.engines.step.push import _pair_acc, _push_patches

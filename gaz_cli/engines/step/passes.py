@@ -21,7 +21,7 @@ import numpy as np
 from numba import prange
 
 from gaz_cli.engines.step.codes import (C_COLLISIONS, C_OVERLAP_MAX, C_OVERLAP_PAIRS, C_OVERLAP_STEPS,
-                                       C_PASS_LIMIT, G_CLOSEST, G_FIRST_TIME, _grow_f, _grow_i, _now)
+                                        C_PASS_LIMIT, G_CLOSEST, G_FIRST_TIME, _grow_f, _grow_i, _now)
 from gaz_cli.engines.step.contacts import _resolve_contact, _search_cells, _search_rows
 from gaz_cli.engines.step.patches import _patch_cells
 from gaz_cli.engines.step.walls import _apply_wall, _wall_rows, _walls_sweep

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from gaz_cli.engines.step.codes import (C_BOUNCES, C_FOLDED, C_PLANE, MAX_HOP_ROWS, SWEEP_BOUNCES,
-                                       _grow_f, _grow_i)
+                                        _grow_f, _grow_i)
 from gaz_cli.engines.step.resting import _hold
 from gaz_cli.engines.step.wall_contact import (_excursion_tau, _rests, _settle, _velocity_at,
                                                _wall_contact, _bounce_sum)

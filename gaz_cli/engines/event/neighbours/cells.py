@@ -21,8 +21,8 @@ from gaz_cli.engines.event.intrinsics import _helper, _inline, _prefetch
 from gaz_cli.engines.event.dynamics import _relative_at
 from gaz_cli.engines.event.interactions import _earliest_two, _pair_time
 from gaz_cli.engines.event.layout import (C0, CELL, CELL_FULL, CNT, DONE, GATHER_SLOTS, INF, KEPT1,
-                                   KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PV, SLOT, SURE,
-                                   TCOL, TCOL2)
+                                          KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR, PV, SLOT, SURE,
+                                          TCOL, TCOL2)
 from gaz_cli.engines.event.memory import _alloc
 from gaz_cli.engines.event.prefetch import _prefetch_block
 from gaz_cli.numba_config import njit

@@ -68,11 +68,11 @@ from gaz_cli.engines.event.dynamics import _relative_at
 from gaz_cli.engines.event.interactions import _earliest_two, _pair_time
 from gaz_cli.engines.event.intrinsics import _inline, _kept8, _lowest, _prefetch
 from gaz_cli.engines.event.layout import (C0, CELL, INF, KEPT1, KEPT2, NEW, PART, PART2, PCNT, PCNT2, PR,
-                                   PV, SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
+                                          PV, SLOT, SURE, TCOL, TCOL2, WIDE_LANES)
 from gaz_cli.engines.event.neighbours.cells import _beside, _stamp
 from gaz_cli.engines.event.neighbours.dilute import (CENTRE, FAR, IL, IT, KEEP, REBASE, RMAX, T0,
-                                              XS_ROWS, _bounds, _choose_units, _mirror_to,
-                                              _reject_pass)
+                                                     XS_ROWS, _bounds, _choose_units, _mirror_to,
+                                                     _reject_pass)
 
 HORIZON_SLACK = 1e-9
 """Predictions up to the horizon plus this fraction of the time to it are kept (far inside
