@@ -88,8 +88,9 @@ def test_no_printed_deviation_is_far_off_on_random_scenes(tmp_path):
 
 
 @pytest.mark.coverage
+@pytest.mark.long
 def test_no_printed_deviation_is_far_off_on_many_random_scenes(tmp_path):
-    """200 more scenes (about a minute)."""
+    """200 more scenes (about four minutes of CPU: behind the long marker, python -m pytest -m long)."""
     far, printed = _far_off(tmp_path, range(40, 240))
     assert not far, far
     assert printed >= 2 * 200

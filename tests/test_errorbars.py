@@ -106,6 +106,7 @@ def test_autocorrelation_error_is_never_overconfident():
 
 
 @pytest.mark.coverage
+@pytest.mark.long
 def test_autocorrelation_error_is_never_overconfident_long():
     """The same on 20,000 series of each class (about a minute)."""
     _check(synthetic_table(20000, seed=12))
