@@ -34,9 +34,10 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _pending: list[int] = []
 _state = {"catching": 0, "holding": 0}
 _received: list[int] = []
-"""Every signal a handler of this module took in this process, never cleared: an exception that
-follows one (a library that swallowed the Interrupted raised in its callback, then failed)
-is reported as the interruption, not as an internal error (:func:`signal_of`)."""
+"""The signals a handler of this module took during the current command (cleared when a command
+or a run starts: :func:`from_the_start`, :func:`catching`): an exception that follows one (a
+library that swallowed the Interrupted raised in its callback, then failed) is reported as the
+interruption, not as an internal error (:func:`signal_of`)."""
 
 
 def _handler(signum, _frame):
@@ -57,6 +58,8 @@ def catching():
         yield
         return
     previous = {s: signal.signal(s, _handler) for s in SIGNALS}
+    if not _state["catching"]:
+        _received.clear()  # a new run: an earlier one's signal (in this process) is not its
     hook = sys.unraisablehook
     sys.unraisablehook = _quiet_unraisable
     _pending.clear()
@@ -123,6 +126,7 @@ def from_the_start():
     :func:`catching` and :func:`held` install their handler over it and put it back after.
     """
     previous = signal.getsignal(signal.SIGTERM) if _main_thread() else signal.SIG_IGN
+    _received.clear()  # a new command
     if previous is signal.SIG_IGN:
         yield
         return

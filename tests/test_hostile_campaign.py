@@ -11,6 +11,8 @@ process where a signal or a descriptor is the point; the module runs in about a 
 
 from __future__ import annotations
 
+import functools
+
 import hashlib
 import os
 from pathlib import Path
@@ -348,6 +350,26 @@ LONG_RUNS = {
 }
 """The step engine's own: tests/test_stepper.py::test_ctrl_c_stops_the_step_engine."""
 
+WARM_UPS = {
+    # the same compiled kernels as LONG_RUNS' (same dimension, boundary, search, placement), run
+    # short first: with a cold Numba cache (CI's) the signal would land in the compiler, not in
+    # the loop under test (a SIGINT there is a known limit: noted in docs/explanation/stability.md)
+    "event": ["simulate", "--dim", "2", "--n", "2000", "--packing", "0.6", "--boundary", "periodic",
+              "--duration", "1e-14", "--engine", "event", "--no-db", "--quiet", "--seed", "1"],
+    "placement": ["place", "--dim", "3", "--n", "2000", "--radius", "1", "--length", "25.85", "--method", "grow",
+                  "--seed", "1"],
+}
+
+
+@functools.lru_cache(maxsize=None)
+def _warm(engine: str) -> None:
+    """Compile (into Numba's cache) what ``engine``'s long run will call."""
+    import subprocess
+    import sys
+
+    if engine in WARM_UPS:
+        subprocess.run([sys.executable, "-m", "gaz_cli", *WARM_UPS[engine]], capture_output=True, timeout=900)
+
 
 @pytest.mark.parametrize("engine, signum", [(e, 2) for e in LONG_RUNS] + [("event", 15)],
                          ids=[f"{e}-SIGINT" for e in LONG_RUNS] + ["event-SIGTERM"])
@@ -359,6 +381,7 @@ def test_sigint_ends_every_engine_at_once(tmp_path, engine, signum):
 
     db = tmp_path / "gaz.db"
     cmd = LONG_RUNS[engine] + (["--quiet", "--seed", "1", "--db", str(db)] if engine != "placement" else ["--seed", "1"])
+    _warm(engine)
     code, err, took = _interrupt_after(cmd, tmp_path, 8, signum)
     assert code == 128 + signum, err
     name = signal.Signals(signum).name
@@ -403,6 +426,12 @@ def test_a_file_size_limit_under_a_trajectory_is_one_line(tmp_path):
     import resource
     import subprocess
     import sys
+
+    import h5py
+
+    if h5py.version.version_tuple[:2] < (3, 16):  # (CI's lowest versions: h5py 3.8)
+        pytest.skip(f"h5py {h5py.version.version}: its HDF5 ends the process with SIGSEGV past a file-size "
+                    "limit (seen with 3.8; 3.16 raises, which gaz turns into one line; between: not tried)")
 
     def limit():
         resource.setrlimit(resource.RLIMIT_FSIZE, (40 * 1024, 40 * 1024))

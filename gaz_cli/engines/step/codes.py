@@ -48,7 +48,7 @@ LIFT_ROUND_OFF = 64.0 * 2.220446049250313e-16
 """Round-off of the normal part of a line of centres, per (largest coordinate / centres'
 distance): two balls a wall holds sit on it to a few ulps of their coordinates, so their line
 of centres is parallel to it within a few eps x |x| / sigma (64 eps leaves room for the
-projections and differences); a collision between them lifts neither (:func:`_wall_takes`)."""
+projections and differences); a collision between them lifts neither (:func:`gaz_cli.engines.step.resting._wall_takes`)."""
 SPEED_ROUND_OFF = 4.0 * 2.220446049250313e-16
 """Round-off of a relative velocity, per the particles' speeds |v_i| + |v_j|: the difference of
 two velocities is exact to eps of their size, and an impulse below an ulp of them changes
@@ -56,7 +56,7 @@ nothing. A pair approaching no faster than that is at rest against each other (a
 both held: with restitution 0 they met again pass after pass at 4e-19 m/s until the pass limit,
 and the stack sank by 0.02 R in 1 s at dt 1e-3)."""
 SWEEP_BOUNCES = 1 << 20
-"""Box-wall bounces of one particle in the safety net after the pass limit (:func:`_walls_sweep`):
+"""Box-wall bounces of one particle in the safety net after the pass limit (:func:`gaz_cli.engines.step.walls._walls_sweep`):
 a particle crossing the box that many times in one step is put back on the wall."""
 # phase clocks (float64 array, seconds)
 T_PUSH, T_COLLISIONS, T_WALLS, T_EXCHANGE = range(4)

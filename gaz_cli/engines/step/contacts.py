@@ -21,9 +21,9 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
     c = |dr|^2 - sigma^2 at the step end, m^2 (< 0: overlapping).
 
     See the module docstring for the rule; always the cancellation-free root. When a wall
-    holds one of the two (support (N, D + 1), :func:`_hold`) their relative path is not straight
+    holds one of the two (support (N, D + 1), :func:`gaz_cli.engines.step.resting._hold`) their relative path is not straight
     but the parabola dr - dv tau + A tau^2 / 2, A = support_j - support_i: the straight root
-    is refined on it (:func:`_held_root`).
+    is refined on it (:func:`gaz_cli.engines.step.contacts._held_root`).
     """
     dim = pos.shape[1]
     c = -sigma * sigma
@@ -56,7 +56,7 @@ def _contact_tau(pos, vel, i, j, sigma, age_max, swept, support):
 
 @njit
 def _held_gap(pos, vel, support, i, j, d, tau):
-    """Along axis d, for the pair (i, j) of :func:`_held_root`: the relative acceleration of
+    """Along axis d, for the pair (i, j) of :func:`gaz_cli.engines.step.contacts._held_root`: the relative acceleration of
     the supports, the relative drift velocity, and the separation tau s before the step's end."""
     a_d = support[j, d] - support[i, d]
     dv = vel[j, d] - vel[i, d]
@@ -73,7 +73,7 @@ def _held_root(pos, vel, support, i, j, sigma, tau0):
     along the line of centres builds up over those tau s (-v_n > |A.n| tau). Otherwise (tau0,
     False): neither is held, Newton found no such root, or the pair merely rests on the held
     one (a ball on a ball on the floor touches it at the step's start at v_n = 0): that
-    contact is met on the drift lines, the partner held by the held one (:func:`_rest_on`)
+    contact is met on the drift lines, the partner held by the held one (:func:`gaz_cli.engines.step.resting._rest_on`)
     (met on the true path, it is a series of vanishing impacts within the step that the
     passes cannot end: a resting stack sank through itself)."""
     dim = pos.shape[1]
@@ -236,13 +236,13 @@ def _resolve_contact(pos, vel, mass, radius, age, tlast, i, j, tau, t_end, e, tc
     half kick continues from the velocities after the contact (under friction the drift
     velocity changes by e^{gamma s} times the change at the contact).
 
-    A particle a wall holds at rest (support (N, D + 1), :func:`_hold`) is there, at rest, at
-    the contact, not on its drift line: when its partner hits it (:func:`_held_root`), the line
+    A particle a wall holds at rest (support (N, D + 1), :func:`gaz_cli.engines.step.resting._hold`) is there, at rest, at
+    the contact, not on its drift line: when its partner hits it (:func:`gaz_cli.engines.step.contacts._held_root`), the line
     of centres and the relative velocity are taken on the true paths (dr - dv tau + A tau^2 / 2
     and dv - A tau, A = support_j - support_i), and when the collision takes it off the wall it
-    is released (:func:`_release`): it flies freely from the contact. A partner merely resting
-    on it is held by it in turn (:func:`_rest_on`). When the collision leaves it on the wall (along it, or pushed
-    into it: :func:`_wall_takes`) the wall takes the normal part of its velocity change and it
+    is released (:func:`gaz_cli.engines.step.resting._release`): it flies freely from the contact. A partner merely resting
+    on it is held by it in turn (:func:`gaz_cli.engines.step.resting._rest_on`). When the collision leaves it on the wall (along it, or pushed
+    into it: :func:`gaz_cli.engines.step.resting._wall_takes`) the wall takes the normal part of its velocity change and it
     stays held: a ball at rest on a wall costs the wall one contact a step, not one more for
     each collision (the marbles preset's pile on its ramp at t = 2.6 s: 6.0 plane contacts a
     ball and step with every impact released, 3.0 so). A pair approaching no faster than the
@@ -371,8 +371,8 @@ def _search_cells(lo1, hi1, lo2, hi2, pos, vel, radius, age, ident, sigma_max, n
     particle active: each pair of neighbouring cells
     is examined once, from the cell of the two that comes first in the half shell (the same
     cell, the next along axis 0, the next row, the next plane), so each pair is met once,
-    without an ident test: half the work of :func:`_search` from every particle. A pair is
-    written with the lower ident first (as :func:`_search` would); ``left`` as there. Returns
+    without an ident test: half the work of :func:`gaz_cli.engines.step.contacts._search_rows` from every particle. A pair is
+    written with the lower ident first (as :func:`gaz_cli.engines.step.contacts._search_rows` would); ``left`` as there. Returns
     the new count."""
     dim = pos.shape[1]
     s2 = sigma_max * sigma_max * (1.0 + 1e-9)  # above any pair's sigma^2 and its round-off

@@ -27,23 +27,23 @@ of steps, and puts them back in the caller's order; each step is, in order:
 4. contact passes (:mod:`.passes`; the first one patch a thread). Each pass lists the contacts of the *active* particles
    (all of them in the first pass): the first crossing of a box wall or an
    extra plane (one it ends beyond, or one a path bending away from it went
-   beyond and came back from: :func:`_earliest_wall`), and pairs in contact
+   beyond and came back from: :func:`gaz_cli.engines.step.walls._earliest_wall`), and pairs in contact
    found with the cells (never O(N^2)). They are sorted by contact time,
    earliest first, ties by particle identity, and applied in that order, a
    particle taking part in at most one contact per pass: a pair is taken back
    to its contact time along its straight segment, its velocities are changed
    along the line of centres (any masses, restitution e, TC model; the
-   impulse of the velocities at the contact time, see :func:`_resolve_contact`), and
+   impulse of the velocities at the contact time, see :func:`gaz_cli.engines.step.contacts._resolve_contact`), and
    it is moved forward to the end of the step; a wall contact does the same
    with the wall (restitution, exact under uniform gravity, the pair
-   attraction taken constant over the step, see :func:`_wall_contact`); a particle that comes
-   to rest on a floor is *held* by it until the step's end (:func:`_hold`), a particle resting
+   attraction taken constant over the step, see :func:`gaz_cli.engines.step.wall_contact._wall_contact`); a particle that comes
+   to rest on a floor is *held* by it until the step's end (:func:`gaz_cli.engines.step.resting._hold`), a particle resting
    on a held one is held by it in turn, its weight passed on to the floor
-   (:func:`_rest_on`), and a collision that takes one off releases it there: it flies freely
-   from the contact (:func:`_release`). The particles that moved are the next pass's
+   (:func:`gaz_cli.engines.step.resting._rest_on`), and a collision that takes one off releases it there: it flies freely
+   from the contact (:func:`gaz_cli.engines.step.resting._release`). The particles that moved are the next pass's
    active set; passes repeat until a pass finds nothing or the pass limit
    is hit (then every particle still beyond a box wall bounces until it is
-   inside, and off the planes once: :func:`_walls_sweep`);
+   inside, and off the planes once: :func:`gaz_cli.engines.step.walls._walls_sweep`);
 5. pair accelerations at the new positions (when pair gravity is on; the sum taken in the
    caller's order);
 6. half kick (one patch a thread).
@@ -126,7 +126,7 @@ def build():
         RE_DIR) from row nb, collisions to cf (k, 2: t, |J|) / ci (k, 2: i, j)
         from row ncoll; buffers grow as needed. counters (int64), clocks
         (float64, s) and virial (1,) accumulate. The pairs each step leaves overlapping (closer
-        than (1 - OVERLAP_TOL) sigma and not resolved: see :func:`.contacts._search`) are
+        than (1 - OVERLAP_TOL) sigma and not resolved: see :func:`gaz_cli.engines.step.contacts._search_rows`) are
         counted in the C_OVERLAP_* counters; overlap (2,) keeps the smallest |dr| / sigma seen
         and the time of the first step with one. clock_id: the clock_gettime
         clock (-1: no phase timing); nthreads: threads for the pair forces; patches: about

@@ -17,7 +17,7 @@ def _hold(i, normal_sign, d, alpha, e, support, hold_row, row):
     """Note particle i as held by a wall (box axis d, inward normal sign normal_sign, restitution
     e): support[i, :D] = -alpha along the normal (m/s^2, the wall's push that cancels its normal
     acceleration alpha < 0), support[i, D] = e, hold_row[i] = its bounce row (-1: none; a
-    particle held by a particle q has -2 - q there, :func:`_rest_on`)."""
+    particle held by a particle q has -2 - q there, :func:`gaz_cli.engines.step.resting._rest_on`)."""
     dim = support.shape[1] - 1
     for k in range(dim):
         support[i, k] = 0.0
@@ -113,19 +113,19 @@ def _credit_row(bf, row, dp, e):
 
 @njit
 def _wall_takes(pos, support, i, j, k, dv, nrm, hit, tau):
-    """(takes, u_n): whether the wall holding particle k (support (N, D + 1), :func:`_hold`) of
+    """(takes, u_n): whether the wall holding particle k (support (N, D + 1), :func:`gaz_cli.engines.step.resting._hold`) of
     the pair (i, j) takes at once the part u_n (m/s) along its push of the velocity change dv
     nrm that a collision gives k at the contact, tau s before the step's end (dv m/s, nrm (D,)
     the unit line of centres), k staying held: (False, 0.0) when no wall holds k or the
     collision is no impact on it (not ``hit``).
 
-    It does for an impact on k (``hit``, :func:`_held_root`) that does not take k off the wall
+    It does for an impact on k (``hit``, :func:`gaz_cli.engines.step.contacts._held_root`) that does not take k off the wall
     (u_n <= 0 but for the round-off of the line of centres, LIFT_ROUND_OFF) and after which k
     would be back at rest on it within the step (:func:`_rests` of a contact at u_n): the end
     state is then that of the wall's bounce series, k at rest on it, and the wall's momentum
-    gains -m u_n. Otherwise a hit k is released (:func:`_release`: pushed into the wall, it
+    gains -m u_n. Otherwise a hit k is released (:func:`gaz_cli.engines.step.resting._release`: pushed into the wall, it
     meets it again in the next pass); a partner merely resting on k (not ``hit``) is held by
-    it (:func:`_rest_on`)."""
+    it (:func:`gaz_cli.engines.step.resting._rest_on`)."""
     dim = pos.shape[1]
     a2 = 0.0
     un = 0.0
@@ -152,7 +152,7 @@ def _wall_takes(pos, support, i, j, k, dv, nrm, hit, tau):
 def _rest_on(pos, vel, mass, acc, has_pair, g, support, hold_row, bf, i, j, nrm, vn, tau, e):
     """A free particle p resting on a held one k (pair (i, j), nrm (D,) the unit line of centres
     from i to j, vn < 0 m/s their relative normal drift velocity, contact tau s before the
-    step's end, not an impact: :func:`_held_root`): the contact carries p's weight, so p is
+    step's end, not an impact: :func:`gaz_cli.engines.step.contacts._held_root`): the contact carries p's weight, so p is
     held by k in turn (support[p] = -g_n n, g_n < 0 its acceleration towards k along the unit
     n from k to p; restitution e; hold_row[p] = -2 - k). The impulse stops their approach
     along n, p on k: a contact at rest has no speed to give back, whatever e (with e it was a

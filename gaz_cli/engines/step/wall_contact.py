@@ -17,7 +17,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     d_e (m): signed distance of the centre from its contact position at the
     end of the step (< 0: beyond the wall); w_h (m/s): normal drift velocity;
     alpha (m/s^2): normal acceleration, gravity and the pair attraction at
-    the step's start (:func:`_box_alpha`; 0 for a wall parallel to gravity
+    the step's start (:func:`gaz_cli.engines.step.walls._box_alpha`; 0 for a wall parallel to gravity
     without pair forces, < 0 for a floor); h = dt/2; hr (s): the drift velocity -alpha hr ends
     the step at normal velocity 0 (h without friction, expm1(gamma h) / gamma
     with); gamma (1/s): friction; age (s); e: restitution. Under uniform gravity the path is a
@@ -44,7 +44,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
     bounces that followed it within the step, each its own bounce (hopping:
     bounce k, k = 1..hops, comes :func:`_bounce_sum` (t0, e, k) s after the
     contact at the speed e^(k-1) u, u = e |w_c|, t0 = 2 u / |alpha|; see
-    :func:`_hop_rows`). v_rec is the normal speed at the contact (|w_c|,
+    :func:`gaz_cli.engines.step.walls._hop_rows`). v_rec is the normal speed at the contact (|w_c|,
     friction aside: :func:`_velocity_at`; the end speed for an invalid
     state), except when the particle came to
     rest within the step (infinitely many bounces for e > 0, or a resting
@@ -97,7 +97,7 @@ def _wall_contact(d_e, w_h, alpha, h, hr, gamma, age, e):
 def _rests(w_c, alpha, e, tau):
     """True when a particle meeting a floor (alpha < 0, m/s^2) at the normal velocity w_c <= 0 m/s
     tau s before the step's end comes to rest on it within the step (its bounce series e^k
-    over, :func:`_wall_contact`): it is then held by the floor until the step's end."""
+    over, :func:`gaz_cli.engines.step.wall_contact._wall_contact`): it is then held by the floor until the step's end."""
     return alpha < 0.0 and -2.0 * e * w_c <= -alpha * (1.0 - e) * tau
 
 
@@ -145,7 +145,7 @@ def _bounce_sum(t0, e, k):
 
 @njit
 def _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h):
-    """A contact as :func:`_wall_contact` found it, settled: with none within the age (tau < 0,
+    """A contact as :func:`gaz_cli.engines.step.wall_contact._wall_contact` found it, settled: with none within the age (tau < 0,
     an invalid state) the particle is put on the wall, its normal velocity reversed (and
     tau = 0, a bounce now) if still moving out (w_c < 0), else kept (w_h). Returns (tau,
     w_c, d_new, w_new, v_rec, hops)."""
@@ -163,7 +163,7 @@ def _settle(tau, w_c, d_new, w_new, v_rec, hops, w_h, e, alpha, h):
 def _excursion_tau(d_e, w_h, alpha, h, hr, gamma, age, e):
     """Time back (s) to the contact with a wall that a particle in front of it at the step's
     end (d_e >= 0, m) crossed and came back from within its age, or -1 for none (arguments as
-    :func:`_wall_contact`). Only a path bending away from the wall (alpha > 0: a ceiling under
+    :func:`gaz_cli.engines.step.wall_contact._wall_contact`). Only a path bending away from the wall (alpha > 0: a ceiling under
     gravity, a wall the attraction pulls away from) can: a parabola whose lowest point, tau* =
     w_e / alpha back, lies beyond it (d_e < w_e^2 / (2 alpha)); the contact is its earlier
     crossing. A ball thrown at a ceiling that it reaches within a step used to pass through it

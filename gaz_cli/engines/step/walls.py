@@ -19,7 +19,7 @@ def _box_alpha(acc, i, d, sign, g):
     """Acceleration of particle i along the inward normal ``sign`` (+1 or -1) of a box wall of
     axis d, m/s^2: gravity (last axis) and the pair attraction acc (N, D) at the step's start
     (zeros without pair forces). Constant over the step, it makes kick-drift-kick's path
-    the parabola :func:`_wall_contact` goes back along: without the attraction, a bounce of
+    the parabola :func:`gaz_cli.engines.step.wall_contact._wall_contact` goes back along: without the attraction, a bounce of
     attracting bodies was met with the wrong speed, an energy error of order dt a bounce."""
     a = acc[i, d] - g if d == acc.shape[1] - 1 else acc[i, d]
     return sign * a
@@ -27,7 +27,7 @@ def _box_alpha(acc, i, d, sign, g):
 
 @njit
 def _plane_alpha(acc, planes, i, p, g):
-    """As :func:`_box_alpha` for extra plane p (planes (P, 2D+1): point, unit inward normal,
+    """As :func:`gaz_cli.engines.step.walls._box_alpha` for extra plane p (planes (P, 2D+1): point, unit inward normal,
     restitution)."""
     dim = acc.shape[1]
     a = -g * planes[p, 2 * dim - 1]
@@ -41,15 +41,15 @@ def _box_bounce(i, d, upper, pos, vel, acc, radius, age, length, ew, g, h, hr, g
                 support, hold_row):
     """Bounce particle i off the box wall of axis d (upper: at L - R, else at R) it has crossed.
 
-    Taken back to its contact (:func:`_wall_contact`), its normal velocity
+    Taken back to its contact (:func:`gaz_cli.engines.step.wall_contact._wall_contact`), its normal velocity
     reversed and scaled by ``ew``, moved forward to the end of the step. An
     invalid state (no contact within its age) is put on the wall, its
     velocity reversed if still moving out. The bounce is recorded in bf (t,
     |v|, |v_perp| at contact, :func:`_velocity_at`) and bi (particle, RE_DIR) at row nb when
     ``want``, and so is each later bounce of a series of hops on a floor within the step
-    (:func:`_hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
+    (:func:`gaz_cli.engines.step.walls._hop_rows`). Returns (bf, bi, nb, bounces recorded, bounces folded into the last
     row of a series longer than MAX_HOP_ROWS). A particle that comes to rest on the wall is
-    noted as held by it (:func:`_hold`).
+    noted as held by it (:func:`gaz_cli.engines.step.resting._hold`).
     """
     r = radius[i]
     sign = -1.0 if upper else 1.0  # inward normal along axis d
@@ -152,7 +152,7 @@ def _plane_distance(pos, vel, planes, i, p):
 def _plane_bounce(i, p, pos, vel, acc, radius, age, planes, g, h, hr, gamma, support, hold_row):
     """Bounce particle i off extra plane p (planes (P, 2D+1): point, unit inward normal, restitution).
 
-    Same contact rule as the box walls (:func:`_wall_contact`); returns the bounces (1 and
+    Same contact rule as the box walls (:func:`gaz_cli.engines.step.wall_contact._wall_contact`); returns the bounces (1 and
     the hops that followed within the step), 0 if it was only put back on the plane (invalid
     state).
     """
@@ -264,7 +264,7 @@ def _wall_rows(rows, first, last, pos, vel, acc, radius, age, last_wall, length,
     to last of the arrays when ``rows`` is empty) from row k; returns the new count.
 
     Wall w is coded j = -1 - w: box walls w = 2 d + upper, planes w = 2 D + p
-    (:func:`_earliest_wall`, ``last_wall`` its ``last``; a pass applies at most one contact a
+    (:func:`gaz_cli.engines.step.walls._earliest_wall`, ``last_wall`` its ``last``; a pass applies at most one contact a
     particle, its earliest). tau = time back to the contact, 0 for an invalid state (handled
     last). Rows beyond the arrays' size are counted, not written: the caller grows the arrays
     and scans again. When ``still`` (no gravity, no pair force: every wall's normal
