@@ -321,8 +321,13 @@ def _interrupt_after(cmd, tmp_path, wait_s: float, signum: int = 2):
     import sys
     import time
 
+    # SIGINT as a terminal's Ctrl-C finds it: a suite started in the background (a CI script's
+    # job) has SIGINT ignored, the child would inherit that, and Python installs no
+    # KeyboardInterrupt for an ignored SIGINT (gaz place, which has no handler of its own,
+    # then ran to its end: a 60 s timeout)
     proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", *cmd], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+                            stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         time.sleep(wait_s)
         assert proc.poll() is None, proc.communicate()
