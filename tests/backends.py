@@ -10,6 +10,7 @@ Deselect them with ``pytest -m "not postgres"``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import uuid
 
@@ -44,7 +45,14 @@ def postgres_url():
 @pytest.fixture
 def postgres_db(postgres_url):
     """A URL whose tables live in a fresh schema of their own; the schema is dropped after."""
-    schema = f"gaz_test_{uuid.uuid4().hex[:12]}"
+    with fresh_schema(postgres_url) as url:
+        yield url
+
+
+@contextlib.contextmanager
+def fresh_schema(postgres_url, prefix: str = "gaz_test"):
+    """A URL into a new schema of the server at ``postgres_url`` (``search_path``), dropped after."""
+    schema = f"{prefix}_{uuid.uuid4().hex[:12]}"
     admin = sa.create_engine(postgres_url)
     with admin.begin() as conn:
         conn.exec_driver_sql(f"CREATE SCHEMA {schema}")

@@ -93,24 +93,11 @@ EXAMPLE_URL = "postgresql://user@localhost/gaz"
 server of GAZ_TEST_POSTGRES_URL (.ci/run starts one), in a schema of its own."""
 
 
-@contextlib.contextmanager
 def _postgres_schema():
-    """A URL into a fresh schema of the test server, dropped after."""
-    import uuid
+    """A URL into a fresh schema of the test server, dropped after (tests/backends.py)."""
+    from backends import fresh_schema
 
-    import sqlalchemy as sa
-
-    schema = f"gaz_docs_{uuid.uuid4().hex[:12]}"
-    admin = sa.create_engine(os.environ["GAZ_TEST_POSTGRES_URL"])
-    with admin.begin() as conn:
-        conn.exec_driver_sql(f"CREATE SCHEMA {schema}")
-    url = sa.make_url(os.environ["GAZ_TEST_POSTGRES_URL"]).update_query_dict({"options": f"-csearch_path={schema}"})
-    try:
-        yield url.render_as_string(hide_password=False)
-    finally:
-        with admin.begin() as conn:
-            conn.exec_driver_sql(f"DROP SCHEMA {schema} CASCADE")
-        admin.dispose()
+    return fresh_schema(os.environ["GAZ_TEST_POSTGRES_URL"], prefix="gaz_docs")
 
 
 @pytest.mark.parametrize("page", [p for p in PAGES if blocks(p)], ids=lambda p: f"{p.parent.name}/{p.name}")
