@@ -11,7 +11,7 @@
   freud, ovito, pyvista): skipped elsewhere, and said so in the test's output. ``needs=postgres``
   runs against the server of GAZ_TEST_POSTGRES_URL (.ci/run starts one), the page's example
   URL (:data:`EXAMPLE_URL`) replaced by a fresh schema of it. Blocks without a marker are not
-  run: installing, creating a database, a Dask cluster started by hand, a graphical program
+  run: installing, creating a database, a Dask cluster on machines of your own, a graphical program
   (ParaView, OVITO's window), and the full-size versions of commands whose small version is
   marked.
 - The rule for the command-line reference: docs/reference/cli.md is rendered with
@@ -81,7 +81,7 @@ def test_the_pages_have_marked_blocks():
     """The marker is spelled right on every page that has code to run (a typo would make the
     page's test pass without running anything)."""
     unmarked = [p.name for p in PAGES if p.name != "index.md" and not blocks(p)
-                and p.name not in ("postgresql.md", "dask-cluster.md")]
+                and p.name != "postgresql.md"]
     assert not unmarked, f"pages without a '<!-- test -->' block: {unmarked}"
     for page in PAGES:
         text = page.read_text(encoding="utf-8")

@@ -386,7 +386,7 @@ def figure(whole: pd.DataFrame, key: str):
     else:
         dev.set_xlabel(f"{key} ({KEYS[key]})")
     ax.axhline(1.0, **plots.IDEAL, label="ideal gas")
-    ax.set_ylabel("Z = P V / (N k_B T)")
+    ax.set_ylabel(r"$Z = PV/(N k_\mathrm{B} T)$")
     ax.set_title(f"{dim}D, {boundary}: compressibility factor against {key}")
     ax.legend(fontsize=8)
     dev.axhspan(-3, 3, color="0.85", alpha=0.5, lw=0, label="±3σ")
