@@ -636,7 +636,19 @@ def _stdout_problem() -> str | None:
 
 
 def main(argv=None) -> None:
-    """Console entry point: one line on stderr and a non-zero exit for every error."""
+    """Console entry point: one line on stderr and a non-zero exit for every error. Started by
+    ``mpiexec -n P`` (P > 1): rank 0 runs the command, the others serve its step-engine runs
+    (gaz_cli/engines/step/mpi.py)."""
+    if {"PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "GAZ_MPI"} & os.environ.keys():  # mpi.LAUNCH_SIZE
+        from gaz_cli.engines.step import mpi
+
+        if mpi.launched():
+            mpi.main(_main, argv)  # exits
+    _main(argv)
+
+
+def _main(argv=None) -> None:
+    """:func:`main` in one process."""
     prog = "gaz"
     args = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in args if not a.startswith("-")), None)
