@@ -324,9 +324,10 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
 
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     if threads is not None:  # read by Numba when it starts (set_num_threads if it already has)
-        os.environ["NUMBA_NUM_THREADS"] = str(threads)
-        if "numba" in sys.modules:
+        if "numba" in sys.modules:  # (not the variable then: a compile after would see it change and fail)
             sys.modules["numba"].set_num_threads(min(threads, sys.modules["numba"].config.NUMBA_NUM_THREADS))
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = str(threads)
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory if trajectory is not None else outputs.get("trajectory")

@@ -406,6 +406,7 @@ class _Stepper:
         """What another rank of an MPI run needs to run the same steps (:func:`.mpi.serve`)."""
         return {"scene": self.scene, "state": State(self.pos, self.vel, self.kinds), "detection": self.detection,
                 "max_passes": self.max_passes, "patches": self.patches, "steps_per_call": self.steps_per_call,
+                "threads": self.nthreads,
                 "want_bounces": self.want_b, "want_collisions": self.want_c, "every": self.every}
 
     def run(self) -> RunStats:
@@ -420,6 +421,7 @@ class _Stepper:
                     self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches, self.ws, 0, 1)
         if sc.pair_gravity > 0 and sc.print_every:
             _pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
+        ranks.barrier()  # an MPI run: every rank compiled, the clocks start together
         self.recorder.progress(0.0, 0)  # compiled: the run starts
         start = time.perf_counter()
         if sc.pair_gravity > 0:

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import os
 import sys
+import traceback
 import warnings
 
 from gaz_cli.engines.step import ranks
@@ -77,15 +78,15 @@ def main(cli_main, argv=None) -> None:
         sys.exit(serve(comm))
     code = 1
     try:
-        cli_main(argv)
-        code = 0
+        cli_main(argv)  # exits
     except SystemExit as exc:
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-    finally:
-        if ranks.running():  # the others are inside a run rank 0 left: stop them all
-            sys.stderr.flush()
-            comm.Abort(code or 1)
-        comm.bcast(("exit", code), root=0)
+    except BaseException:  # noqa: BLE001 - GAZ_DEBUG's traceback (cli_main turns the rest into exits)
+        traceback.print_exc()
+    if ranks.running():  # the others are inside a run rank 0 left: stop them all
+        sys.stderr.flush()
+        comm.Abort(code or 1)
+    comm.bcast(("exit", code), root=0)
     sys.exit(code)
 
 
@@ -109,6 +110,8 @@ def serve(comm) -> int:
     """A rank other than 0: run the steps rank 0 sends, until it sends its exit status;
     returns it. Prints nothing (warnings off); an error that rank 0 cannot have met ends every
     rank (MPI_Abort)."""
+    import numba
+
     from gaz_cli.engines import step
     from gaz_cli.errors import GazError
 
@@ -117,7 +120,8 @@ def serve(comm) -> int:
         kind, job = comm.bcast(None, root=0)
         if kind == "exit":
             return int(job)
-        try:
+        try:  # rank 0's threads (gaz simulate --threads): its options reach rank 0 only
+            numba.set_num_threads(min(job["threads"], numba.config.NUMBA_NUM_THREADS))
             stepper = step._Stepper(job["scene"], job["state"], _Discard(job), job["detection"], job["max_passes"],
                                     job["patches"])
             stepper.steps_per_call = job["steps_per_call"]

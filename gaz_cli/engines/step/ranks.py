@@ -18,9 +18,11 @@ an MPI run) and what the kernels call; it imports no MPI itself (:mod:`.mpi` set
 
 from __future__ import annotations
 
+import os
 import time
 
 import numba
+import numpy as np
 
 from gaz_cli.numba_config import njit
 
@@ -32,6 +34,10 @@ _CLOCKS = {"share": 0.0, "running": False}
 """Seconds spent in :func:`share_scans` (the allgather, waiting for the slowest rank
 included) since the last :func:`start`, and whether a run is under way (between
 :func:`start` and :func:`finish`)."""
+
+
+WAIT_SLEEP_S = 5e-5
+"""Seconds a rank sleeps between tests of a collective it waits for, after 100 yields."""
 
 
 def size() -> int:
@@ -51,6 +57,12 @@ def start(job: dict) -> None:
     if COMM is not None and size() > 1:
         COMM.bcast(("run", job), root=0)
         _CLOCKS["running"] = True
+
+
+def barrier() -> None:
+    """Wait until every rank is here (nothing outside an MPI run)."""
+    if COMM is not None and size() > 1:
+        _wait(COMM.Ibarrier())
 
 
 def finish() -> None:
@@ -79,24 +91,63 @@ def _owned(npatch, rank, nranks):
 def share_scans(pci, pcj, pct, pk, pleft) -> None:
     """Every rank gets every patch's first-pass candidates, in place: patch p's ``pk[p]`` rows
     at p ccap... of pci, pcj, pct (ccap = rows / patches; rows beyond ccap counted, not
-    written, as :func:`.passes._first_scan` leaves them) and its overlap tally pleft[p]."""
+    written, as :func:`.passes._first_scan` leaves them) and its overlap tally pleft[p].
+
+    Two allgathers: the patches' counts and tallies, then their rows (i, j, tau as float64,
+    exact for indices below 2**53), each rank's patches in patch order."""
     t0 = time.perf_counter()
+    from mpi4py import MPI
+
+    nranks, me = size(), rank()
     npatch = pk.shape[0]
     ccap = pci.shape[0] // npatch
-    lo, hi = _owned(npatch, rank(), size())
-    mine = []
+    lo, hi = _owned(npatch, me, nranks)
+    head = np.zeros((npatch, 3))
+    head[lo:hi, 0] = pk[lo:hi]
+    head[lo:hi, 1:] = pleft[lo:hi]
+    heads = np.empty((nranks, npatch, 3))
+    _wait(COMM.Iallgather(head, heads))
+    kept = np.zeros(nranks, np.int64)
+    for r in range(nranks):
+        a, b = _owned(npatch, r, nranks)
+        pk[a:b] = heads[r, a:b, 0]
+        pleft[a:b] = heads[r, a:b, 1:]
+        kept[r] = np.minimum(pk[a:b], ccap).sum()
+    rows = np.empty((int(kept[me]), 3))
+    k = 0
     for p in range(lo, hi):
-        s, k = p * ccap, min(int(pk[p]), ccap)
-        mine.append((pci[s:s + k].copy(), pcj[s:s + k].copy(), pct[s:s + k].copy()))
-    for lo, hi, counts, left, rows in COMM.allgather((lo, hi, pk[lo:hi].copy(), pleft[lo:hi].copy(), mine)):
-        pk[lo:hi] = counts
-        pleft[lo:hi] = left
-        for p, (ci, cj, ct) in zip(range(lo, hi), rows):
-            s = p * ccap
-            pci[s:s + ci.shape[0]] = ci
-            pcj[s:s + ci.shape[0]] = cj
-            pct[s:s + ci.shape[0]] = ct
+        s, m = p * ccap, min(int(pk[p]), ccap)
+        rows[k:k + m, 0] = pci[s:s + m]
+        rows[k:k + m, 1] = pcj[s:s + m]
+        rows[k:k + m, 2] = pct[s:s + m]
+        k += m
+    every = np.empty((int(kept.sum()), 3))
+    _wait(COMM.Iallgatherv(rows, [every, (kept * 3, np.concatenate(([0], np.cumsum(kept)[:-1])) * 3),
+                                      MPI.DOUBLE]))
+    k = 0
+    for r in range(nranks):
+        a, b = _owned(npatch, r, nranks)
+        for p in range(a, b):
+            s, m = p * ccap, min(int(pk[p]), ccap)
+            if r != me:
+                pci[s:s + m] = every[k:k + m, 0]
+                pcj[s:s + m] = every[k:k + m, 1]
+                pct[s:s + m] = every[k:k + m, 2]
+            k += m
     _CLOCKS["share"] += time.perf_counter() - t0
+
+
+def _wait(request) -> None:
+    """Wait for a non-blocking collective, giving the core away between tests: MPICH's blocking
+    wait spins, which on a core shared with other work (the ranks' own threads, other jobs)
+    slows the rank being waited for."""
+    spins = 0
+    while not request.Test():
+        spins += 1
+        if spins < 100:
+            os.sched_yield()
+        else:
+            time.sleep(WAIT_SLEEP_S)
 
 
 @numba.njit(cache=True, nogil=False)
