@@ -136,3 +136,13 @@ def test_without_mpi4py_one_line_names_the_extra(tmp_path):
     assert proc.returncode != 0
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "pip install 'gaz[mpi]'" in lines[0], proc.stderr
+
+
+def test_an_mpi_launch_is_known_by_its_environment():
+    from gaz_cli.engines.step.mpi import launched
+
+    assert launched({"PMI_SIZE": "2", "PMI_RANK": "1"})
+    assert launched({"OMPI_COMM_WORLD_SIZE": "4"})
+    assert not launched({"PMI_SIZE": "1"})  # mpiexec -n 1: one ordinary process
+    assert not launched({})
+    assert launched({"GAZ_MPI": "1"}) and not launched({"GAZ_MPI": "0", "PMI_SIZE": "2"})

@@ -191,7 +191,8 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     'folded_bounces' (bounces of hop series longer than codes.MAX_HOP_ROWS
     that share their series' last row),
     'pair_force_evaluations', 'phase_times' (s: push, collisions, walls,
-    output), 'forces', 'detection', 'dt', and the overlaps the steps left:
+    exchange, output; in an MPI run also share, the allgather of :mod:`.ranks`, which
+    collisions leaves out), 'forces', 'detection', 'dt', and the overlaps the steps left:
     'overlap_steps' (steps that ended with a pair closer than (1 -
     codes.OVERLAP_TOL) sigma), 'overlapping_pairs_max' (most such pairs at
     one step end), 'closest_pair' (smallest |dr| / sigma at a step end),

@@ -19,6 +19,7 @@ an MPI run) and what the kernels call; it imports no MPI itself (:mod:`.mpi` set
 from __future__ import annotations
 
 import os
+import threading
 import time
 
 import numba
@@ -41,13 +42,16 @@ WAIT_SLEEP_S = 5e-5
 
 
 def size() -> int:
-    """Processes of this run (1 outside MPI)."""
-    return 1 if COMM is None else int(COMM.Get_size())
+    """Processes of this run (1 outside MPI, and outside the main thread: runs in threads of
+    one process, a sweep's, would mix their exchanges)."""
+    if COMM is None or threading.current_thread() is not threading.main_thread():
+        return 1
+    return int(COMM.Get_size())
 
 
 def rank() -> int:
-    """This process's rank (0 outside MPI)."""
-    return 0 if COMM is None else int(COMM.Get_rank())
+    """This process's rank (0 outside MPI, and outside the main thread: :func:`size`)."""
+    return 0 if size() == 1 else int(COMM.Get_rank())
 
 
 def start(job: dict) -> None:
