@@ -86,7 +86,7 @@ def main(cli_main, argv=None) -> None:
     if ranks.running():  # the others are inside a run rank 0 left: stop them all
         sys.stderr.flush()
         comm.Abort(code or 1)
-    comm.bcast(("exit", code), root=0)
+    ranks.tell(("exit", code))
     sys.exit(code)
 
 
@@ -117,7 +117,7 @@ def serve(comm) -> int:
 
     warnings.simplefilter("ignore")
     while True:
-        kind, job = comm.bcast(None, root=0)
+        kind, job = ranks.listen()
         if kind == "exit":
             return int(job)
         try:  # rank 0's threads (gaz simulate --threads): its options reach rank 0 only

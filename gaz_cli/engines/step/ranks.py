@@ -59,8 +59,27 @@ def start(job: dict) -> None:
     the shares. ``job``: scene, state and the run's options (see :func:`.mpi.serve`)."""
     _CLOCKS["share"] = 0.0
     if COMM is not None and size() > 1:
-        COMM.bcast(("run", job), root=0)
+        tell(("run", job))
         _CLOCKS["running"] = True
+
+
+CONTROL_TAG = 40
+"""The MPI tag of rank 0's messages to the others (a run to serve, the exit status)."""
+
+
+def tell(message) -> None:
+    """Rank 0: send ``message`` (a pickled tuple) to every other rank."""
+    for r in range(1, int(COMM.Get_size())):
+        COMM.send(message, dest=r, tag=CONTROL_TAG)
+
+
+def listen(poll_s: float = 0.01):
+    """A rank other than 0: the next message of rank 0 (:func:`tell`), waited for by polling
+    every ``poll_s`` s (a blocking receive would spin on a core while rank 0 validates,
+    places and compiles, or runs another command or engine alone)."""
+    while not COMM.Iprobe(source=0, tag=CONTROL_TAG):
+        time.sleep(poll_s)
+    return COMM.recv(source=0, tag=CONTROL_TAG)
 
 
 def barrier() -> None:
