@@ -146,3 +146,28 @@ def test_an_mpi_launch_is_known_by_its_environment():
     assert not launched({"PMI_SIZE": "1"})  # mpiexec -n 1: one ordinary process
     assert not launched({})
     assert launched({"GAZ_MPI": "1"}) and not launched({"GAZ_MPI": "0", "PMI_SIZE": "2"})
+
+
+def test_ctrl_c_ends_every_rank_inside_a_run(tmp_path):
+    """SIGINT to mpiexec (a Ctrl-C) in the middle of a run: rank 0's line, every rank ends
+    (mpiexec returns only when all have), nothing written."""
+    import signal
+
+    from cli_helpers import wait_for_diagnostics
+
+    args = [*BASE, "--dim", "2", "--n", "2000", "--packing", "0.2", "--species", "Ar", "--dt", "2e-14",
+            "--duration", "1e-8", "--print-every", "20", "--db", "run.db"]
+    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ.get('PATH', '')}"}
+    proc = subprocess.Popen([MPIEXEC, "-n", "2", GAZ, *args], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_diagnostics(proc, 2)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode != 0
+    assert "gaz: interrupted by SIGINT" in err, err
+    assert "Traceback" not in err
+    assert not (tmp_path / "run.db").exists()

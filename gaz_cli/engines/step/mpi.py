@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import os
 import sys
+import time
 import traceback
 import warnings
 
@@ -128,5 +129,21 @@ def serve(comm) -> int:
             stepper.run()
         except GazError:  # raised by rank 0 too, at the same point (the numbers are the same)
             continue
-        except BaseException:  # noqa: BLE001 - this rank alone: the others would wait forever
+        except BaseException as exc:  # noqa: BLE001 - this rank alone: the others would wait forever
+            if isinstance(exc, KeyboardInterrupt):  # mpiexec gives a Ctrl-C to every rank: rank 0
+                _sleep(ABORT_GRACE_S)  # says so in its line and ends them all; unless it got none
             comm.Abort(1)
+
+
+ABORT_GRACE_S = 10.0
+"""Seconds a rank other than 0 waits, interrupted, before it ends every rank itself."""
+
+
+def _sleep(seconds: float) -> None:
+    """Sleep, through further interrupts."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        try:
+            time.sleep(max(0.0, end - time.monotonic()))
+        except KeyboardInterrupt:
+            continue
