@@ -10,6 +10,8 @@ counts and (possibly reallocated) buffers. One module per seam of the step:
 * :mod:`.cells`, :mod:`.contacts`: the cells, the pairs in contact, the collision rule;
 * :mod:`.patches`: the box cut into patches, the seed's exchange, the sort by cell;
 * :mod:`.passes`: the contact passes of one step;
+* :mod:`.ranks`: an MPI run's processes (the patches each scans, the allgather of the
+  candidates; :mod:`.mpi` starts them);
 * :mod:`.codes`: status codes, counters, clocks, tolerances;
 * this module: :func:`_run_steps`, a block of steps.
 
@@ -24,7 +26,9 @@ of steps, and puts them back in the caller's order; each step is, in order:
    1 and 2 one patch a thread;
 3. exchange: the particles that left their patch move to their new one, and each patch
    sorts its particles by cell (:func:`.patches._exchange`, one patch a thread);
-4. contact passes (:mod:`.passes`; the first one patch a thread). Each pass lists the contacts of the *active* particles
+4. contact passes (:mod:`.passes`; the first one patch a thread, and in an MPI run the
+   patches of this process only, their candidates then shared: :mod:`.ranks`). Each pass
+   lists the contacts of the *active* particles
    (all of them in the first pass): the first crossing of a box wall or an
    extra plane (one it ends beyond, or one a path bending away from it went
    beyond and came back from: :func:`gaz_cli.engines.step.walls._earliest_wall`), and pairs in contact

@@ -21,8 +21,8 @@ without a parallel region).
 
 Halo: the contact search of a particle reads the cells around it, those of the neighbouring
 patches included (their border cells, read in place: threads share memory), so that a
-contact across a border is found exactly as inside a patch; what a process of an MPI run
-would receive from its neighbours each pass is exactly those cells. The order in which
+contact across a border is found exactly as inside a patch; in an MPI run every process
+holds every particle, halo included, and scans its own patches (:mod:`.ranks`). The order in which
 contacts are resolved does not depend on the patches (:mod:`.passes`): the same seed gives
 the same rows whatever their number.
 
