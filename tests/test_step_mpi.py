@@ -97,6 +97,20 @@ def test_two_processes_write_the_rows_of_one(name, tmp_path):
     assert sorted(p.name for p in two.iterdir()) == ["end.csv", "run.db"]
 
 
+def test_three_processes_on_two_cores_split_unevenly_and_agree(tmp_path):
+    """3 processes (patches 3 x 1 in 3D: a slab each, the oversubscribed cores waiting in
+    turn): the same rows and final state as one process."""
+    one, three = tmp_path / "one", tmp_path / "three"
+    one.mkdir()
+    three.mkdir()
+    args = BASE + SCENES["walls"] + ["--db", "run.db", "--save-state", "end.csv"]
+    assert one_process(args, one).exit_code == 0
+    proc = mpirun(3, args, three)
+    assert proc.returncode == 0, proc.stderr
+    assert rows(one / "run.db") == rows(three / "run.db")
+    assert (one / "end.csv").read_bytes() == (three / "end.csv").read_bytes()
+
+
 def test_rank_0_alone_prints_and_writes_the_trajectory_and_diagnostics(tmp_path):
     """Diagnostics, summary and trajectory once (rank 0's), the same as one process's;
     ``mpiexec -n 1`` is one process."""
