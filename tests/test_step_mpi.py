@@ -37,6 +37,9 @@ SCENES = {
                         "0.8", "--tc", "1e-14"],
     "drag": ARGON + ["--dim", "2", "--n", "300", "--packing", "0.25", "--drag", "2e11", "--gravity", "1e13",
                      "--wall-restitution", "0.8", "--restitution", "0.7"],
+    # attraction between the atoms (the kinetic energy grows by a fifth): every rank sums it
+    "pair": ARGON + ["--dim", "2", "--n", "300", "--packing", "0.25", "--pair-gravity", "1e20", "--softening",
+                     "1e-10"],
     # 300 marbles falling on a ramp (a plane), friction, inelastic walls and collisions
     "planes": ["--preset", "marbles", "--duration", "0.5", "--print-every", "0"],
 }
