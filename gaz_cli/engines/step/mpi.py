@@ -23,8 +23,8 @@ Other commands, and other engines, run on rank 0 only; the other ranks wait for 
 from __future__ import annotations
 
 import os
+import signal
 import sys
-import time
 import traceback
 import warnings
 
@@ -109,14 +109,17 @@ class _Discard:
 
 def serve(comm) -> int:
     """A rank other than 0: run the steps rank 0 sends, until it sends its exit status;
-    returns it. Prints nothing (warnings off); an error that rank 0 cannot have met ends every
-    rank (MPI_Abort)."""
+    returns it. Prints nothing (warnings off, SIGINT ignored); an error that rank 0 cannot have
+    met ends every rank (MPI_Abort)."""
     import numba
 
     from gaz_cli.engines import step
     from gaz_cli.errors import GazError
 
     warnings.simplefilter("ignore")
+    # a Ctrl-C is rank 0's to report (mpiexec gives it to every rank): rank 0 says so in one line
+    # and ends the others (MPI_Abort inside a run, its exit status outside one)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     while True:
         kind, job = ranks.listen()
         if kind == "exit":
@@ -129,21 +132,5 @@ def serve(comm) -> int:
             stepper.run()
         except GazError:  # raised by rank 0 too, at the same point (the numbers are the same)
             continue
-        except BaseException as exc:  # noqa: BLE001 - this rank alone: the others would wait forever
-            if isinstance(exc, KeyboardInterrupt):  # mpiexec gives a Ctrl-C to every rank: rank 0
-                _sleep(ABORT_GRACE_S)  # says so in its line and ends them all; unless it got none
+        except BaseException:  # noqa: BLE001 - this rank alone: the others would wait forever
             comm.Abort(1)
-
-
-ABORT_GRACE_S = 10.0
-"""Seconds a rank other than 0 waits, interrupted, before it ends every rank itself."""
-
-
-def _sleep(seconds: float) -> None:
-    """Sleep, through further interrupts."""
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        try:
-            time.sleep(max(0.0, end - time.monotonic()))
-        except KeyboardInterrupt:
-            continue
