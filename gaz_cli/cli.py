@@ -324,9 +324,10 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
 
         raise click.UsageError(f"--no-db writes no database; drop --db {shown(db)!r}, or drop --no-db")
     if threads is not None:  # read by Numba when it starts (set_num_threads if it already has)
-        os.environ["NUMBA_NUM_THREADS"] = str(threads)
-        if "numba" in sys.modules:
+        if "numba" in sys.modules:  # (not the variable then: a compile after would see it change and fail)
             sys.modules["numba"].set_num_threads(min(threads, sys.modules["numba"].config.NUMBA_NUM_THREADS))
+        else:
+            os.environ["NUMBA_NUM_THREADS"] = str(threads)
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory if trajectory is not None else outputs.get("trajectory")
@@ -636,7 +637,19 @@ def _stdout_problem() -> str | None:
 
 
 def main(argv=None) -> None:
-    """Console entry point: one line on stderr and a non-zero exit for every error."""
+    """Console entry point: one line on stderr and a non-zero exit for every error. Started by
+    ``mpiexec -n P`` (P > 1): rank 0 runs the command, the others serve its step-engine runs
+    (gaz_cli/engines/step/mpi.py)."""
+    if {"PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "MPI_LOCALNRANKS", "GAZ_MPI"} & os.environ.keys():  # mpi.LAUNCH_SIZE
+        from gaz_cli.engines.step import mpi
+
+        if mpi.launched():
+            mpi.main(_main, argv)  # exits
+    _main(argv)
+
+
+def _main(argv=None) -> None:
+    """:func:`main` in one process."""
     prog = "gaz"
     args = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in args if not a.startswith("-")), None)

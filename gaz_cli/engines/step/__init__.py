@@ -82,6 +82,7 @@ from gaz_cli.model.scene import Scene, State
 from gaz_cli.engines.step import codes as _c
 from gaz_cli.engines.step.loop import _run_steps, workspace
 from gaz_cli.engines.step.push import _pair_acc, _pair_potential
+from gaz_cli.engines.step import ranks
 
 DETECTIONS = ("overlap", "swept")
 """Contact detection: 'overlap' is seed 002's rule (overlapping and approaching at the end of
@@ -115,6 +116,11 @@ tests set it to cut a run into many calls."""
 _CLOCK = getattr(time, "CLOCK_MONOTONIC", -1)
 _NO_CLOCK_STEP_WORK = 1 << 22
 """Without a clock: particle-steps per kernel call (steps = this / N)."""
+
+MPI_STEP_WORK = 1 << 20
+"""In an MPI run: particle-steps per kernel call (steps = this / N, at least 1). The ranks' calls
+must end at the same steps (:mod:`.ranks`), so a call ends by this count, not by the
+SLICE_S deadline of each rank's own clock; about 0.1-0.4 s a call (100-365 ns a particle-step)."""
 
 
 def _deadline() -> float:
@@ -185,7 +191,8 @@ def run(scene: Scene, state: State, recorder: Recorder, *, detection: str = DEFA
     'folded_bounces' (bounces of hop series longer than codes.MAX_HOP_ROWS
     that share their series' last row),
     'pair_force_evaluations', 'phase_times' (s: push, collisions, walls,
-    output), 'forces', 'detection', 'dt', and the overlaps the steps left:
+    exchange, output; in an MPI run also share, the allgather of :mod:`.ranks`, which
+    collisions leaves out), 'forces', 'detection', 'dt', and the overlaps the steps left:
     'overlap_steps' (steps that ended with a pair closer than (1 -
     codes.OVERLAP_TOL) sigma), 'overlapping_pairs_max' (most such pairs at
     one step end), 'closest_pair' (smallest |dr| / sigma at a step end),
@@ -222,9 +229,13 @@ class _Stepper:
         self.detection = detection
         self.max_passes = max(1, max_passes)
         self.nthreads = int(numba.get_num_threads())
-        if patches is None:
-            patches = min(self.nthreads, max(1, n // PATCH_MIN))
+        self.rank, self.nranks = ranks.rank(), ranks.size()
+        if patches is None:  # an MPI run: at least a patch a rank (the ranks' threads: guessed like ours)
+            patches = max(min(self.nranks * self.nthreads, max(1, n // PATCH_MIN)), self.nranks)
         self.patches = max(1, int(patches))
+        self.steps_per_call = MAX_STEPS_PER_CALL
+        if self.nranks > 1 and self.steps_per_call is None:
+            self.steps_per_call = max(1, MPI_STEP_WORK // max(1, n))
         self.want_b = bool(recorder.want_bounces)
         self.want_c = bool(recorder.want_collisions)
         self.bf = np.empty((1024, 3))
@@ -277,7 +288,7 @@ class _Stepper:
     def _run_steps(self, nsteps: int) -> None:
         """Run ``nsteps`` steps (fewer if the buffers ask for a flush, then continue)."""
         sc = self.scene
-        cap = MAX_STEPS_PER_CALL
+        cap = self.steps_per_call
         if cap is None and _CLOCK < 0:
             cap = max(1, _NO_CLOCK_STEP_WORK // max(1, self.pos.shape[0]))
         while nsteps > 0:
@@ -296,7 +307,7 @@ class _Stepper:
                     float(sc.wall_restitution), float(sc.tc), self.max_passes, self.swept,
                     self.want_b, self.want_c, self.bf, self.bi, self.nb, self.cf, self.ci, self.nc,
                     FLUSH_AT, self.counters, self.clocks, self.virial, self.overlap, _CLOCK, self.nthreads,
-                    _deadline(), self.patches, self.ws)
+                    _deadline() if self.nranks == 1 else math.inf, self.patches, self.ws, self.rank, self.nranks)
             except SystemError as err:
                 interrupt = interrupt_in(err)
                 if interrupt is not None:  # a signal seen as the kernel returned: the same
@@ -339,6 +350,9 @@ class _Stepper:
 
     def _flush(self) -> None:
         t0 = time.perf_counter()
+        if self.rank > 0:  # an MPI run: rank 0 alone records
+            self.nb = self.nc = 0
+            return
         if self.nb:
             t = self.bf[: self.nb, 0]
             o = np.argsort(t, kind="stable")
@@ -354,6 +368,8 @@ class _Stepper:
         self.output_time += time.perf_counter() - t0
 
     def _diagnostic(self) -> None:
+        if self.rank > 0:  # an MPI run: rank 0 alone records
+            return
         t0 = time.perf_counter()
         kinetic, potential = energies(self.scene, self.pos, self.vel)
         self.recorder.diagnostic({
@@ -387,16 +403,26 @@ class _Stepper:
             self.next_snap += 1
         self.output_time += time.perf_counter() - t0
 
+    def job(self) -> dict:
+        """What another rank of an MPI run needs to run the same steps (:func:`.mpi.serve`)."""
+        return {"scene": self.scene, "state": State(self.pos, self.vel, self.kinds), "detection": self.detection,
+                "max_passes": self.max_passes, "patches": self.patches, "steps_per_call": self.steps_per_call,
+                "threads": self.nthreads,
+                "want_bounces": self.want_b, "want_collisions": self.want_c, "every": self.every}
+
     def run(self) -> RunStats:
         sc = self.scene
+        if self.rank == 0 and self.nranks > 1:
+            ranks.start(self.job())  # the other ranks run the same steps from here on
         # compile (or load from the cache) before the clock starts
         _run_steps(0, 0.0, 0, self.dt, self.pos, self.vel, self.acc, self.mass, self.radius, self.age,
                     self.tlast, self.planes, float(sc.length), 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1,
                     self.swept, False, False, self.bf, self.bi, 0, self.cf, self.ci, 0, FLUSH_AT,
                     np.zeros_like(self.counters), np.zeros_like(self.clocks), np.zeros(1),
-                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches, self.ws)
+                    self.overlap.copy(), _CLOCK, self.nthreads, math.inf, self.patches, self.ws, 0, 1)
         if sc.pair_gravity > 0 and sc.print_every:
             _pair_potential(self.pos[:2], self.mass[:2], 0.0, 0.0)  # compile the pair potential
+        ranks.barrier()  # an MPI run: every rank compiled, the clocks start together
         self.recorder.progress(0.0, 0)  # compiled: the run starts
         start = time.perf_counter()
         if sc.pair_gravity > 0:
@@ -425,6 +451,7 @@ class _Stepper:
             self._run_steps(target - self.step)
             if pe > 0 and self.step % pe == 0:
                 self._diagnostic()
+        ranks.finish()  # an MPI run: no exchange between ranks from here on
         if pe > 0 and self.step % pe != 0:
             self._diagnostic()
         self._flush()
@@ -452,12 +479,14 @@ class _Stepper:
             "dt_without_overlaps": self.dt_without_overlaps() if c[_c.C_OVERLAP_STEPS] else None,
             "phase_times": {
                 "push": float(self.clocks[_c.T_PUSH]),
-                "collisions": float(self.clocks[_c.T_COLLISIONS]),
+                "collisions": float(self.clocks[_c.T_COLLISIONS]) - ranks.share_time() * (self.nranks > 1),
                 "walls": float(self.clocks[_c.T_WALLS]),
                 "exchange": float(self.clocks[_c.T_EXCHANGE]),
                 "output": float(self.output_time),
             },
         }
+        if self.nranks > 1:  # the candidates' allgather, waits for the slowest rank included
+            extras["phase_times"]["share"] = ranks.share_time()
         final = State(self.pos.copy(), self.vel.copy(), self.kinds.copy())
         return RunStats(events=bounces + collisions, wall_bounces=bounces, collisions=collisions,
                         wall_time_s=wall, final=final, virial=float(self.virial[0]), extras=extras)

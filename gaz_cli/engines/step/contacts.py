@@ -113,6 +113,27 @@ def _held_root(pos, vel, support, i, j, sigma, tau0):
 
 
 @njit
+def _keep_pair(i, j, tau, c, sigma, tally, shrink, left, k, cand_i, cand_j, cand_tau):
+    """Pair (i, j) into the candidates' row k when it is in contact (tau >= 0, tau from
+    :func:`_contact_tau`, which also gives c = |dr|^2 - sigma^2); a pair not in contact and
+    overlapping by more than the tolerance (c < shrink sigma^2) counted in ``left`` (count,
+    smallest |dr| / sigma) with ``tally``. Returns the new count (rows beyond the buffers'
+    size: counted, not written)."""
+    if tau < 0.0:
+        if tally and c < shrink * sigma * sigma:
+            left[0] += 1.0
+            ratio = math.sqrt(c / (sigma * sigma) + 1.0)
+            if ratio < left[1]:
+                left[1] = ratio
+        return k
+    if k < cand_i.shape[0]:
+        cand_i[k] = i
+        cand_j[k] = j
+        cand_tau[k] = tau
+    return k + 1
+
+
+@njit
 def _search_rows(rows, first, last, pos, vel, radius, age, act, tick, ident, all_active, speed, vmax, sigma_max,
                  slack, dt, length, nc, cstart, cend, swept, k, cand_i, cand_j, cand_tau, left, support):
     """Write the pairs in contact with the active particles i = rows[first:last] (rows of the
@@ -189,18 +210,7 @@ def _search_rows(rows, first, last, pos, vel, radius, age, act, tick, ident, all
                             continue
                     amax = age[i] if age[i] < age[j] else age[j]
                     tau, c = _contact_tau(pos, vel, i, j, sigma, amax, swept, support)
-                    if tau < 0.0:
-                        if all_active and c < shrink * sigma * sigma:
-                            left[0] += 1.0
-                            ratio = math.sqrt(c / (sigma * sigma) + 1.0)
-                            if ratio < left[1]:
-                                left[1] = ratio
-                        continue
-                    if k < cand_i.shape[0]:
-                        cand_i[k] = i
-                        cand_j[k] = j
-                        cand_tau[k] = tau
-                    k += 1
+                    k = _keep_pair(i, j, tau, c, sigma, all_active, shrink, left, k, cand_i, cand_j, cand_tau)
     return k
 
 
@@ -418,16 +428,5 @@ def _search_cells(lo1, hi1, lo2, hi2, pos, vel, radius, age, ident, sigma_max, n
                             amax = age[a] if age[a] < age[b] else age[b]
                             sigma = radius[a] + radius[b]
                             tau, c = _contact_tau(pos, vel, a, b, sigma, amax, False, support)
-                            if tau < 0.0:
-                                if c < shrink * sigma * sigma:
-                                    left[0] += 1.0
-                                    ratio = math.sqrt(c / (sigma * sigma) + 1.0)
-                                    if ratio < left[1]:
-                                        left[1] = ratio
-                                continue
-                            if k < cand_i.shape[0]:
-                                cand_i[k] = a
-                                cand_j[k] = b
-                                cand_tau[k] = tau
-                            k += 1
+                            k = _keep_pair(a, b, tau, c, sigma, True, shrink, left, k, cand_i, cand_j, cand_tau)
     return k

@@ -10,6 +10,8 @@ counts and (possibly reallocated) buffers. One module per seam of the step:
 * :mod:`.cells`, :mod:`.contacts`: the cells, the pairs in contact, the collision rule;
 * :mod:`.patches`: the box cut into patches, the seed's exchange, the sort by cell;
 * :mod:`.passes`: the contact passes of one step;
+* :mod:`.ranks`: an MPI run's processes (the patches each scans, the allgather of the
+  candidates; :mod:`.mpi` starts them);
 * :mod:`.codes`: status codes, counters, clocks, tolerances;
 * this module: :func:`_run_steps`, a block of steps.
 
@@ -24,7 +26,9 @@ of steps, and puts them back in the caller's order; each step is, in order:
    1 and 2 one patch a thread;
 3. exchange: the particles that left their patch move to their new one, and each patch
    sorts its particles by cell (:func:`.patches._exchange`, one patch a thread);
-4. contact passes (:mod:`.passes`; the first one patch a thread). Each pass lists the contacts of the *active* particles
+4. contact passes (:mod:`.passes`; the first one patch a thread, and in an MPI run the
+   patches of this process only, their candidates then shared: :mod:`.ranks`). Each pass
+   lists the contacts of the *active* particles
    (all of them in the first pass): the first crossing of a box wall or an
    extra plane (one it ends beyond, or one a path bending away from it went
    beyond and came back from: :func:`gaz_cli.engines.step.walls._earliest_wall`), and pairs in contact
@@ -113,7 +117,8 @@ def build():
     def _run_steps(nsteps, t0, k0, dt, pos, vel, acc, mass, radius, age, tlast, planes,
                  length, g, gamma, G, eps2, e, ew, tc, max_passes, swept,
                  want_b, want_c, bf, bi, nb, cf, ci, ncoll, flush_at,
-                 counters, clocks, virial, overlap, clock_id, nthreads, deadline, patches, ws):
+                 counters, clocks, virial, overlap, clock_id, nthreads, deadline, patches, ws, rank,
+                 nranks):
         """Run up to ``nsteps`` steps of dt s (see the module docstring).
 
         Step s of the call ends at t0 + (k0 + s + 1) dt s: with t0 = 0 and k0 the index of the
@@ -135,6 +140,11 @@ def build():
 
         ws: the workspace (:func:`workspace`), kept by the caller from call to call so that
         its arrays are allocated once (a call lays the particles out again in them).
+
+        rank, nranks: this process and the number of processes of an MPI run (0, 1 otherwise:
+        :mod:`.ranks`); every rank runs the same steps on every particle, the first contact
+        pass scanning its own patches only, so the calls of the ranks must end at the same
+        steps (the caller gives ``deadline`` = inf and a fixed number of steps).
 
         Returns (status, steps_done, bf, bi, nb, cf, ci, ncoll, ws).
         """
@@ -220,7 +230,7 @@ def build():
                                     h, hr, max_passes, swept, want_b, want_c, bf, bi, nb, cf, ci, ncoll, counters,
                                     virial, overlap, clock_id, tbuf, 2.0 * rmax, nc, cstart, cend, xb, act, done,
                                     tick, last, support, hold_row, speed, pmax, touched, cand_i, cand_j, cand_tau,
-                                    pci, pcj, pct, pk, pleft, byident)
+                                    pci, pcj, pct, pk, pleft, byident, rank, nranks)
             ident = L[7]
             for r in range(nb0, nb):  # rows name the particles by the caller's numbers
                 bi[r, 0] = ident[bi[r, 0]]

@@ -24,6 +24,7 @@ from gaz_cli.engines.step.codes import (C_COLLISIONS, C_OVERLAP_MAX, C_OVERLAP_P
                                         C_PASS_LIMIT, G_CLOSEST, G_FIRST_TIME, _grow_f, _grow_i, _now)
 from gaz_cli.engines.step.contacts import _resolve_contact, _search_cells, _search_rows
 from gaz_cli.engines.step.patches import _patch_cells
+from gaz_cli.engines.step.ranks import _owned, _share
 from gaz_cli.engines.step.walls import _apply_wall, _wall_rows, _walls_sweep
 from gaz_cli.numba_config import njit, pnjit
 
@@ -117,19 +118,20 @@ def _scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, sti
 
 
 @pnjit
-def _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed, sigma_max, dt,
-                nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls):
-    """:func:`_scan_patch` for every patch, one a thread: patch p's candidates go to rows
-    p ccap... of pci, pcj, pct (ccap = their rows / npatch) after the pk[p] already there
-    (pk[p] = 0 and pleft[p] = (0, 1) first with ``walls``), its overlap tally to pleft[p]."""
+def _first_scan(npatch, lo, hi, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
+                sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls):
+    """:func:`_scan_patch` for patches lo to hi - 1 (all of them but in an MPI run:
+    :func:`.ranks._owned`), one a thread: patch p's candidates go to rows p ccap... of pci,
+    pcj, pct (ccap = their rows / npatch) after the pk[p] already there (pk[p] = 0 and
+    pleft[p] = (0, 1) first with ``walls``), its overlap tally to pleft[p]."""
     ccap = pci.shape[0] // npatch
-    if npatch == 1:  # no parallel region (its threads' wake-up costs more than one patch's work)
-        _first_scan_patch(0, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
+    if hi - lo == 1:  # no parallel region (its threads' wake-up costs more than one patch's work)
+        _first_scan_patch(lo, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
                           sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls,
                           ccap)
         return
-    for p in prange(npatch):
-        _first_scan_patch(p, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
+    for m in prange(hi - lo):
+        _first_scan_patch(lo + m, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
                           sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft, walls,
                           ccap)
 
@@ -177,7 +179,8 @@ def _speeds_patch(p, cap, vel, count, speed, pmax):
 def _contact_passes(t_end, dt, L, cap, p1, p2, acc, planes, length, g, gamma, e, ew, tc, has_pair, h, hr,
                     max_passes, swept, want_b, want_c, bf, bi, nb, cf, ci, ncoll, counters, virial, overlap,
                     clock_id, tbuf, sigma_max, nc, cstart, cend, xb, act, done, tick, last, support, hold_row,
-                    speed, pmax, touched, cand_i, cand_j, cand_tau, pci, pcj, pct, pk, pleft, byident):
+                    speed, pmax, touched, cand_i, cand_j, cand_tau, pci, pcj, pct, pk, pleft, byident,
+                    rank, nranks):
     """The contact passes of one step ending at t_end s (all particles drifted, binned, every
     one active, no wall holding any): repeated until a pass applies nothing or max_passes,
     then the safety net (:func:`.walls._walls_sweep`, the particles in ``ident`` order).
@@ -186,11 +189,16 @@ def _contact_passes(t_end, dt, L, cap, p1, p2, acc, planes, length, g, gamma, e,
     when its stamp equals the pass's tick (a counter that only grows, so nothing is ever
     cleared); ``touched`` (rows,) scratch for the list of the particles a pass moved.
 
+    ``rank``, ``nranks``: this process and the processes of an MPI run (0, 1 otherwise): the
+    first pass scans this rank's patches only (:func:`.ranks._owned`) and shares the
+    candidates (:func:`.ranks._share`); every rank then resolves all of them, the same way.
+
     Returns (passes, wall_time s, tick, bf, bi, nb, cf, ci, ncoll, cand_i, cand_j, cand_tau,
     pci, pcj, pct): buffers may have been reallocated.
     """
     pos, vel, mass, radius, age, tlast, ident, count = L[0], L[1], L[3], L[4], L[5], L[6], L[7], L[8]
     npatch = p1 * p2
+    lo, hi = _owned(npatch, rank, nranks)
     still = g == 0.0 and not has_pair
     full = not still  # gravity or attraction: walls may hold particles and pass their load on
     passes = 0
@@ -212,14 +220,16 @@ def _contact_passes(t_end, dt, L, cap, p1, p2, acc, planes, length, g, gamma, e,
                     act[i] = tick
             w0 = _now(clock_id, tbuf)
             while True:
-                _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
-                            sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft,
-                            True)
+                _first_scan(npatch, lo, hi, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept,
+                            speed, sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk,
+                            pleft, True)
                 w1 = _now(clock_id, tbuf)
                 wall_time += w1 - w0
-                _first_scan(npatch, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept, speed,
-                            sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk, pleft,
-                            False)
+                _first_scan(npatch, lo, hi, p1, p2, cap, L, acc, planes, length, ew, g, h, hr, gamma, still, swept,
+                            speed, sigma_max, dt, nc, cstart, cend, act, tick, last, support, pci, pcj, pct, pk,
+                            pleft, False)
+                if nranks > 1:  # every rank gets every patch's candidates (an MPI run: .ranks)
+                    _share(pci, pcj, pct, pk, pleft)
                 w0 = _now(clock_id, tbuf)
                 need = 0
                 for p in range(npatch):

@@ -21,8 +21,8 @@ without a parallel region).
 
 Halo: the contact search of a particle reads the cells around it, those of the neighbouring
 patches included (their border cells, read in place: threads share memory), so that a
-contact across a border is found exactly as inside a patch; what a process of an MPI run
-would receive from its neighbours each pass is exactly those cells. The order in which
+contact across a border is found exactly as inside a patch; in an MPI run every process
+holds every particle, halo included, and scans its own patches (:mod:`.ranks`). The order in which
 contacts are resolved does not depend on the patches (:mod:`.passes`): the same seed gives
 the same rows whatever their number.
 
@@ -33,6 +33,7 @@ out, :func:`_layout_out` puts them back in the caller's order.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import prange
 
@@ -120,6 +121,23 @@ def _unpack(table, row, pos, vel, acc, mass, radius, age, tlast, k):
     radius[k] = table[row, 3 * dim + 1]
     age[k] = table[row, 3 * dim + 2]
     tlast[k] = table[row, 3 * dim + 3]
+
+
+@numba.njit(inline="always", cache=True, nogil=True, error_model="numpy")
+def _copy_row(L, a, S, b):
+    """Row a of the layout L into row b of the layout S (L itself, or the other half of its
+    double buffer): every particle array, ``ident`` included. Inlined by Numba (a call per
+    row, with the reference counts of its 16 arrays, doubled the exchange's time: 0.10 to
+    0.21 s on 200 steps of N = 20000)."""
+    for d in range(L[0].shape[1]):
+        S[0][b, d] = L[0][a, d]
+        S[1][b, d] = L[1][a, d]
+        S[2][b, d] = L[2][a, d]
+    S[3][b] = L[3][a]
+    S[4][b] = L[4][a]
+    S[5][b] = L[5][a]
+    S[6][b] = L[6][a]
+    S[7][b] = L[7][a]
 
 
 @njit
@@ -217,8 +235,7 @@ def _mark_leavers(L, p, cap, length, nc, p1, p2, sendbuf, sendid, sendcount, des
 def _compact(L, p, cap, dest):
     """Exchange, step 2, for patch p: fill the rows of its leavers (dest >= 0) with the
     particles from the end of its rows (the seed's method: one pass, no shift)."""
-    lpos, lvel, lacc, lmass, lradius, lage, ltlast, ident, count = L[0], L[1], L[2], L[3], L[4], L[5], L[6], L[7], L[8]
-    dim = lpos.shape[1]
+    count = L[8]
     base = p * cap
     end = base + count[p]
     row = base
@@ -230,15 +247,7 @@ def _compact(L, p, cap, dest):
         while end > row and dest[end] >= 0:
             end -= 1
         if end > row:
-            for d in range(dim):
-                lpos[row, d] = lpos[end, d]
-                lvel[row, d] = lvel[end, d]
-                lacc[row, d] = lacc[end, d]
-            lmass[row] = lmass[end]
-            lradius[row] = lradius[end]
-            lage[row] = lage[end]
-            ltlast[row] = ltlast[end]
-            ident[row] = ident[end]
+            _copy_row(L, end, L, row)
             dest[row] = -1
         row += 1
     count[p] = end - base
@@ -269,8 +278,7 @@ def _sort_by_cell(L, S, p, cap, length, nc, p1, p2, cstart, cend, cellof, xb):
     then swaps L and S, which share their ``count``), fill cstart/cend of its cells, and keep
     the positions in xb (the binned positions, from which a particle's moves within the step
     are measured)."""
-    lpos, lvel, lacc, lmass, lradius, lage, ltlast, ident, count = L[0], L[1], L[2], L[3], L[4], L[5], L[6], L[7], L[8]
-    spos, svel, sacc, smass, sradius, sage, stlast, sident = S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7]
+    lpos, count = L[0], L[8]
     dim = lpos.shape[1]
     base = p * cap
     n = count[p]
@@ -299,16 +307,9 @@ def _sort_by_cell(L, S, p, cap, length, nc, p1, p2, cstart, cend, cellof, xb):
         row = base + r
         dst = base + cnt[cellof[row]]
         cnt[cellof[row]] += 1
+        _copy_row(L, row, S, dst)
         for d in range(dim):
-            spos[dst, d] = lpos[row, d]
-            svel[dst, d] = lvel[row, d]
-            sacc[dst, d] = lacc[row, d]
             xb[dst, d] = lpos[row, d]
-        smass[dst] = lmass[row]
-        sradius[dst] = lradius[row]
-        sage[dst] = lage[row]
-        stlast[dst] = ltlast[row]
-        sident[dst] = ident[row]
 
 
 @pnjit
