@@ -174,6 +174,32 @@ def mixture_wall_pressure(dim: int, length, temperature, counts, radii):
     return float(np.sum(n * kt * z * (inner / length) ** 2))
 
 
+def bulk_wall_pressure(dim: int, length, temperature, number_density, radius, edges: bool = True,
+                       model: str = "best"):
+    """Pressure on a hard wall of a box [0, L]^D per unit of FULL wall area, from the bulk (Pa).
+
+    Mechanical equilibrium: across any plane parallel to a wall the normal stress sums to
+    the wall's force. Far from the side walls that stress is the bulk pressure
+    P = n k_B T Z(eta) at the density ``number_density`` n of the box's middle (1/m^D); on
+    the 2(D - 1) side walls' layers it differs by their surface tension gamma
+    (relative to the plane the centres reach), so that the force is
+    (L - sigma)^(D-2) [P (L - sigma) - 2 (D - 1) gamma]. With ``edges``, gamma is
+    -k_B T Gamma / 2 (Gibbs' adsorption at first order in density,
+    :func:`wall_adsorption`); its size is the formula's systematic error. 2D/3D.
+    """
+    dim = _dim(dim)
+    if dim == 1:
+        raise SceneError("1D rods between walls: use tonks_pressure (exact)")
+    length = _positive("box length", length, "m")
+    kt = K_B * _positive("temperature", temperature, "K")
+    n = _nonnegative("number density", number_density, "per m^D")
+    r = _nonnegative("radius", radius, "m")
+    inner = _accessible("box length", length, r)
+    bulk = n * kt * compressibility_factor(dim, n * ball_volume(dim, r), model)
+    edge = (dim - 1) * kt * wall_adsorption(dim, n, 2.0 * r) if edges else 0.0
+    return _out(inner ** (dim - 2) * (bulk * inner + edge) / length ** (dim - 1))
+
+
 def wall_adsorption(dim: int, number_density, diameter):
     """Excess centres per unit wall area at a flat hard wall, to first order: Gamma = c_D n^2 sigma^(D+1) (1/m^(D-1)).
 
