@@ -175,11 +175,7 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0,
         elif exp.known and exp.applies and d > 1 and radii[0] > 0:
             # the local-EOS model is first order in the walls, as the box's without gravity: the same
             # wall adsorption bounds its error (SYST_REL)
-            try:
-                exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
-            except SceneError:
-                exp.syst = NA
-            _beyond_syst(exp, stat_rel)
+            _first_order_syst(exp, run, stat_rel)
         out.append(exp)
         return out
     if d == 1:
@@ -194,11 +190,7 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0,
                    lambda: theory.hard_sphere_wall_pressure(d, L, temperature, counts[0], radii[0]),
                    "first order in eta and 2R/L; SYST_REL: next order (wall adsorption), a bound")
         if exp.known:
-            try:
-                exp.syst = abs(float(theory.wall_adsorption_shift(d, L, counts[0], radii[0])))
-            except SceneError:
-                exp.syst = NA
-            _beyond_syst(exp, stat_rel)
+            _first_order_syst(exp, run, stat_rel)
         out.append(exp)
     else:
         exp = evaluate("mixture at walls, BMCSL at N_s/(L-2R_s)^D" if d == 3 else "mixture at walls",
@@ -218,6 +210,18 @@ def pressure_models(run: StoredRun, temperature: float, stat_rel: float = 0.0,
                  "dilute limit (eta -> 0), exact for non-interacting particles")
     out.append(_ideal(run, ideal, stat_rel))
     return out
+
+
+def _first_order_syst(exp: Expectation, run: StoredRun, stat_rel: float) -> None:
+    """A first-order wall model of one species: its SYST_REL the wall adsorption's shift
+    (:func:`gaz_cli.theory.wall_adsorption_shift`, NaN out of its range), set aside beyond
+    the statistical error ``stat_rel`` (:func:`_beyond_syst`)."""
+    counts, radii, _ = species_arrays(run)
+    try:
+        exp.syst = abs(float(theory.wall_adsorption_shift(run.dim, run.length, counts[0], radii[0])))
+    except SceneError:
+        exp.syst = NA
+    _beyond_syst(exp, stat_rel)
 
 
 MIDDLE_BLOCKS = slice(8, 24)
@@ -275,13 +279,15 @@ def middle_pressure(run: StoredRun, temperature: float, stat_rel: float) -> Expe
         exp.note = (f"DEV_SIGMA withheld: the middle density's error has about {n_mid.dof:.2g} effective degrees "
                     f"of freedom (fewer than {errorbars.MIN_DOF:g}: it relaxes slowly, by diffusion across the "
                     "box); run longer")
-    if math.isfinite(n_mid.error):
+    try:
+        bare = float(theory.bulk_wall_pressure(d, L, temperature, n_mid.mean, radius, edges=False))
+        exp.syst = abs(exp.value - bare) / exp.value
         shifted = theory.bulk_wall_pressure(d, L, temperature, n_mid.mean + n_mid.error, radius)
         exp.error, exp.error_dof = abs(float(shifted) - exp.value), n_mid.dof
-    else:
+    except SceneError as err:        # the density's error bar reaches beyond the EOS's range
+        exp.applies, exp.note = False, str(err)
+    if not math.isfinite(exp.error):
         exp.applies, exp.note = False, "no error bar for the middle density"
-    bare = float(theory.bulk_wall_pressure(d, L, temperature, n_mid.mean, radius, edges=False))
-    exp.syst = abs(exp.value - bare) / exp.value
     if exp.applies:
         _beyond_syst(exp, math.hypot(stat_rel, exp.error / exp.value))
     return exp

@@ -111,8 +111,12 @@ def profile_wanted(scene) -> bool:
     radius = float(scene.components[0][0].radius)
     if not (radius > 0.0 and scene.length >= PROFILE_MIN_SIDE * 2.0 * radius):
         return False
+    from gaz_cli.errors import SceneError
     from gaz_cli.theory import wall_adsorption_shift   # the first-order wall model's systematic error
-    return abs(float(wall_adsorption_shift(scene.dim, scene.length, scene.n, radius))) >= PROFILE_FROM_SHIFT
+    try:
+        return abs(float(wall_adsorption_shift(scene.dim, scene.length, scene.n, radius))) >= PROFILE_FROM_SHIFT
+    except SceneError:      # denser than the EOS's range at N/(L - 2R)^D: the middle may still be a fluid
+        return True
 
 
 PROFILE_FROM_SHIFT = 1e-4

@@ -79,13 +79,20 @@ def tonks_pressure(length, temperature, counts, radii):
     rod lengths included (sum over particles of the diameters 2R). Equal to the
     bulk equation of state at n = N/L. ``counts``/``radii``: one entry per species.
     """
+    length, kt, c, free = _rods(length, temperature, counts, radii, "box")
+    return _out(np.sum(c) * kt / free)
+
+
+def _rods(length, temperature, counts, radii, where: str):
+    """The checked arguments of hard rods on a line of ``length`` (m): L, k_B T (J), the counts
+    per species and the free length L - sum sigma (m); SceneError when the rods fill the ``where``."""
     length = _positive("box length", length, "m")
     kt = K_B * _positive("temperature", temperature, "K")
     c, r = _species(counts, radii)
     free = length - np.sum(c * 2.0 * r)
     if not np.all(free > 0.0):
-        raise SceneError("the rods fill the box: total rod length must be below the box length")
-    return _out(np.sum(c) * kt / free)
+        raise SceneError(f"the rods fill the {where}: total rod length must be below the box length")
+    return length, kt, c, free
 
 
 def ring_pressure(length, temperature, counts, radii):
@@ -97,12 +104,7 @@ def ring_pressure(length, temperature, counts, radii):
     infinite-N Tonks value N k_B T/(L - sum sigma) it differs by a relative -eta/N exactly.
     ``counts``/``radii``: one entry per species (mixtures of rod lengths included).
     """
-    length = _positive("box length", length, "m")
-    kt = K_B * _positive("temperature", temperature, "K")
-    c, r = _species(counts, radii)
-    free = length - np.sum(c * 2.0 * r)
-    if not np.all(free > 0.0):
-        raise SceneError("the rods fill the ring: total rod length must be below the box length")
+    length, kt, c, free = _rods(length, temperature, counts, radii, "ring")
     return _out(kt / length + (np.sum(c) - 1.0) * kt / free)
 
 
