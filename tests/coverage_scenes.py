@@ -135,6 +135,11 @@ def run_class(name: str, seeds, db: str) -> pd.DataFrame:
             s = (everyone if len(everyone) else speeds).iloc[0]
             rows.append({"seed": seed, "quantity": "wall-hit speed", "measured": s.VITESSE_MOYENNE,
                          "error": s.ERR, "theory": s.THEORY, "dof": s.DOF})
+        contact = frames.get("contact values per pair of species")
+        if contact is not None and "G_ERR" in contact:
+            for c in contact.itertuples():     # a periodic mixture with --record all: g_ij per pair
+                rows.append({"seed": seed, "quantity": f"contact value {c.PAIR}", "measured": c.G_MEASURED,
+                             "error": c.G_ERR, "theory": c.G_THEORY, "dof": c.DOF})
         coll = frames["collision rate against Enskog"].iloc[0]
         if math.isfinite(coll.RATE_ERR_HZ):
             rows.append({"seed": seed, "quantity": "collision rate", "measured": coll.RATE_PER_PARTICLE_HZ,

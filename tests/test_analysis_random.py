@@ -149,13 +149,13 @@ def test_boxes_with_walls_at_fluid_densities_get_an_honest_verdict(tmp_path):
 @pytest.mark.coverage
 @pytest.mark.long
 def test_many_boxes_with_walls_at_fluid_densities(tmp_path):
-    """60 more 2D boxes and 10 3D ones (several minutes: behind the long marker)."""
+    """60 more 2D boxes, and 10 3D ones, whose middle-density model is shown without a verdict (its
+    edges' term is known to first order only): none printed (about 2 minutes: behind the long marker)."""
     far, middle = _walls_far_off(tmp_path, range(12, 72))
     far3, middle3 = _walls_far_off(tmp_path, range(10), dim=3)
     assert not far + far3, far + far3
-    assert middle.size >= 30 and middle3.size >= 5
+    assert middle.size >= 30 and middle3.size == 0
     _honest(middle)
-    _honest(middle3)
 
 
 def test_a_periodic_mixture_pressure_has_an_error_bar(tmp_path):

@@ -44,7 +44,7 @@ def _scenes() -> list[Scene]:
         Scene(dim=2, length=1e-8, duration=2e-11, seed=7, record="all", gravity=1e12,
               components=((CUSTOM, 10), (lookup("Ne"), 6))),
         # one species at walls, dense: a density profile (PROFIL)
-        Scene(dim=2, length=5e-9, duration=2e-12, seed=9, components=((CUSTOM, 60),)),
+        Scene(dim=2, length=7e-9, duration=2e-12, seed=9, components=((CUSTOM, 120),)),
     ]
 
 

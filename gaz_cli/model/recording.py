@@ -93,9 +93,11 @@ PROFILE_BLOCKS = 64
 autocorrelation gives the profile's error."""
 PROFILE_BINS = 32
 """Bins of the box side along each axis (PROFIL.PR_BIN)."""
-PROFILE_MIN_SIDE = 14.0
-"""Smallest box side, in diameters, of a profile: the middle half of the box then stays
-3 diameters from every wall (L/4 - R >= 3 sigma), past the layering of a fluid at walls."""
+PROFILE_MIN_SIDE = 20.0
+"""Smallest box side, in diameters, of a profile: the middle half of the box then stays 4.5
+diameters from every wall (L/4 - R >= 4.5 sigma), past the layering of a fluid at walls (at
+14.5 diameters, 2D packing 0.45, the wall pressures sat 0.5 sigma above the middle's EOS on
+average: benchmarks/error_coverage.py's dense-2d, 2026-11-28)."""
 
 
 def profile_wanted(scene) -> bool:
