@@ -187,7 +187,8 @@ PRESSURES = ("mean pressure", "wall pressure")
 
 
 def coverage_table(frame: pd.DataFrame) -> pd.DataFrame:
-    """Per quantity and reference: samples, fraction within 1 sigma and its binomial error, within 2 sigma, mean and rms of z."""
+    """Per quantity and reference: samples, fraction within 1 sigma and its binomial error, within 2 sigma, mean,
+    rms and largest size of z."""
     rows = []
     for reference in ("theory", "seed mean"):
         z = z_scores(frame, reference)
@@ -201,5 +202,6 @@ def coverage_table(frame: pd.DataFrame) -> pd.DataFrame:
             rows.append({"quantity": q, "reference": reference, "samples": a.size,
                          "within_1": p1, "binomial_1": math.sqrt(p1 * (1 - p1) / a.size) if a.size else p1,
                          "within_2": float((a < 2).mean()),
-                         "mean_z": float(g.z.mean()), "rms_z": float(np.sqrt((g.z ** 2).mean()))})
+                         "mean_z": float(g.z.mean()), "rms_z": float(np.sqrt((g.z ** 2).mean())),
+                         "max_abs_z": float(a.max()) if a.size else float("nan")})
     return pd.DataFrame(rows)
