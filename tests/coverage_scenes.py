@@ -69,9 +69,9 @@ CLASSES = {
     "collisionless-3d": SceneClass("3D box, N = 100, packing 1e-5, 40 wall crossings, ~0.1 collision per particle",
                                    _reduced(3, 100, 1e-5, 40.0), "theory"),
     "dilute-3d": SceneClass("3D box, N = 150, packing 0.02, ~50 collisions per particle",
-                            _reduced(3, 150, 0.02, 6.0), "seed mean", dev=True),
+                            _reduced(3, 150, 0.02, 6.0), "seed mean"),
     "dense-2d": SceneClass("2D box, N = 120, packing 0.45, ~300 collisions per particle",
-                           _reduced(2, 120, 0.45, 1.5), "seed mean", dev=True),
+                           _reduced(2, 120, 0.45, 1.5), "seed mean"),
     # issue 38's classes (done-when), reduced units unless named
     "rods-ring-1d": SceneClass("1D periodic rods, N = 100, packing 0.3, --record all (exact finite-N ring)",
                                _reduced(1, 100, 0.3, 2.0, boundary="periodic", record="all"), "seed mean",
