@@ -178,3 +178,29 @@ def test_postgres_rows_are_the_sqlite_rows(runs, tmp_path, postgres_db):
         a = lite[name].sort_values(list(lite[name].columns[:2])).reset_index(drop=True)
         b = pg[name].sort_values(list(pg[name].columns[:2])).reset_index(drop=True)
         pd.testing.assert_frame_equal(a, b, check_exact=True, check_dtype=False, obj=name)
+
+
+def test_the_profile_samples_change_no_event():
+    """The event engine stops at each of the 512 sample times to hand the positions over
+    (Recorder.profile_samples): the run's bounces, collisions and final state are the same,
+    bit for bit, as without the stops."""
+    from gaz_cli.engines import event
+    from gaz_cli.placement.initial import initial_state
+
+    class Sampled(recording.MemoryRecorder):
+        def __init__(self, samples):
+            super().__init__(collisions=True)
+            self.profile_samples, self.times = samples, []
+
+        def add_profile_sample(self, t, positions):
+            self.times.append(t)
+
+    scene = Scene(dim=2, length=7e-9, duration=2e-12, seed=9, components=((CUSTOM, 120),))
+    state = initial_state(scene)
+    plain, sampled = Sampled(0), Sampled(recording.PROFILE_SAMPLES)
+    a, b = event.run(scene, state, plain), event.run(scene, state, sampled)
+    assert np.allclose(sampled.times, (np.arange(512) + 0.5) * scene.duration / 512, rtol=1e-12, atol=0.0)
+    assert a.events == b.events and np.array_equal(a.final.positions, b.final.positions)
+    for k, v in plain.bounces().items():
+        assert np.array_equal(v, sampled.bounces()[k]), k
+    assert np.array_equal(plain.collisions()["t"], sampled.collisions()["t"])
