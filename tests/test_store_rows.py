@@ -181,7 +181,7 @@ def test_postgres_rows_are_the_sqlite_rows(runs, tmp_path, postgres_db):
 
 
 def test_the_profile_samples_change_no_event():
-    """The event engine stops at each of the 512 sample times to hand the positions over
+    """The event engine stops at each of the 256 sample times to hand the positions over
     (Recorder.profile_samples): the run's bounces, collisions and final state are the same,
     bit for bit, as without the stops."""
     from gaz_cli.engines import event
@@ -199,7 +199,7 @@ def test_the_profile_samples_change_no_event():
     state = initial_state(scene)
     plain, sampled = Sampled(0), Sampled(recording.PROFILE_SAMPLES)
     a, b = event.run(scene, state, plain), event.run(scene, state, sampled)
-    assert np.allclose(sampled.times, (np.arange(512) + 0.5) * scene.duration / 512, rtol=1e-12, atol=0.0)
+    assert np.allclose(sampled.times, (np.arange(256) + 0.5) * scene.duration / 256, rtol=1e-12, atol=0.0)
     assert a.events == b.events and np.array_equal(a.final.positions, b.final.positions)
     for k, v in plain.bounces().items():
         assert np.array_equal(v, sampled.bounces()[k]), k
