@@ -1,4 +1,4 @@
--- Particle-particle collisions of one simulation (si_num, duration in s; CHOC: --record all) per time bin (bins equal windows) and pair of species: count.
+-- Particle-particle collisions of one simulation (si_num, duration in s; CHOC: --record all) per time bin (bins equal windows) and pair of species: count and sum of the impulses |J| (kg.m/s).
 -- CH_I and CH_J are particle indices (from 0); species of rank k (COMPOSITION.CO_RANK) own the k-th block of
 -- indices, blocks in rank order with CO_N particles each. RANK_I, RANK_J: the two partners' species ranks, in
 -- the order CHOC holds them (the reader adds (i, j) and (j, i)). No collision: one row of NULLs.
@@ -16,7 +16,8 @@ WITH BLOCKS AS (
 SELECT (CAST(C.CH_T * :bins / :duration AS BIGINT) - CASE WHEN CAST(C.CH_T * :bins / :duration AS BIGINT) > C.CH_T * :bins / :duration THEN 1 ELSE 0 END) AS BIN,
        BI.CO_RANK AS RANK_I,
        BJ.CO_RANK AS RANK_J,
-       COUNT(C.CH_NUM) AS NB_CHOCS
+       COUNT(C.CH_NUM) AS NB_CHOCS,
+       SUM(C.CH_IMP) AS SUM_IMP
 FROM SIMULATION S
 LEFT JOIN CHOC C ON C.SI_NUM = S.SI_NUM
 LEFT JOIN BLOCKS BI ON C.CH_I >= BI.LO AND C.CH_I < BI.HI

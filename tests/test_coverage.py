@@ -54,5 +54,5 @@ def test_error_bars_cover_the_spread_over_seeds(name, tmp_path):
     assert set(expected) <= set(table.index), (name, table)
     for q in checked:
         row = table.loc[q]
-        assert row.samples >= len(SEEDS), (name, q, row)
+        assert row.samples >= 0.9 * len(SEEDS), (name, q, row)   # a few withheld (DOF < 4), as analyse does
         assert 0.5 <= row.within_1 <= 0.85 and 0.85 <= row.within_2, (name, q, table)

@@ -238,6 +238,7 @@ def test_version_1_is_migrated_forward(backend, argon_scene):
     assert int(particles[particles.PA_NOM == "custom"].PA_NUM.iloc[0]) == len(BUILTIN) + 1
     # the columns of version 3 were added: the new run fills them
     assert store.table(st.composition, 2).CO_RANK.tolist() == [0]
+    assert store.table(st.profil).empty  # the table of version 7, empty (this run records no profile)
     store.close()
 
 

@@ -161,7 +161,9 @@ def _version_3(db: str) -> None:
 def test_version_3_becomes_partitioned_with_its_rows(postgres_db, argon_scene):
     _version_3(postgres_db)
     with st.Store(postgres_db) as store:
-        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 6
+        assert store.schema_version() == st.POSTGRES_SCHEMA_VERSION == 7
+        with store.engine.connect() as conn:  # schema 7: the density profile's table, empty
+            assert sa.inspect(conn).has_table("profil")
         with store.engine.connect() as conn:  # its rows keep their 32-bit numbers (not rewritten)
             assert pg.narrow_row_numbers(conn) == ("REBOND", "CHOC")
         si = write(store, argon_scene(dim=3, n=20), 50, collisions=20)

@@ -860,3 +860,24 @@ def test_mapped_mixture_of_one_size_is_the_one_component_eos(eta):
     rho = eta / (math.pi / 6 * np.mean(s ** 3))
     lift = th.mixture_pressure_mapped(3, [rho / 2] * 2, s, 300.0) / th.mixture_pressure(3, [rho / 2] * 2, s, 300.0) - 1
     assert 0.0 < lift < 0.004 and (eta < 0.2 or lift > 0.0015)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_bulk_wall_pressure_is_the_bulk_on_the_reachable_wall_plus_the_edges(dim):
+    """Mechanical equilibrium: the force on a wall is the bulk pressure (Kolafa-Rottner / KLM at the
+    given density) on the (L - sigma)^(D-1) the centres reach, plus the 2(D-1) edges' term
+    (L - sigma)^(D-2) (D-1) kT Gamma (Gamma: wall_adsorption); per full wall area L^(D-1).
+    Reduced units sigma = kT/K_B-scaled: exact arithmetic, rtol 1e-12."""
+    L, r, t = 30.0, 0.5, 1.0 / K_B
+    n = {2: 0.3, 3: 0.4}[dim]                       # sigma = 1: eta = 0.236 (2D), 0.209 (3D)
+    bulk = th.hard_sphere_pressure(dim, n, 1.0, t)
+    edge = (dim - 1) * th.wall_adsorption(dim, n, 1.0)
+    assert th.bulk_wall_pressure(dim, L, t, n, r) == pytest.approx(
+        29.0 ** (dim - 2) * (bulk * 29.0 + edge) / L ** (dim - 1), rel=1e-12)
+    assert th.bulk_wall_pressure(dim, L, t, n, r, edges=False) == pytest.approx(
+        bulk * (29.0 / L) ** (dim - 1), rel=1e-12)
+    # the edges' term is a share O(n sigma^(D+1)/L) of it: 0.3 % (2D), 0.85 % (3D) here
+    share = 1.0 - th.bulk_wall_pressure(dim, L, t, n, r, edges=False) / th.bulk_wall_pressure(dim, L, t, n, r)
+    assert 1e-3 < share < 1e-2
+    with pytest.raises(SceneError):
+        th.bulk_wall_pressure(1, L, t, n, r)

@@ -64,7 +64,7 @@ def per_wall_frame(run: StoredRun, per_wall: pd.DataFrame, temperature: float, s
         cols["N_EFF"].append(est.n_eff)
         cols["DOF"].append(est.dof)
         cols["P_THEORY"].append(exp.value)
-        dev = deviation(est.mean, est.error, exp.value, exp.applies, exp.error, est.dof)
+        dev = deviation(est.mean, est.error, exp.value, exp.applies, exp.error, est.dof, exp.error_dof)
         cols["DEV_SIGMA"].append(dev)
         cols["NOTE"].append(_joined(_wall_note(run, exp), few_dof_note(est.dof, exp.known and exp.applies and math.isfinite(est.error))))
     for k, v in cols.items():
@@ -115,7 +115,7 @@ def pressure_frame(run: StoredRun, temperature: float, summary: dict) -> pd.Data
                      "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"], "DOF": summary["dof"],
                      "P_THEORY": exp.value,
                      "DEV_SIGMA": deviation(summary["measured"], summary["error"], exp.value, exp.applies, exp.error,
-                                            summary["dof"]),
+                                            summary["dof"], exp.error_dof),
                      "REL_DEV": relative(summary["measured"], exp.value), "SYST_REL": exp.syst,
                      "MEASURED": summary["how"],
                      "NOTE": _joined(exp.note, few_dof_note(summary["dof"], exp.known and exp.applies
@@ -518,7 +518,8 @@ def overview_row(run: StoredRun, temperature: float, summary: dict) -> dict:
     row.update({"P_MEASURED": measured, "P_ERR": number_or_nan(summary["error"]), "N_EFF": summary["n_eff"], "DOF": summary["dof"],
                 "P_IDEAL": ideal.value, "RATIO": relative(measured, ideal.value) + 1.0,
                 "P_THEORY": best.value, "THEORY": best.model,
-                "DEV_SIGMA": deviation(measured, summary["error"], best.value, best.applies, best.error, summary["dof"]),
+                "DEV_SIGMA": deviation(measured, summary["error"], best.value, best.applies, best.error, summary["dof"],
+                                       best.error_dof),
                 "NOTE": (few_dof_note(summary["dof"], math.isfinite(summary["error"])) if best.known and best.applies
                          else best.note)})
     return row

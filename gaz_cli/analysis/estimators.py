@@ -83,14 +83,23 @@ def wall_momenta(run: StoredRun) -> np.ndarray:
 
 
 def virial_bin_pressures(run: StoredRun, temperature: float) -> np.ndarray | None:
-    """(BINS,) virial pressure of a periodic box in each time bin, from CHOC (one species), or None.
+    """(BINS,) virial pressure of a periodic box in each time bin, from CHOC (a mixture: per pair of species), or None.
 
     :func:`gaz_cli.theory.virial_pressure` of each bin: W = sum of |J| sigma over the bin's collisions.
     """
-    if run.collision_bins is None or not run.one_species or not math.isfinite(temperature):
+    if run.collision_bins is None or not math.isfinite(temperature):
         return None
-    sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
-    w = per_bin(run.collision_bins.BIN, run.collision_bins.SUM_IMP.to_numpy(dtype=float) * sigma)
+    if run.one_species:
+        sigma = 2.0 * float(run.species.RADIUS_M.iloc[0])
+        w = per_bin(run.collision_bins.BIN, run.collision_bins.SUM_IMP.to_numpy(dtype=float) * sigma)
+    elif run.pair_bins is not None and "SUM_IMP" in run.pair_bins:
+        # a mixture: each pair of species at its own contact distance R_i + R_j (species by rank)
+        radii = run.species.RADIUS_M.to_numpy(dtype=float)
+        p = run.pair_bins
+        sigma = radii[p.RANK_I.to_numpy()] + radii[p.RANK_J.to_numpy()]
+        w = per_bin(p.BIN, p.SUM_IMP.to_numpy(dtype=float) * sigma)
+    else:
+        return None
     return np.asarray(theory.virial_pressure(run.dim, run.n, temperature, run.length ** run.dim, w,
                                              run.duration / errorbars.BINS), dtype=float)
 

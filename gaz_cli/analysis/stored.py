@@ -68,6 +68,8 @@ class StoredRun:
     events: int | None = None
     collisions: int | None = None
     virial: float = math.nan
+    profile: pd.DataFrame | None = None
+    """PR_AXIS, PR_BLOCK, PR_BIN, PR_SAMPLES, PR_COUNT: the density profile (PROFIL), None where the run has none."""
     hits: pd.DataFrame = field(default_factory=pd.DataFrame)
     """Bounces per (RE_DIR, PA_NUM, BIN): NB_REBONDS, SUM_VP, SUM_VIT (sql/bounce_bins.sql)."""
     collision_bins: pd.DataFrame | None = None
@@ -265,6 +267,11 @@ def load_run(store, si_num: int) -> StoredRun:
         run.ke_start, run.ke_end = float(rs.RS_KE_START), float(rs.RS_KE_END)
         run.events, run.collisions = int(rs.RS_EVENTS), int(rs.RS_COLLISIONS)
         run.virial = float(rs.RS_VIRIAL)
+    import sqlalchemy as sa
+
+    if not run.periodic and sa.inspect(store.engine).has_table(st.profil.name):   # schema 7 on
+        profile = store.table(st.profil, si_num)
+        run.profile = profile if len(profile) else None
     if run.periodic and run.n > 1:
         run.drift_energy = drift_energy(run.scene_file, run.ke_start)
     bins = dict(si_num=int(si_num), bins=errorbars.BINS, duration=run.duration)

@@ -64,6 +64,15 @@ class Recorder:
         engine (positions + images L is the unwrapped position); None otherwise.
         """
 
+    profile_samples = 0
+    """How many times the engine hands the particles' positions to ``add_profile_sample``:
+    at (k + 1/2) duration / profile_samples, k = 0 .. profile_samples - 1 (0: never; an
+    engine that cannot sample ignores it, and the run has no profile)."""
+
+    def add_profile_sample(self, t: float, positions: np.ndarray) -> None:
+        """The positions (N, D) float64, m, at simulated time t (a profile sample); the
+        recorder copies what it keeps (:class:`DensityProfile` histograms them)."""
+
     def diagnostic(self, values: dict) -> None:
         """Periodic diagnostics of a run (time, energies, largest speed, counts...)."""
 
@@ -75,6 +84,76 @@ class Recorder:
         """The run reached simulated time t (s) after ``events`` events (wall bounces and
         collisions so far). Called once the kernels are compiled (t = the start), then
         after each kernel call (gaz_cli.progress draws a bar from it)."""
+
+
+PROFILE_SAMPLES = 256
+"""Position samples a run with a density profile takes, evenly spaced over its duration: 4 a block
+(the middle density relaxes over many samples; 512 cost twice as much, 0.05 s on issue 38's 2D box,
+for the same degrees of freedom)."""
+PROFILE_BLOCKS = 64
+"""Blocks the samples are summed in (PROFIL.PR_BLOCK): 4 samples a block, the series whose
+autocorrelation gives the profile's error."""
+PROFILE_BINS = 32
+"""Bins of the box side along each axis (PROFIL.PR_BIN)."""
+PROFILE_MIN_SIDE = 20.0
+"""Smallest box side, in diameters, of a profile: the middle half of the box then stays 4.5
+diameters from every wall (L/4 - R >= 4.5 sigma), past the layering of a fluid at walls (at
+14.5 diameters, 2D packing 0.45, the wall pressures sat 0.5 sigma above the middle's EOS on
+average: benchmarks/error_coverage.py's dense-2d, 2026-11-28)."""
+
+
+def profile_wanted(scene) -> bool:
+    """Whether a run of ``scene`` records the density profile (PROFIL): the middle-of-the-box
+    density that the wall pressure is compared with (mechanical equilibrium; gaz analyse).
+    Only where that comparison holds: walls, 2D or 3D, one species, no gravity or other
+    force, elastic, a box of at least PROFILE_MIN_SIDE diameters, rows recorded, and a
+    density where the first-order wall model may be off by PROFILE_FROM_SHIFT or more."""
+    if (scene.boundary != "walls" or scene.dim < 2 or len(scene.components) != 1 or scene.record == "none"
+            or scene.gravity > 0.0 or scene.restitution < 1.0 or scene.wall_restitution < 1.0
+            or scene.drag > 0.0 or scene.pair_gravity > 0.0 or scene.planes):
+        return False
+    radius = float(scene.components[0][0].radius)
+    if not (radius > 0.0 and scene.length >= PROFILE_MIN_SIDE * 2.0 * radius):
+        return False
+    from gaz_cli.errors import SceneError
+    from gaz_cli.theory import wall_adsorption_shift   # the first-order wall model's systematic error
+    try:
+        return abs(float(wall_adsorption_shift(scene.dim, scene.length, scene.n, radius))) >= PROFILE_FROM_SHIFT
+    except SceneError:      # denser than the EOS's range at N/(L - 2R)^D: the middle may still be a fluid
+        return True
+
+
+PROFILE_FROM_SHIFT = 1e-4
+"""A dilute box needs no profile: its wall pressure is compared with the first-order wall model,
+whose systematic error (wall adsorption) is then below 1e-4 relative (the README's argon: 1e-5)."""
+
+
+class DensityProfile:
+    """The time-averaged density of centres along each axis, from position samples.
+
+    Along axis d, the centres whose other coordinates lie in the middle half of the box
+    (|x_j - L/2| < L/4, j != d: a tube through the box's middle, away from the side walls)
+    are counted in PROFILE_BINS bins of [0, L]; the counts of the samples of one block
+    are summed. ``counts`` (D, PROFILE_BLOCKS, PROFILE_BINS) int64, ``samples``
+    (PROFILE_BLOCKS,) int64 the samples each block holds. O(N D) a sample.
+    """
+
+    def __init__(self, dim: int, length: float, samples: int = PROFILE_SAMPLES):
+        self.dim, self.length, self.total = int(dim), float(length), int(samples)
+        self.counts = np.zeros((self.dim, PROFILE_BLOCKS, PROFILE_BINS), dtype=np.int64)
+        self.samples = np.zeros(PROFILE_BLOCKS, dtype=np.int64)
+        self._taken = 0
+
+    def add(self, positions: np.ndarray) -> None:
+        x = np.asarray(positions, dtype=float) / self.length
+        block = min(self._taken * PROFILE_BLOCKS // self.total, PROFILE_BLOCKS - 1)
+        self._taken += 1
+        self.samples[block] += 1
+        middle = np.abs(x - 0.5) < 0.25
+        others = middle.sum(axis=1)[:, None] - middle == self.dim - 1   # (N, D): in the tube along d
+        cells = np.clip((x * PROFILE_BINS).astype(np.int64), 0, PROFILE_BINS - 1)
+        for d in range(self.dim):
+            self.counts[d, block] += np.bincount(cells[others[:, d], d], minlength=PROFILE_BINS)
 
 
 def hand_snapshot(recorder: Recorder, t: float, positions: np.ndarray, velocities: np.ndarray,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import sqlalchemy as sa
 
 from gaz_cli.results import postgres
-from gaz_cli.results.schema import choc, metadata, particule, rebond, schema_version, simulation
+from gaz_cli.results.schema import choc, metadata, particule, profil, rebond, schema_version, simulation
 
 
 def _v1_to_v2(conn) -> None:
@@ -61,5 +61,11 @@ def _v5_to_v6(conn) -> None:
     from the database (:func:`gaz_cli.results.postgres._copy_types`)."""
 
 
-MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6}
+def _v6_to_v7(conn) -> None:
+    """6 -> 7 (SQLite from 3: the steps 3 -> 6 do nothing there): the table PROFIL, empty (the
+    runs already there recorded no profile)."""
+    metadata.create_all(conn, tables=[profil])
+
+
+MIGRATIONS = {1: _v1_to_v2, 2: _v2_to_v3, 3: _v3_to_v4, 4: _v4_to_v5, 5: _v5_to_v6, 6: _v6_to_v7}
 """Version v -> the step taking a database from v to v + 1, run inside the schema transaction."""

@@ -24,7 +24,7 @@ from gaz_cli.results.budgets import check_row_numbers
 from gaz_cli.model.species import Species
 from gaz_cli.results import rows
 from gaz_cli.results.rows import TableRecorder
-from gaz_cli.results.schema import (PARTITIONED, composition, metadata, particule, rebond, resultat,
+from gaz_cli.results.schema import (PARTITIONED, composition, metadata, particule, profil, rebond, resultat,
                                     scene_table, simulation)
 
 SCHEMA_LOCK = 0x67617A  # 'gaz': the advisory lock held while creating or migrating
@@ -304,6 +304,9 @@ class PostgresRun(TableRecorder):
         if self._attach:
             self._attach_rows()
         self.conn.execute(resultat.insert().values(rows.result_row(self._si, *self._result)))
+        profile_rows = rows.profile_rows(self._si, self.profile)
+        if profile_rows:
+            self.conn.execute(profil.insert(), profile_rows)
         with interrupts.held():
             self.trans.commit()
             self.si_num = self._si

@@ -26,7 +26,7 @@ import datetime as _dt
 import numpy as np
 
 from gaz_cli import __version__
-from gaz_cli.model.recording import Recorder, RunStats
+from gaz_cli.model.recording import PROFILE_SAMPLES, DensityProfile, Recorder, RunStats, profile_wanted
 from gaz_cli.model.scene import OPTIONS, Scene
 from gaz_cli.model.species import BUILTIN, Species
 from gaz_cli.scenes import files as scenefile
@@ -72,6 +72,18 @@ def result_row(si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> 
             "rs_collisions": int(stats.collisions), "rs_ke_start": float(ke_start),
             "rs_ke_end": float(ke_end), "rs_virial": float(stats.virial),
             "rs_wall_time": float(stats.wall_time_s)}
+
+
+def profile_rows(si_num: int, profile: DensityProfile | None) -> list[dict]:
+    """PROFIL's rows: one per (axis 1..D, block, bin) of the run's density profile, its
+    samples and count of centres (:class:`gaz_cli.model.recording.DensityProfile`); none
+    without a profile or a sample."""
+    if profile is None or not profile.samples.sum():
+        return []
+    return [{"si_num": si_num, "pr_axis": d + 1, "pr_block": b, "pr_bin": k,
+             "pr_samples": int(profile.samples[b]), "pr_count": int(profile.counts[d, b, k])}
+            for d in range(profile.dim) for b in range(profile.samples.size) if profile.samples[b]
+            for k in range(profile.counts.shape[2])]
 
 
 def particule_row(species: Species) -> dict:
@@ -156,6 +168,11 @@ class TableRecorder(Recorder):
         self.si_num = None
         self._n = {"rebond": 0, "choc": 0}
         self._result = None
+        self.profile = DensityProfile(scene.dim, scene.length) if profile_wanted(scene) else None
+        self.profile_samples = PROFILE_SAMPLES if self.profile is not None else 0
+
+    def add_profile_sample(self, t, positions):
+        self.profile.add(positions)
 
     def _numbers(self, table: str, k: int) -> np.ndarray:
         """The next ``k`` row numbers of ``table`` (RE_NUM, CH_NUM: 1, 2, ... in each run)."""

@@ -15,6 +15,8 @@ and extra tables keyed by SI_NUM for everything else:
   wall time, events per second.
 - CHOC(SI_NUM, CH_NUM, CH_T, CH_I, CH_J, CH_J_IMP): particle-particle
   collisions, written only with ``--record all``.
+- PROFIL(SI_NUM, PR_AXIS, PR_BLOCK, PR_BIN, PR_SAMPLES, PR_COUNT): the density profile
+  along each axis, for the scenes whose wall pressure is compared with the middle's density.
 - SCHEMA_VERSION(SV_VERSION): one row, the version of this layout
   (:data:`SCHEMA_VERSION`); a database without it is version 1.
 
@@ -126,6 +128,22 @@ choc = sa.Table(
     postgresql_partition_by="RANGE (si_num)",  # as REBOND (schema 5)
 )
 
+profil = sa.Table(
+    "profil", metadata,
+    sa.Column("si_num", sa.Integer, sa.ForeignKey("simulation.si_num"), primary_key=True),
+    sa.Column("pr_axis", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("pr_block", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("pr_bin", sa.Integer, primary_key=True, autoincrement=False),
+    sa.Column("pr_samples", sa.Integer, nullable=False),
+    sa.Column("pr_count", sa.Integer, nullable=False),
+    info={"since": 7},
+)
+"""The time-averaged density profile (schema 7): along axis PR_AXIS (1..D), the centres in
+bin PR_BIN of [0, L] (width L/32) whose other coordinates lie in the box's middle half,
+summed over the PR_SAMPLES position samples of block PR_BLOCK (the run's samples, evenly
+spaced in time, in 64 blocks). Written for one species at walls without forces
+(:func:`gaz_cli.model.recording.profile_wanted`): the density in the box's middle that the
+wall pressure is compared with."""
 
 schema_version = sa.Table(
     "schema_version", metadata,
@@ -134,15 +152,16 @@ schema_version = sa.Table(
 
 EXAM_TABLES = ("simulation", "particule", "rebond")
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 7
 """Version of the layout this gaz writes into SQLite. 1: the tables above but SCHEMA_VERSION
 (rollback journal, PostgreSQL's PARTICULE sequence left at 1 by seeding); 2: adds
 SCHEMA_VERSION, WAL mode, PARTICULE's sequence past its rows; 3: adds SCENE.SC_FILE
 (the scene file that re-runs the simulation) and COMPOSITION.CO_RANK (the species'
 place in the scene: particles come in blocks, rank 0 first, so CHOC's particle
-indices map to species). A column added in version v carries ``info={"since": v}``."""
+indices map to species); 7: adds the table PROFIL (SQLite has no 4 to 6: PostgreSQL's
+alone). A column added in version v carries ``info={"since": v}``, a table too."""
 
-POSTGRES_SCHEMA_VERSION = 6
+POSTGRES_SCHEMA_VERSION = 7
 """Version of the layout this gaz writes into PostgreSQL. 4: 3, and REBOND partitioned by
 RANGE (SI_NUM), one partition per run (``rebond_<SI_NUM>``) plus a default partition
 (``rebond_default``) for rows written any other way; same columns, same keys. 5: CHOC
@@ -150,7 +169,7 @@ partitioned the same way (``choc_<SI_NUM>``, ``choc_default``). 6: RE_NUM and CH
 BIGINT (:data:`ROW_NUMBER`) in a new database; one migrated from 5 keeps its 32-bit
 columns (widening them rewrites every row), and a run whose rows would number past them is
 refused at its start (:meth:`gaz_cli.results.store.Store.check_row_numbers`), the ALTER TABLE that widens them
-named. SQLite has no version 4 to 6 (nothing changed there)."""
+named. 7: adds PROFIL, as SQLite's 7. SQLite has no version 4 to 6 (nothing changed there)."""
 
 PARTITIONED = ("rebond", "choc")
 """PostgreSQL: the tables of one row per event, partitioned by run (schema 4 and 5)."""

@@ -647,7 +647,7 @@ class StagedRun(TableRecorder):
                     si, pa = self._private_run
                     staging.copy_rows(conn, "rebond", columns["rebond"], si_num, nums, source=(si, pa))
                     staging.copy_rows(conn, "choc", columns["choc"], si_num, source=(si, []))
-                _result_row(conn, si_num, *self._result)
+                _result_row(conn, si_num, *self._result, self.profile)
             self.si_num = si_num
         finally:
             conn.execute("PRAGMA foreign_keys = ON")
@@ -679,7 +679,7 @@ class StagedRun(TableRecorder):
         conn = self.file.conn
         try:
             try:
-                _result_row(conn, early.si_num, *self._result)
+                _result_row(conn, early.si_num, *self._result, self.profile)
                 conn.execute("COMMIT")
             except BaseException:
                 if conn.in_transaction:
@@ -894,8 +894,14 @@ def _pa_num(conn: sqlite3.Connection, sp: Species) -> int:
     return num if num is not None else _insert(conn, "particule", rows.particule_row(sp))
 
 
-def _result_row(conn: sqlite3.Connection, si_num: int, stats: RunStats, ke_start: float, ke_end: float) -> None:
+def _result_row(conn: sqlite3.Connection, si_num: int, stats: RunStats, ke_start: float, ke_end: float,
+                profile=None) -> None:
+    """RESULTAT's row, and PROFIL's rows when the run has a density profile."""
     _insert(conn, "resultat", rows.result_row(si_num, stats, ke_start, ke_end))
+    profile_rows = rows.profile_rows(si_num, profile)
+    if profile_rows:
+        conn.executemany(f"INSERT INTO profil ({', '.join(profile_rows[0])}) VALUES "
+                         f"({', '.join('?' * len(profile_rows[0]))})", [tuple(r.values()) for r in profile_rows])
 
 
 def _insert(conn: sqlite3.Connection, table: str, row: dict) -> int:

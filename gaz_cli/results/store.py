@@ -70,7 +70,7 @@ from gaz_cli.results.postgres import narrow_row_numbers
 from gaz_cli.results.rows import RunStore
 from gaz_cli.results.schema import (  # noqa: F401 - the tables and versions, read through the store too
     EXAM_TABLES, PARTITIONED, POSTGRES_SCHEMA_VERSION, SCHEMA_VERSION, choc, composition, latest_version,
-    metadata, particule, rebond, resultat, scene_table, schema_version, simulation)
+    metadata, particule, profil, rebond, resultat, scene_table, schema_version, simulation)
 
 BUSY_TIMEOUT_S = sqlite_writer.BUSY_TIMEOUT_S
 """How long a SQLite writer waits for another one's commit before giving up, s, unless the URL

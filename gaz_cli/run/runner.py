@@ -50,6 +50,7 @@ class Tee(Recorder):
         self.want_images = any(getattr(r, "want_images", False) for r in self.recorders)
         everies = [r.snapshot_every for r in self.recorders if r.snapshot_every]
         self.snapshot_every = min(everies) if everies else None
+        self.profile_samples = max((getattr(r, "profile_samples", 0) for r in self.recorders), default=0)
 
     def add_bounces(self, *arrays):
         interrupts.check()
@@ -68,6 +69,11 @@ class Tee(Recorder):
         for r in self.recorders:
             if r.snapshot_every:
                 hand_snapshot(r, t, positions, velocities, images)
+
+    def add_profile_sample(self, t, positions):
+        for r in self.recorders:
+            if getattr(r, "profile_samples", 0):
+                r.add_profile_sample(t, positions)
 
     def diagnostic(self, values):
         interrupts.check()

@@ -36,7 +36,7 @@ from gaz_cli.theory.mixtures import (  # noqa: F401
 from gaz_cli.theory.walls import (  # noqa: F401
     ideal_gas_pressure, ideal_wall_pressure, ideal_accessible_pressure, tonks_pressure,
     rods_wall_pressure, hard_sphere_wall_pressure, wall_adsorption, wall_adsorption_shift,
-    mixture_wall_pressure, rod_centre_density, ring_pressure)
+    mixture_wall_pressure, rod_centre_density, ring_pressure, bulk_wall_pressure)
 from gaz_cli.theory.transport import (  # noqa: F401
     rods_collision_frequency, rods_collision_frequency_exact, contact_value, enskog_collision_frequency,
     pair_collision_density, mean_free_path)
@@ -73,5 +73,5 @@ __all__ = [
     "haff_cooling_rate", "haff_temperature", "haff_temperature_per_collision",
     "haff_collisions_per_particle", "rods_hit_speed_sampling_error",
     "virial_pressure", "kinetic_temperature", "wall_impulse",
-    "ring_pressure", "mixture_pressure_mapped", "mixture_contact_values_mapped", "FREEZING_PACKING", "MELTING_PACKING", "FCC_CLOSE_PACKING", "z_fcc_speedy",
+    "ring_pressure", "bulk_wall_pressure", "mixture_pressure_mapped", "mixture_contact_values_mapped", "FREEZING_PACKING", "MELTING_PACKING", "FCC_CLOSE_PACKING", "z_fcc_speedy",
 ]

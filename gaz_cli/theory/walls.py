@@ -79,13 +79,20 @@ def tonks_pressure(length, temperature, counts, radii):
     rod lengths included (sum over particles of the diameters 2R). Equal to the
     bulk equation of state at n = N/L. ``counts``/``radii``: one entry per species.
     """
+    length, kt, c, free = _rods(length, temperature, counts, radii, "box")
+    return _out(np.sum(c) * kt / free)
+
+
+def _rods(length, temperature, counts, radii, where: str):
+    """The checked arguments of hard rods on a line of ``length`` (m): L, k_B T (J), the counts
+    per species and the free length L - sum sigma (m); SceneError when the rods fill the ``where``."""
     length = _positive("box length", length, "m")
     kt = K_B * _positive("temperature", temperature, "K")
     c, r = _species(counts, radii)
     free = length - np.sum(c * 2.0 * r)
     if not np.all(free > 0.0):
-        raise SceneError("the rods fill the box: total rod length must be below the box length")
-    return _out(np.sum(c) * kt / free)
+        raise SceneError(f"the rods fill the {where}: total rod length must be below the box length")
+    return length, kt, c, free
 
 
 def ring_pressure(length, temperature, counts, radii):
@@ -97,12 +104,7 @@ def ring_pressure(length, temperature, counts, radii):
     infinite-N Tonks value N k_B T/(L - sum sigma) it differs by a relative -eta/N exactly.
     ``counts``/``radii``: one entry per species (mixtures of rod lengths included).
     """
-    length = _positive("box length", length, "m")
-    kt = K_B * _positive("temperature", temperature, "K")
-    c, r = _species(counts, radii)
-    free = length - np.sum(c * 2.0 * r)
-    if not np.all(free > 0.0):
-        raise SceneError("the rods fill the ring: total rod length must be below the box length")
+    length, kt, c, free = _rods(length, temperature, counts, radii, "ring")
     return _out(kt / length + (np.sum(c) - 1.0) * kt / free)
 
 
@@ -172,6 +174,32 @@ def mixture_wall_pressure(dim: int, length, temperature, counts, radii):
     kt = K_B * _positive("temperature", temperature, "K")
     z = mixture_pressure(dim, n, 2.0 * r, temperature) / (kt * float(np.sum(n)))
     return float(np.sum(n * kt * z * (inner / length) ** 2))
+
+
+def bulk_wall_pressure(dim: int, length, temperature, number_density, radius, edges: bool = True,
+                       model: str = "best"):
+    """Pressure on a hard wall of a box [0, L]^D per unit of FULL wall area, from the bulk (Pa).
+
+    Mechanical equilibrium: across any plane parallel to a wall the normal stress sums to
+    the wall's force. Far from the side walls that stress is the bulk pressure
+    P = n k_B T Z(eta) at the density ``number_density`` n of the box's middle (1/m^D); on
+    the 2(D - 1) side walls' layers it differs by their surface tension gamma
+    (relative to the plane the centres reach), so that the force is
+    (L - sigma)^(D-2) [P (L - sigma) - 2 (D - 1) gamma]. With ``edges``, gamma is
+    -k_B T Gamma / 2 (Gibbs' adsorption at first order in density,
+    :func:`wall_adsorption`); its size is the formula's systematic error. 2D/3D.
+    """
+    dim = _dim(dim)
+    if dim == 1:
+        raise SceneError("1D rods between walls: use tonks_pressure (exact)")
+    length = _positive("box length", length, "m")
+    kt = K_B * _positive("temperature", temperature, "K")
+    n = _nonnegative("number density", number_density, "per m^D")
+    r = _nonnegative("radius", radius, "m")
+    inner = _accessible("box length", length, r)
+    bulk = n * kt * compressibility_factor(dim, n * ball_volume(dim, r), model)
+    edge = (dim - 1) * kt * wall_adsorption(dim, n, 2.0 * r) if edges else 0.0
+    return _out(inner ** (dim - 2) * (bulk * inner + edge) / length ** (dim - 1))
 
 
 def wall_adsorption(dim: int, number_density, diameter):

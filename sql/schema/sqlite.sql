@@ -1,4 +1,4 @@
--- The SQLite schema of a gaz database, version 3: generated from gaz_cli/results/schema.py's metadata by
+-- The SQLite schema of a gaz database, version 7: generated from gaz_cli/results/schema.py's metadata by
 -- gaz_cli.results.sqlite.generated_schema() (tests/test_sqlite_writer.py keeps it equal)
 
 CREATE TABLE IF NOT EXISTS particule (
@@ -42,6 +42,17 @@ CREATE TABLE IF NOT EXISTS composition (
 	PRIMARY KEY (si_num, pa_num), 
 	FOREIGN KEY(si_num) REFERENCES simulation (si_num), 
 	FOREIGN KEY(pa_num) REFERENCES particule (pa_num)
+);
+
+CREATE TABLE IF NOT EXISTS profil (
+	si_num INTEGER NOT NULL, 
+	pr_axis INTEGER NOT NULL, 
+	pr_block INTEGER NOT NULL, 
+	pr_bin INTEGER NOT NULL, 
+	pr_samples INTEGER NOT NULL, 
+	pr_count INTEGER NOT NULL, 
+	PRIMARY KEY (si_num, pr_axis, pr_block, pr_bin), 
+	FOREIGN KEY(si_num) REFERENCES simulation (si_num)
 );
 
 CREATE TABLE IF NOT EXISTS rebond (
@@ -92,4 +103,4 @@ CREATE TABLE IF NOT EXISTS scene (
 	FOREIGN KEY(si_num) REFERENCES simulation (si_num)
 );
 
-INSERT INTO schema_version (sv_version) VALUES (3);
+INSERT INTO schema_version (sv_version) VALUES (7);

@@ -458,6 +458,22 @@ class _Simulation(Rows):
             else:
                 raise EngineError(f"event kernel returned unknown status {status}")
 
+    def _stops(self) -> list[tuple[float, bool, bool]]:
+        """The times (s from the start) the loop stops at, in order, each with whether a
+        snapshot (``snapshot_every``) and a profile sample (``profile_samples``, at
+        (k + 1/2) duration / samples) is taken there; the last is the duration."""
+        stops: dict[float, list[bool]] = {}
+        every = getattr(self.rec, "snapshot_every", None)
+        if every:
+            kmax = int(math.floor(self.duration / every * (1.0 + 1e-12)))
+            for k in range(kmax + 1):
+                stops.setdefault(min(k * every, self.duration), [False, False])[0] = True
+        samples = int(getattr(self.rec, "profile_samples", 0) or 0)
+        for k in range(samples):
+            stops.setdefault((k + 0.5) * self.duration / samples, [False, False])[1] = True
+        stops.setdefault(self.duration, [False, False])
+        return [(t, snap, sample) for t, (snap, sample) in sorted(stops.items())]
+
     def run(self, start_time: float = 0.0) -> RunStats:
         compile_s = self._warm_up()
         t0 = time.perf_counter()
@@ -474,19 +490,15 @@ class _Simulation(Rows):
         self.rec.progress(start_time, 0)  # compiled and set up: the run starts
         t_init = time.perf_counter()
 
-        every = getattr(self.rec, "snapshot_every", None)
-        stops: list[tuple[float, bool]] = []
-        if every:
-            kmax = int(math.floor(self.duration / every * (1.0 + 1e-12)))
-            stops = [(min(k * every, self.duration), True) for k in range(kmax + 1)]
-        if not stops or stops[-1][0] < self.duration:
-            stops.append((self.duration, False))
-        for t_stop, snap in stops:
+        for t_stop, snap, sample in self._stops():
             self._run_to(start_time + t_stop)
-            self._flush()
+            if snap or t_stop == self.duration:  # a sample alone leaves the rows buffered
+                self._flush()
             if snap:
                 x, v, images = self.snapshot_at(start_time + t_stop)
                 hand_snapshot(self.rec, start_time + t_stop, x, v, images)
+            if sample:  # a density profile's sample: positions only, O(N)
+                self.rec.add_profile_sample(start_time + t_stop, self.state_at(start_time + t_stop)[0])
         x, v = self.state_at(self.t_end)
         t_end = time.perf_counter()
 
