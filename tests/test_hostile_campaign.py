@@ -627,3 +627,80 @@ def test_campaign_extreme_values_say_one_line_and_no_library_warning(flag, value
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 1 and res.stderr.count("\n") == 1, res.stderr
     assert res.stderr.startswith("gaz: error: ")
+
+
+# --- values in gaz's own tables that gaz did not write (issue 39, second session) -----------
+def _content(db: Path) -> list[str]:
+    """The database's content (its SQL dump): what a refused command must leave as it was
+    (opening a file for writing may switch its journal to WAL, a header byte, before refusing)."""
+    import sqlite3
+
+    conn = sqlite3.connect(db)
+    try:
+        return list(conn.iterdump())
+    finally:
+        conn.close()
+
+
+HAND_EDITS = {
+    "version text": ("UPDATE schema_version SET sv_version = 'abc'", "SCHEMA_VERSION holds SV_VERSION = 'abc'"),
+    "version row deleted": ("DELETE FROM schema_version", "SCHEMA_VERSION holds no row"),
+    "version 0": ("UPDATE schema_version SET sv_version = 0", "SV_VERSION = 0, not the one whole number"),
+    "version -1": ("UPDATE schema_version SET sv_version = -1", "SV_VERSION = -1"),
+    "version 2.5": ("UPDATE schema_version SET sv_version = 2.5", "SV_VERSION = 2.5"),
+    "two version rows": ("INSERT INTO schema_version VALUES (3)", "SCHEMA_VERSION holds 2 rows"),
+    "future version": ("UPDATE schema_version SET sv_version = 99", "newer than this gaz"),
+    "SIMULATION without its key": (
+        "ALTER TABLE simulation RENAME TO old; CREATE TABLE simulation(si_num INTEGER, si_deb, si_dur, "
+        "si_dim, si_n, si_l); INSERT INTO simulation SELECT * FROM old; DROP TABLE old",
+        "its table SIMULATION has primary key (none), not gaz's (SI_NUM)"),
+    "SCENE keyed otherwise": (
+        "ALTER TABLE scene RENAME TO old; CREATE TABLE scene AS SELECT * FROM old; DROP TABLE old",
+        "its table SCENE has primary key (none)"),
+    "REBOND without a column": (
+        "ALTER TABLE rebond RENAME TO old; CREATE TABLE rebond(si_num, re_num, pa_num, re_t, re_dir, re_vit, "
+        "PRIMARY KEY (si_num, re_num)); DROP TABLE old", "its table REBOND has columns"),
+}
+
+
+@pytest.mark.parametrize("command", ["simulate", "analyse"])
+@pytest.mark.parametrize("edit", list(HAND_EDITS))
+def test_values_gaz_did_not_write_in_its_tables_are_one_line(tmp_path, stored, edit, command):
+    """A version table edited by hand (text, no row, 0, a fraction: internal error TypeError or
+    KeyError; or taken as version 1 and "migrated") and tables with gaz's names without their
+    keys (written into as if gaz's): one line naming the table and the fix, exit 1, the
+    database's content as it was."""
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    conn = sqlite3.connect(db)
+    conn.executescript("PRAGMA foreign_keys = OFF; " + HAND_EDITS[edit][0])
+    conn.close()
+    before = _content(db)
+    args = [*QUICK, "--seed", "3"] if command == "simulate" else ["analyse"]
+    res = invoke([*args, "--db", str(db)])
+    one_line(res, 1, HAND_EDITS[edit][1])
+    assert "nothing was written" in res.stderr or "upgrade gaz" in res.stderr
+    assert _content(db) == before
+
+
+def test_a_simulation_row_deleted_by_hand_is_named_not_adopted(tmp_path, stored):
+    """SIMULATION's last row deleted by hand, its other rows left: the next run took its SI_NUM
+    and failed with "UNIQUE constraint failed: composition.si_num, composition.pa_num" (or,
+    without bounces of its own, adopted the rows left). Now: one line naming the tables and
+    the fix; the content as it was."""
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    conn = sqlite3.connect(db)
+    conn.executescript("PRAGMA foreign_keys = OFF; DELETE FROM simulation WHERE si_num = 2")
+    conn.close()
+    before = _content(db)
+    res = invoke([*QUICK, "--seed", "3", "--db", str(db)])
+    one_line(res, 1, "COMPOSITION, RESULTAT, SCENE hold rows of SI_NUM 2 but SIMULATION has no such row")
+    assert "DELETE FROM COMPOSITION WHERE SI_NUM = 2" in res.stderr
+    assert _content(db) == before
+    res = invoke(["analyse", "--db", str(db), "--format", "csv", "--table", "q34"])
+    assert res.exit_code == 0 and res.stdout.splitlines()[1:] == ["2,1"], res.output

@@ -360,6 +360,13 @@ class Store(RunStore):
                     f"({', '.join(c.upper() for c in found)}), not gaz's "
                     f"({', '.join(c.name.upper() for c in table.columns)}); nothing was written; "
                     "point --db at a new file or a gaz database")
+            key = [c.lower() for c in insp.get_pk_constraint(table.name).get("constrained_columns") or []]
+            if set(key) != {c.name for c in table.primary_key.columns}:
+                raise StoreError(
+                    f"{self.shown!r} is not a gaz database: its table {table.name.upper()} has primary key "
+                    f"({', '.join(c.upper() for c in key) or 'none'}), not gaz's "
+                    f"({', '.join(c.name.upper() for c in table.primary_key.columns)}); nothing was "
+                    "written; point --db at a new file or a gaz database")
         present = [t for t in EXAM_TABLES if t in names]
         if not present:
             others = sorted(n for n in names if not n.startswith("sqlite_"))
@@ -383,12 +390,25 @@ class Store(RunStore):
                              f"but no {missing.upper()}; point --db at a new file or a gaz database")
         if schema_version.name not in names:
             return 1
-        version = conn.execute(sa.select(sa.func.max(schema_version.c.sv_version))).scalar() or 1
+        return self._version(conn)
+
+    def _version(self, conn) -> int:
+        """The one row of SCHEMA_VERSION, as gaz writes it (a whole number from 2 to this gaz's
+        version); StoreError for a newer one, and for one gaz did not write (none, several,
+        NULL, text, a fraction, below 2: a table edited by hand), nothing written."""
+        found = [v for (v,) in conn.execute(sa.select(schema_version.c.sv_version))]
         latest = latest_version(conn.dialect.name)
-        if version > latest:
-            raise StoreError(f"{self.shown!r} has schema version {version}, newer than this gaz "
+        if (len(found) == 1 and isinstance(found[0], int) and not isinstance(found[0], bool)
+                and found[0] > latest):
+            raise StoreError(f"{self.shown!r} has schema version {found[0]}, newer than this gaz "
                              f"({__version__}, schema {latest}) knows; upgrade gaz to use it")
-        return int(version)
+        if len(found) == 1 and isinstance(found[0], int) and 2 <= found[0] <= latest:
+            return found[0]
+        held = ("no row" if not found else f"{len(found)} rows" if len(found) > 1 else
+                f"SV_VERSION = {found[0]!r}")
+        raise StoreError(f"{self.shown!r}: its table SCHEMA_VERSION holds {held}, not the one whole number "
+                         f"from 2 to {latest} that gaz writes there (edited by hand?); nothing was written; "
+                         "restore the database from a backup, or give --db a new database")
 
     def _writable_state(self, conn) -> int:
         """:meth:`_schema_state` for a writer, which also refuses a gaz database of version 2 or
