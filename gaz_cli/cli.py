@@ -635,9 +635,31 @@ def _stdout_problem() -> str | None:
     return None
 
 
+LIBRARY_LOGGERS = ("psycopg", "sqlalchemy")
+"""Libraries that log their secondary failures: psycopg's "error ignored terminating Copy" and
+"query cancellation failed" (a server gone in the middle of a COPY), SQLAlchemy's pool's
+"Exception during reset". Python's last-resort handler printed them on stderr, before gaz's
+own line for the error that ended the command (the one to tell); with GAZ_DEBUG=1 they are
+printed as before."""
+
+
+def _quiet_library_logs() -> None:
+    """Give :data:`LIBRARY_LOGGERS` a handler that drops their records, unless GAZ_DEBUG is set
+    or the program configured a handler of its own (then it is theirs to show)."""
+    import logging
+
+    if os.environ.get("GAZ_DEBUG"):
+        return
+    for name in LIBRARY_LOGGERS:
+        logger = logging.getLogger(name)
+        if not logger.handlers:
+            logger.addHandler(logging.NullHandler())
+
+
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error."""
     prog = "gaz"
+    _quiet_library_logs()
     args = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in args if not a.startswith("-")), None)
     problem = _stdout_problem()

@@ -118,6 +118,8 @@ def url_for(db: str) -> sa.URL:
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
+    if url.get_backend_name() == "sqlite":
+        check_sqlite_query(db)
     if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
         sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
     if url.get_backend_name() == "sqlite" and "timeout" in url.query:
@@ -126,6 +128,35 @@ def url_for(db: str) -> sa.URL:
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
     return url
+
+
+SQLITE_URL_KEYS = ("timeout", "uri")
+"""The parameters of a ``sqlite:///`` URL gaz reads without ``uri=true`` (with it, SQLite's own
+URI parameters, ``mode``, ``cache``...)."""
+
+
+def check_sqlite_query(db: str) -> None:
+    """Refuse a ``sqlite:///`` URL whose parameters would be ignored or ambiguous: one given
+    twice, one without a name, or one SQLAlchemy drops with a SAWarning on stderr (``?mode=ro``
+    without ``uri=true``: ignored, and the run written all the same; ``?foo=1``). StoreError."""
+    if "?" not in db:
+        return
+    query = db.split("?", 1)[1]
+    pairs = urllib.parse.parse_qsl(query, keep_blank_values=True)
+    names = [k for k, _ in pairs]
+    if any(not k for k in names) or ("&&" in query or query.startswith("&") or query.endswith("&")):
+        raise StoreError(f"--db {db!r} holds an empty parameter; write 'sqlite:///FILE?name=value&...', "
+                         "or leave the '?' out")
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise StoreError(f"--db {db!r} gives {twice[0]} twice; give each parameter once")
+    uri = dict(pairs).get("uri", "").lower() in ("true", "1", "yes", "on")
+    unknown = [k for k in names if k not in SQLITE_URL_KEYS]
+    if unknown and not uri:
+        raise StoreError(f"--db {db!r}: parameter {unknown[0]!r} is not one gaz gives SQLite without "
+                         f"uri=true (it takes {' and '.join(SQLITE_URL_KEYS)}; SQLAlchemy would ignore it); "
+                         "for SQLite's URI parameters (mode, cache...) write "
+                         "'sqlite:///file:FILE?mode=ro&uri=true', or drop it")
 
 
 def _timeout(url: sa.URL, db: str) -> float:

@@ -138,34 +138,14 @@ class Diagnostics(Recorder):
         self.callback(values)
 
 
-SQLITE_URL_KEYS = ("timeout", "uri")
-"""The parameters of a ``sqlite:///`` URL gaz reads without ``uri=true`` (with it, SQLite's own
-URI parameters, ``mode``, ``cache``...)."""
-
-
 def _check_url(db: str) -> None:
-    """Refuse a ``sqlite:///`` URL whose parameters would be ignored or ambiguous: one given
-    twice, one without a name, or one SQLAlchemy drops with a warning on stderr (``?mode=ro``
-    without ``uri=true``: ignored, and the run written all the same)."""
-    if not db.startswith("sqlite:///") or "?" not in db:
-        return
-    from urllib.parse import parse_qsl
+    """Refuse, before the run, a ``sqlite:///`` URL whose parameters would be ignored or
+    ambiguous (:func:`gaz_cli.results.store.check_sqlite_query`, which every opening of ``--db``
+    runs)."""
+    if db.startswith("sqlite:///") and "?" in db:
+        from gaz_cli.results.store import check_sqlite_query
 
-    query = db.split("?", 1)[1]
-    pairs = parse_qsl(query, keep_blank_values=True)
-    names = [k for k, _ in pairs]
-    if any(not k for k in names) or ("&&" in query or query.startswith("&") or query.endswith("&")):
-        raise SceneError(f"--db {db!r} holds an empty parameter; write 'sqlite:///FILE?name=value&...', "
-                         "or leave the '?' out")
-    twice = sorted({k for k in names if names.count(k) > 1})
-    if twice:
-        raise SceneError(f"--db {db!r} gives {twice[0]} twice; give each parameter once")
-    uri = dict(pairs).get("uri", "").lower() in ("true", "1", "yes", "on")
-    unknown = [k for k in names if k not in SQLITE_URL_KEYS]
-    if unknown and not uri:
-        raise SceneError(f"--db {db!r}: parameter {unknown[0]!r} is read only with uri=true (SQLAlchemy "
-                         f"would ignore it); add &uri=true with a file: name "
-                         "('sqlite:///file:FILE?mode=ro&uri=true'), or drop it")
+        check_sqlite_query(db)
 
 
 def sqlite_file(db: str | None) -> str | None:
