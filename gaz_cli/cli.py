@@ -481,7 +481,9 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
     from gaz_cli.results.store import shown
 
     click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {shown(report.db)})", err=True)
-    if report.failed:
+    if report.helpers:
+        click.echo(f"gaz: error: {report.helpers}", err=True)
+    if report.failed or report.helpers:
         raise SystemExit(1)
 
 
