@@ -708,6 +708,18 @@ def main(argv=None) -> None:
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
         sys.exit(1)
+    except MemoryError as exc:
+        # beyond what the door estimated (gaz_cli.scenes.validate.check_memory_limit): the run
+        # unwound, its transaction rolled back and its outputs' temporary files removed
+        from gaz_cli.scenes.validate import memory_limit
+
+        limit = memory_limit()
+        under = f" under {limit[2]} ({limit[0] / 1e9:.3g} GB)" if limit else ""
+        detail = " ".join(str(exc).split())
+        click.echo(f"{prog}: error: out of memory{under}" + (f" ({detail})" if detail else "") +
+                   "; the run that ran out was not stored; lower --n (or --duration, --repeat, --record), "
+                   "or run it where more memory is free", err=True)
+        sys.exit(1)
     except _StdoutError as exc:
         click.echo(f"{prog}: error: cannot write to standard output: {exc}", err=True)
         sys.exit(1)

@@ -865,3 +865,49 @@ def test_the_python_api_takes_the_same_list_rule():
 
     with pytest.raises(gaz.SceneError, match="an empty entry after the last comma"):
         gaz.make_scene(dim=2, species="He:2,Xe:2,", length=1e-7, duration=1e-12, seed=1)
+
+
+def _limited(args, limit_bytes: int, cwd):
+    import resource
+    import subprocess
+    import sys
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+
+    return subprocess.run([sys.executable, "-m", "gaz_cli", *args], capture_output=True, text=True, timeout=300,
+                          preexec_fn=limit, cwd=cwd)
+
+
+@pytest.mark.parametrize("n, limit_gb, fragment", [
+    ("10000000", 2.0, "N = 1e+07 needs about 4.8 GB of memory (event engine); this process may take"),
+    ("1200000", 1.0, None),  # past the door's estimate or not, by the machine: either line, nothing stored
+])
+def test_a_run_beyond_the_memory_limit_is_one_line_and_stores_nothing(tmp_path, n, limit_gb, fragment):
+    """``ulimit -v 2000000; gaz simulate --dim 3 --n 10000000 ...`` ended as "internal error:
+    MemoryError: Unable to allocate 229. MiB..." after 29 s (the door knew only the machine's
+    memory); under 1 GB, 1.2 million spheres ended the same way at their first allocation."""
+    res = _limited(["simulate", "--dim", "3", "--n", n, "--length", "1e-5", "--duration", "1e-13", "--seed", "1",
+                    "--quiet", "--db", "m.db"], int(limit_gb * 1e9), tmp_path)
+    assert res.returncode == 1 and res.stderr.count("\n") == 1, res.stderr
+    assert "internal error" not in res.stderr
+    if fragment:
+        assert fragment in res.stderr and "(ulimit -v: " in res.stderr, res.stderr
+    else:
+        assert "this process may take" in res.stderr or res.stderr.startswith(
+            "gaz: error: out of memory under ulimit -v (1 GB)"), res.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_memory_error_past_the_door_is_named(tmp_path, monkeypatch):
+    """A MemoryError the door did not foresee: one line naming it, exit 1, no database."""
+    from gaz_cli.run import runner
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 229. MiB for an array with shape (10000000, 3)")
+
+    monkeypatch.setattr(runner, "initial_state", no_memory)
+    res = invoke([*QUICK, "--seed", "1", "--db", str(tmp_path / "gaz.db")])
+    one_line(res, 1, "gaz: error: out of memory (Unable to allocate 229. MiB for an array with shape "
+                     "(10000000, 3)); the run that ran out was not stored; lower --n")
+    assert list(tmp_path.iterdir()) == []
