@@ -911,3 +911,67 @@ def test_memory_error_past_the_door_is_named(tmp_path, monkeypatch):
     one_line(res, 1, "gaz: error: out of memory (Unable to allocate 229. MiB for an array with shape "
                      "(10000000, 3)); the run that ran out was not stored; lower --n")
     assert list(tmp_path.iterdir()) == []
+
+
+# --- VTK collections: written whole or not at all --------------------------------------------
+def _collection(folder: Path) -> dict:
+    return {p.name: digest(p) for p in folder.iterdir() if p.suffix in (".pvd", ".vtu") or p.name.startswith(".")}
+
+
+def test_a_failing_run_leaves_an_earlier_vtk_collection_as_it_was(tmp_path, monkeypatch):
+    """A VTK collection was written in place: a run that failed after its snapshots (here in the
+    summary, before the commit) had already deleted the earlier collection (its .pvd and every
+    snapshot) at its start, then removed its own: nothing left of either. Now the new one waits
+    in a temporary folder, removed; the earlier one stays byte for byte."""
+    from gaz_cli.run import runner
+
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(tmp_path / "run.pvd"), "--every", "2e-12"])
+    assert res.exit_code == 0, res.output
+    before = _collection(tmp_path)
+    assert len(before) == 7
+
+    def broken(*args, **kwargs):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(runner, "summary", broken)
+    res = invoke([*QUICK, "--seed", "2", "--db", str(tmp_path / "gaz.db"), "--trajectory", str(tmp_path / "run.pvd"),
+                  "--every", "1e-12"])
+    assert res.exit_code != 0, res.output
+    assert _collection(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
+
+
+def test_a_vtk_collection_written_over_takes_its_place_whole(tmp_path):
+    """Written over by a run with fewer snapshots: the new collection in place, none of the
+    earlier snapshots left, no temporary folder."""
+    for seed, every in (("1", "1e-12"), ("2", "4e-12")):
+        res = invoke([*QUICK, "--seed", seed, "--no-db", "--trajectory", str(tmp_path / "run.pvd"), "--every", every])
+        assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.pvd", "run_00000.vtu", "run_00001.vtu", "run_00002.vtu"]
+
+
+@pytest.mark.parametrize("signum", [2, 15], ids=["SIGINT", "SIGTERM"])
+def test_an_interrupted_vtk_collection_leaves_nothing(tmp_path, signum):
+    """SIGINT or SIGTERM in a step-engine run writing a .pvd: one line, no snapshot, no .pvd, no
+    temporary folder; an earlier collection under the name stays as it was."""
+    import subprocess
+    import sys
+
+    from cli_helpers import wait_for_diagnostics
+
+    res = invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(tmp_path / "run.pvd"), "--every", "2e-12"])
+    assert res.exit_code == 0, res.output
+    before = _collection(tmp_path)
+    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "simulate", "--engine", "step", "--dt", "1e-12",
+                             "--print-every", "200", "--dim", "2", "--n", "100", "--length", "1e-7", "--duration",
+                             "1e-6", "--seed", "2", "--no-db", "--trajectory", str(tmp_path / "run.pvd"),
+                             "--every", "1e-9"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
+    try:
+        wait_for_diagnostics(proc)
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 128 + signum, err
+    assert f"no trajectory was written to '{tmp_path / 'run.pvd'}'" in err
+    assert _collection(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == sorted(before)

@@ -275,8 +275,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.outputs.trajectory import open_trajectory
-                traj = stack.enter_context(open_trajectory(trajectory, every, scene,
-                                                           write_to=_temporary(pending, trajectory)))
+                traj = open_trajectory(trajectory, every, scene, write_to=_temporary(pending, trajectory))
+                stack.callback(traj.close)  # (finished, not committed: a VTK collection waits for the commit)
             diag = Diagnostics(diagnostics) if diagnostics else None
             memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
             if memory is not None:
@@ -301,11 +301,13 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                 writer.finish(stats, ke_start, ke_end)
         with interrupts.held():  # committed: the outputs take their names, all of them
             _rename_all(pending)
+            if traj is not None:
+                traj.commit()
     except BaseException as exc:
         for temporary in pending.values():
             atomic.discard(temporary)
         if traj is not None and hasattr(traj, "_discard") and not pending.get(str(trajectory)):
-            traj._discard()  # (a VTK collection: its files are written in place)
+            traj._discard()  # (a VTK collection: its temporary folder)
         signum = interrupts.signal_of(exc)
         if signum is not None:
             raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
@@ -318,7 +320,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
 
 def _temporary(pending: dict, path) -> Path | None:
     """The name to write the output ``path`` under until the run is committed, noted in
-    ``pending`` (None for a VTK trajectory, written in place, and for a device or FIFO)."""
+    ``pending`` (None for a device or FIFO, and for a VTK trajectory, whose writer keeps its
+    files in a temporary folder until its own commit)."""
     if atomic.in_place(path):
         return None
     if Path(path).suffix.lower() in (".pvd", ".vtu"):
