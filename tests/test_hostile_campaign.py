@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import contextlib
 import functools
-
 import hashlib
 import os
+import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cli_helpers import invoke
 
@@ -975,3 +976,108 @@ def test_an_interrupted_vtk_collection_leaves_nothing(tmp_path, signum):
     assert proc.returncode == 128 + signum, err
     assert f"no trajectory was written to '{tmp_path / 'run.pvd'}'" in err
     assert _collection(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
+
+
+# --- the Python API beyond make_scene: wrong types are gaz's errors ------------------------------
+API_WRONG = {"None": None, "int": 5, "float": 1.5, "text": "x", "list": [1], "dict": {"a": 1}, "bytes": b"x",
+             "np.int64": np.int64(1), "np.float64": np.float64(1.0), "object": object(), "bool": True}
+
+
+def _api_calls(tmp: Path, db: Path, scene_file: Path):
+    import gaz_cli as gaz
+
+    sc = gaz.make_scene(dim=2, species={"Ar": 3}, length=1e-7, duration=1e-12, seed=1)
+    refused = ["temperature=-1"]  # a sweep point the door refuses: no cluster starts, whatever is valid
+    return {
+        "load_scene(path)": lambda w: gaz.load_scene(w),
+        "write_scene(path)": lambda w: gaz.write_scene(w, sc),
+        "write_scene(scene)": lambda w: gaz.write_scene(tmp / "w.toml", w),
+        "scene_text(scene)": lambda w: gaz.scene_text(w),
+        "simulate(scene)": lambda w: gaz.simulate(w),
+        "simulate(db)": lambda w: gaz.simulate(sc, db=w),
+        "simulate(keep_state)": lambda w: gaz.simulate(sc, keep_state=w),
+        "simulate(keep_bounces)": lambda w: gaz.simulate(sc, keep_bounces=w),
+        "simulate(progress)": lambda w: gaz.simulate(sc, progress=w),
+        "simulate(trajectory)": lambda w: gaz.simulate(sc, trajectory=w, every=1e-13),
+        "simulate(every)": lambda w: gaz.simulate(sc, trajectory=str(tmp / "t.h5"), every=w),
+        "simulate(save_state)": lambda w: gaz.simulate(sc, save_state=w),
+        "simulate(write_scene)": lambda w: gaz.simulate(sc, write_scene=w),
+        "simulate(diagnostics)": lambda w: gaz.simulate(sc, diagnostics=w),
+        "simulate(inputs)": lambda w: gaz.simulate(sc, inputs=w),
+        "open_store(db)": lambda w: gaz.open_store(w, create=False).close(),
+        "open_store(create)": lambda w: gaz.open_store(str(db), create=w).close(),
+        "analyse(db)": lambda w: gaz.analyse(w),
+        "analyse(sim)": lambda w: gaz.analyse(str(db), sim=w),
+        "analyse(plot)": lambda w: gaz.analyse(str(db), sim=1, plot=w),
+        "analyse(table)": lambda w: gaz.analyse(str(db), table=w),
+        "versus(db)": lambda w: gaz.versus(w, "temperature"),
+        "versus(key)": lambda w: gaz.versus(str(db), w),
+        "versus(plot)": lambda w: gaz.versus(str(db), "temperature", plot=w),
+        "sweep(scene_file)": lambda w: gaz.sweep(w, refused, db=str(tmp / "s.db")),
+        "sweep(vary)": lambda w: gaz.sweep(scene_file, w, db=str(tmp / "s.db")),
+        "sweep(seeds)": lambda w: gaz.sweep(scene_file, refused, seeds=w, db=str(tmp / "s.db")),
+        "sweep(db)": lambda w: gaz.sweep(scene_file, refused, db=w),
+        "sweep(workers)": lambda w: gaz.sweep(scene_file, refused, workers=w, db=str(tmp / "s.db")),
+        "sweep(scheduler)": lambda w: gaz.sweep(scene_file, refused, scheduler=w, db=str(tmp / "s.db")),
+        "sweep(progress)": lambda w: gaz.sweep(scene_file, refused, progress=w, db=str(tmp / "s.db")),
+    }
+
+
+API_VALID = {  # (call, wrong value) pairs that are right after all, or optional
+    **{(c, v): True for c in ("simulate(keep_state)", "simulate(keep_bounces)", "simulate(progress)",
+                              "open_store(create)") for v in ("bool",)},
+    **{(c, "None"): True for c in ("simulate(db)", "simulate(trajectory)", "simulate(save_state)",
+                                   "simulate(write_scene)", "simulate(diagnostics)", "simulate(inputs)",
+                                   "analyse(sim)", "analyse(plot)", "analyse(table)", "versus(plot)")},
+    ("analyse(sim)", "np.int64"): True, ("analyse(sim)", "int"): False,  # (5: no such run, a GazError)
+    **{(c, "text"): True for c in ("write_scene(path)", "simulate(save_state)", "simulate(write_scene)",
+                                   "simulate(db)", "analyse(plot)", "versus(plot)")},
+}
+API_NAMES = list(_api_calls(Path("."), Path("."), Path(".")))
+
+
+@pytest.fixture(scope="module")
+def api_ground(tmp_path_factory, stored):
+    tmp = tmp_path_factory.mktemp("api")
+    db = tmp / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    (tmp / "v.toml").write_text(SCENE)
+    return tmp, db, tmp / "v.toml"
+
+
+@pytest.mark.parametrize("wrong", list(API_WRONG))
+@pytest.mark.parametrize("call", API_NAMES)
+def test_campaign_every_api_function_names_wrong_types(api_ground, tmp_path, monkeypatch, call, wrong):
+    """Every public function of gaz given a wrong type in each argument: a GazError saying what it
+    expected (was: TypeError "expected str, bytes or os.PathLike object, not int" for analyse's
+    and versus's plot, "unhashable type: 'list'" for a table or key, AttributeError "'int' object
+    has no attribute 'items'" for simulate's inputs, "Scheduler address must be a string" for
+    sweep's scheduler, AttributeError for a Scene with extras=None in write_scene and
+    scene_text; and anything at all taken as a switch: keep_state='x', create=[1])."""
+    import gaz_cli as gaz
+
+    tmp, db, scene_file = api_ground
+    monkeypatch.chdir(tmp_path)  # (a path 'x' is written here)
+    value = API_WRONG[wrong]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            _api_calls(tmp, db, scene_file)[call](value)
+            accepted = True
+        except gaz.GazError:
+            accepted = False
+    if accepted:
+        assert API_VALID.get((call, wrong)), f"{call} took {wrong} {value!r}"
+
+
+@pytest.mark.parametrize("call", ["simulate", "write_scene", "scene_text"])
+def test_a_scene_with_extras_none_is_taken_everywhere(tmp_path, call):
+    """A Scene made by hand with extras=None: simulate took it; write_scene and scene_text raised
+    AttributeError "'NoneType' object has no attribute 'get'"."""
+    from dataclasses import replace
+
+    import gaz_cli as gaz
+
+    sc = replace(gaz.make_scene(dim=2, species={"Ar": 3}, length=1e-7, duration=1e-12, seed=1), extras=None)
+    {"simulate": lambda: gaz.simulate(sc), "write_scene": lambda: gaz.write_scene(tmp_path / "s.toml", sc),
+     "scene_text": lambda: gaz.scene_text(sc)}[call]()

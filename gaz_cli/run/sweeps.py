@@ -711,10 +711,16 @@ class _client:
         # the cluster's own logs stay off stderr up to ERROR (a worker's heartbeat failing as an
         # interrupted sweep closes the scheduler printed a traceback): gaz says every run's failure
         # preload: each worker process runs dask_setup below as it starts (its SIGINT ignored)
-        self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
-                                    processes=True, dashboard_address=":0",
-                                    silence_logs=logging.CRITICAL, preload=[__name__])
-        self.client = Client(self.cluster)
+        try:
+            self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
+                                        processes=True, dashboard_address=":0",
+                                        silence_logs=logging.CRITICAL, preload=[__name__])
+            self.client = Client(self.cluster)
+        except Exception as err:  # noqa: BLE001 - "Nanny failed to start", and whatever else stops it
+            self.__exit__()
+            raise GazError(f"the local Dask cluster could not start its workers ({' '.join(str(err).split())}); "
+                           "from a script, call gaz.sweep under \"if __name__ == '__main__':\" (each "
+                           "worker process imports the script first), or give --scheduler") from None
         return self.client
 
     def __exit__(self, *exc):
