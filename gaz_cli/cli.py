@@ -328,6 +328,13 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         if "numba" in sys.modules:
             sys.modules["numba"].set_num_threads(min(threads, sys.modules["numba"].config.NUMBA_NUM_THREADS))
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
+    if threads is not None:
+        from gaz_cli.scenes.validate import validate
+
+        engine = validate(scene).engine
+        if engine != "step":
+            raise click.UsageError(f"--threads {threads} applies to --engine step only (the {engine} engine "
+                                   "runs on one thread and would ignore it); set --engine step, or drop --threads")
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory if trajectory is not None else outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
@@ -510,6 +517,9 @@ def query(name, db, params, fmt, list_only):
     """
     from gaz_cli.results import queries
 
+    if list_only and (name is not None or params):
+        given = " and ".join(w for w, g in ((f"NAME {name!r}", name is not None), ("--param", params)) if g)
+        raise click.UsageError(f"--list names the packaged queries and runs none; drop {given}, or drop --list")
     if list_only:
         import pandas as pd
 

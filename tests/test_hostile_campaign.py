@@ -1081,3 +1081,24 @@ def test_a_scene_with_extras_none_is_taken_everywhere(tmp_path, call):
     sc = replace(gaz.make_scene(dim=2, species={"Ar": 3}, length=1e-7, duration=1e-12, seed=1), extras=None)
     {"simulate": lambda: gaz.simulate(sc), "write_scene": lambda: gaz.write_scene(tmp_path / "s.toml", sc),
      "scene_text": lambda: gaz.scene_text(sc)}[call]()
+
+
+# --- options that do nothing without another ---------------------------------------------------
+@pytest.mark.parametrize("args, fragment", [
+    (["simulate", *TINY, "--no-db", "--threads", "2"],
+     "gaz simulate: error: --threads 2 applies to --engine step only (the reference engine runs on one thread"),
+    (["simulate", *TINY, "--no-db", "--threads", "2", "--engine", "event"], "(the event engine runs on one thread"),
+    (["query", "--list", "--param", "si_num=1"], "gaz query: error: --list names the packaged queries and runs "
+                                                 "none; drop --param, or drop --list"),
+    (["query", "q34", "--list"], "drop NAME 'q34', or drop --list"),
+    (["place", "--dim", "1", "--n", "3", "--radius", "0.5", "--length", "10", "--histogram", "h.png"],
+     "gaz place: error: --histogram needs --repeat K"),
+])
+def test_an_option_that_would_do_nothing_is_refused(tmp_path, monkeypatch, args, fragment):
+    """``--threads`` with an engine on one thread, ``query --list`` with a query's NAME or --param:
+    taken and ignored, exit 0. Refused in one line as ``place --bins`` without --repeat is
+    (a command-line option of no scene: click's usage error, exit 2; a scene's option that its
+    engine ignores, --dt or --print-every, is the door's, exit 1)."""
+    monkeypatch.chdir(tmp_path)
+    one_line(invoke(args), 2, fragment)
+    assert list(tmp_path.iterdir()) == []
