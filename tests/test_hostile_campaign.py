@@ -882,7 +882,8 @@ def _limited(args, limit_bytes: int, cwd):
 
 @pytest.mark.parametrize("n, limit_gb, fragment", [
     ("10000000", 2.0, "N = 1e+07 needs about 4.8 GB of memory (event engine); this process may take"),
-    ("1200000", 1.0, None),  # past the door's estimate or not, by the machine: either line, nothing stored
+    # past the door's estimate or not, by the machine: either line, nothing stored (6 s: the long suite)
+    pytest.param("1200000", 1.0, None, marks=pytest.mark.long),
 ])
 def test_a_run_beyond_the_memory_limit_is_one_line_and_stores_nothing(tmp_path, n, limit_gb, fragment):
     """``ulimit -v 2000000; gaz simulate --dim 3 --n 10000000 ...`` ended as "internal error:
