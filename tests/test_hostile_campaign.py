@@ -25,15 +25,16 @@ from cli_helpers import invoke
 QUICK = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-11"]
 """A run of 20 argon disks that takes milliseconds (the event engine, compiled once)."""
 
-SCENE = """dim = 2
+SCENE_TEMPLATE = """dim = {dim}
 length = 1e-7
 duration = 1e-11
 seed = 1
 
 [[species]]
 name = "Ar"
-count = 20
+count = {count}
 """
+SCENE = SCENE_TEMPLATE.format(dim=2, count=20)
 
 
 def digest(path: Path) -> str:
@@ -274,15 +275,7 @@ def test_the_python_api_takes_numpy_scalars_and_names_wrong_types(tmp_path):
 
 
 # --- 2. no input stalls the event engine; a signal ends any engine ------------------------
-TOUCHING = """dim = {dim}
-length = 1e-7
-duration = 1e-11
-seed = 1
-
-[[species]]
-name = "Ar"
-count = 2
-
+TOUCHING = SCENE_TEMPLATE.format(dim="{dim}", count=2) + """
 [initial]
 kind = "explicit"
 positions = {positions}
@@ -956,26 +949,13 @@ def test_a_vtk_collection_written_over_takes_its_place_whole(tmp_path):
 def test_an_interrupted_vtk_collection_leaves_nothing(tmp_path, signum):
     """SIGINT or SIGTERM in a step-engine run writing a .pvd: one line, no snapshot, no .pvd, no
     temporary folder; an earlier collection under the name stays as it was."""
-    import subprocess
-    import sys
-
-    from cli_helpers import wait_for_diagnostics
-
     res = invoke([*QUICK, "--seed", "1", "--no-db", "--trajectory", str(tmp_path / "run.pvd"), "--every", "2e-12"])
     assert res.exit_code == 0, res.output
     before = _collection(tmp_path)
-    proc = subprocess.Popen([sys.executable, "-m", "gaz_cli", "simulate", "--engine", "step", "--dt", "1e-12",
-                             "--print-every", "200", "--dim", "2", "--n", "100", "--length", "1e-7", "--duration",
-                             "1e-6", "--seed", "2", "--no-db", "--trajectory", str(tmp_path / "run.pvd"),
-                             "--every", "1e-9"], stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    try:
-        wait_for_diagnostics(proc)
-        proc.send_signal(signum)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        proc.kill()
-    assert proc.returncode == 128 + signum, err
-    assert f"no trajectory was written to '{tmp_path / 'run.pvd'}'" in err
+    code, err, _ = _interrupt_after(["simulate", "--engine", "step", "--dt", "1e-12", "--dim", "2", "--n", "100",
+                                     "--length", "1e-7", "--duration", "1e-6", "--seed", "2", "--no-db", "--quiet",
+                                     "--trajectory", "run.pvd", "--every", "1e-9"], tmp_path, 2.0, signum)
+    assert code == 128 + signum and err.startswith("gaz: interrupted by SIG"), err
     assert _collection(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
 
 
