@@ -639,7 +639,6 @@ def _content(db: Path) -> list[str]:
 
 HAND_EDITS = {
     "version text": ("UPDATE schema_version SET sv_version = 'abc'", "SCHEMA_VERSION holds SV_VERSION = 'abc'"),
-    "version row deleted": ("DELETE FROM schema_version", "SCHEMA_VERSION holds no row"),
     "version 0": ("UPDATE schema_version SET sv_version = 0", "SV_VERSION = 0, not the one whole number"),
     "version -1": ("UPDATE schema_version SET sv_version = -1", "SV_VERSION = -1"),
     "version 2.5": ("UPDATE schema_version SET sv_version = 2.5", "SV_VERSION = 2.5"),
@@ -661,8 +660,8 @@ HAND_EDITS = {
 @pytest.mark.parametrize("command", ["simulate", "analyse"])
 @pytest.mark.parametrize("edit", list(HAND_EDITS))
 def test_values_gaz_did_not_write_in_its_tables_are_one_line(tmp_path, stored, edit, command):
-    """A version table edited by hand (text, no row, 0, a fraction: internal error TypeError or
-    KeyError; or taken as version 1 and "migrated") and tables with gaz's names without their
+    """A version table edited by hand (text, 0, a fraction, two rows: internal error TypeError or
+    KeyError; or taken as version 1 or 2 and "migrated") and tables with gaz's names without their
     keys (written into as if gaz's): one line naming the table and the fix, exit 1, the
     database's content as it was."""
     import sqlite3

@@ -425,9 +425,13 @@ class Store(RunStore):
 
     def _version(self, conn) -> int:
         """The one row of SCHEMA_VERSION, as gaz writes it (a whole number from 2 to this gaz's
-        version); StoreError for a newer one, and for one gaz did not write (none, several,
-        NULL, text, a fraction, below 2: a table edited by hand), nothing written."""
+        version); StoreError for a newer one, and for one gaz did not write (several rows, NULL,
+        text, a fraction, below 2: a table edited by hand), nothing written. No row at all is
+        version 1, as no table (its row deleted by hand: the migration finds every table there
+        and writes the row again, tests/test_store_edges.py)."""
         found = [v for (v,) in conn.execute(sa.select(schema_version.c.sv_version))]
+        if not found:
+            return 1
         latest = latest_version(conn.dialect.name)
         if (len(found) == 1 and isinstance(found[0], int) and not isinstance(found[0], bool)
                 and found[0] > latest):
@@ -435,8 +439,7 @@ class Store(RunStore):
                              f"({__version__}, schema {latest}) knows; upgrade gaz to use it")
         if len(found) == 1 and isinstance(found[0], int) and 2 <= found[0] <= latest:
             return found[0]
-        held = ("no row" if not found else f"{len(found)} rows" if len(found) > 1 else
-                f"SV_VERSION = {found[0]!r}")
+        held = f"{len(found)} rows" if len(found) > 1 else f"SV_VERSION = {found[0]!r}"
         raise StoreError(f"{self.shown!r}: its table SCHEMA_VERSION holds {held}, not the one whole number "
                          f"from 2 to {latest} that gaz writes there (edited by hand?); nothing was written; "
                          "restore the database from a backup, or give --db a new database")
