@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from backends import postgres_db, postgres_url  # noqa: F401 - fixtures
 from cli_helpers import invoke
 
 QUICK = ["simulate", "--dim", "2", "--n", "20", "--length", "1e-7", "--duration", "1e-11"]
@@ -677,6 +678,34 @@ def test_values_gaz_did_not_write_in_its_tables_are_one_line(tmp_path, stored, e
     one_line(res, 1, HAND_EDITS[edit][1])
     assert "nothing was written" in res.stderr or "upgrade gaz" in res.stderr
     assert _content(db) == before
+
+
+PG_EDITS = {
+    "version 0": ("UPDATE schema_version SET sv_version = 0", "SV_VERSION = 0, not the one whole number from 2 to 6"),
+    "two version rows": ("INSERT INTO schema_version VALUES (6)", "SCHEMA_VERSION holds 2 rows"),
+    "SCENE without its key": ("ALTER TABLE scene DROP CONSTRAINT scene_pkey", "its table SCENE has primary key (none)"),
+}
+
+
+@pytest.mark.parametrize("command", ["simulate", "analyse"])
+@pytest.mark.parametrize("edit", list(PG_EDITS))
+def test_values_gaz_did_not_write_in_its_postgresql_tables_are_one_line(postgres_db, edit, command):
+    """The same hand edits on a PostgreSQL database (a throw-away server: .ci/postgres): one line,
+    exit 1, no run added."""
+    import sqlalchemy as sa
+
+    assert invoke([*QUICK, "--seed", "1", "--db", postgres_db]).exit_code == 0
+    engine = sa.create_engine(postgres_db)
+    try:
+        with engine.begin() as conn:
+            conn.exec_driver_sql(PG_EDITS[edit][0])
+        res = invoke([*QUICK, "--seed", "3", "--db", postgres_db] if command == "simulate" else
+                     ["analyse", "--db", postgres_db])
+        one_line(res, 1, PG_EDITS[edit][1])
+        with engine.connect() as conn:
+            assert conn.exec_driver_sql("SELECT COUNT(*) FROM simulation").scalar() == 1
+    finally:
+        engine.dispose()
 
 
 def test_a_simulation_row_deleted_by_hand_is_named_not_adopted(tmp_path, stored):
