@@ -983,7 +983,8 @@ def test_an_interrupted_vtk_collection_leaves_nothing(tmp_path, signum):
     code, err, _ = _interrupt_after(["simulate", "--engine", "step", "--dt", "1e-12", "--dim", "2", "--n", "100",
                                      "--length", "1e-7", "--duration", "1e-6", "--seed", "2", "--no-db", "--quiet",
                                      "--trajectory", "run.pvd", "--every", "1e-9"], tmp_path, 2.0, signum)
-    assert code == 128 + signum and err.startswith("gaz: interrupted by SIG"), err
+    # (the step engine's own warnings, --dt too long for this gas, may come first)
+    assert code == 128 + signum and err.splitlines()[-1].startswith("gaz: interrupted by SIG"), err
     assert _collection(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
 
 
