@@ -1112,3 +1112,25 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, monkeypatch, args,
     monkeypatch.chdir(tmp_path)
     one_line(invoke(args), 2, fragment)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("edit, fragment", [
+    ("UPDATE scene SET sc_temperature = 'hot'", "its table SCENE holds SC_TEMPERATURE = 'hot' where gaz writes a number"),
+    ("UPDATE resultat SET rs_events = 'x'", "its table RESULTAT holds RS_EVENTS = 'x' where gaz writes a number"),
+    ("UPDATE simulation SET si_deb = 'yesterday'",
+     "its table SIMULATION holds a value gaz cannot read (Invalid isoformat string: 'yesterday')"),
+])
+@pytest.mark.parametrize("sim", [[], ["--sim", "1"]], ids=["all", "sim"])
+def test_a_value_of_another_type_in_gazs_tables_is_one_line(tmp_path, stored, edit, fragment, sim):
+    """SQLite keeps what it is given: 'hot' as SCENE.SC_TEMPERATURE, 'x' as RESULTAT.RS_EVENTS, a
+    start date 'yesterday' made ``gaz analyse`` end as "internal error: ValueError: could not
+    convert string to float: 'hot'" (or "invalid literal for int()", "Invalid isoformat
+    string"). Now the store names the table, the value and the fix as it reads them."""
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    db.write_bytes(stored.read_bytes())
+    conn = sqlite3.connect(db)
+    conn.executescript(edit)
+    conn.close()
+    one_line(invoke(["analyse", "--db", str(db), *sim]), 1, fragment)

@@ -555,9 +555,36 @@ class Store(RunStore):
             stmt = sa.select(*[c for c in table.columns if c.info.get("since", 1) == 1 or c.name in found])
             if si_num is not None and "si_num" in table.c:
                 stmt = stmt.where(table.c.si_num == si_num)
-            frame = _pandas().read_sql_query(stmt, conn)
+            try:
+                frame = _pandas().read_sql_query(stmt, conn)
+            except (ValueError, TypeError) as err:  # a DATETIME that is no date (SQLAlchemy's parser)
+                raise StoreError(self._not_ours(table, f"a value gaz cannot read ({' '.join(str(err).split())})"))
+        self._check_types(table, frame)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
+
+    ROWS_CHECKED_BY_THE_ANALYSIS = ("simulation", "particule", "composition")
+    """Tables whose rows the analysis checks itself, value by value, naming the run and the
+    fix of analysing the others (gaz_cli.analysis.stored._check_stored): left to it."""
+
+    def _check_types(self, table: sa.Table, frame) -> None:
+        """StoreError for a number column read back holding something else (SQLite keeps what
+        it is given: a value edited by hand, 'hot' in SCENE.SC_TEMPERATURE), before the analysis
+        trips on it ('internal error: ValueError')."""
+        if table.name in self.ROWS_CHECKED_BY_THE_ANALYSIS:
+            return
+        for column in table.columns:
+            if column.name not in frame or not isinstance(column.type, (sa.Integer, sa.Float)):
+                continue
+            values = frame[column.name]
+            if not _pandas().api.types.is_numeric_dtype(values):  # (object, or pandas' str dtype)
+                bad = next((v for v in values if v is not None and not isinstance(v, (int, float))), None)
+                if bad is not None:
+                    raise StoreError(self._not_ours(table, f"{column.name.upper()} = {bad!r} where gaz writes a number"))
+
+    def _not_ours(self, table: sa.Table, what: str) -> str:
+        return (f"{self.shown!r}: its table {table.name.upper()} holds {what} (edited by hand?); restore "
+                "the database from a backup, or give --db another database")
 
     def check_row_numbers(self, scenes: list[Scene], fix: str = "shorten `duration`") -> None:
         """Refuse, before they run, the runs of ``scenes`` whose rows would number past this
