@@ -1134,3 +1134,56 @@ def test_a_value_of_another_type_in_gazs_tables_is_one_line(tmp_path, stored, ed
     conn.executescript(edit)
     conn.close()
     one_line(invoke(["analyse", "--db", str(db), *sim]), 1, fragment)
+
+
+class _Alone:
+    """A Dask client whose cluster has no worker."""
+
+    def nthreads(self):
+        return {}
+
+
+def test_a_cluster_left_without_workers_ends_the_sweep_in_one_line(monkeypatch):
+    """An existing cluster's only worker killed (``dask worker --no-nanny``, kill -9) in the middle
+    of ``gaz sweep --scheduler``: the sweep waited for good (ended here by timeout's SIGTERM after
+    60 s, 1 of 2 runs stored). Now it gives up after NO_WORKER_S without a worker, saying what
+    was stored. (The real cluster: the long suite's test below.)"""
+    from gaz_cli.errors import GazError
+    from gaz_cli.run import sweeps
+
+    clock = iter([100.0, 100.0 + sweeps.NO_WORKER_S + 1])
+    monkeypatch.setattr(sweeps.time, "monotonic", lambda: next(clock))
+    report = sweeps.Report(rows=[(None, "stored", 1, "")])
+    since = sweeps._without_workers(_Alone(), None, report)
+    with pytest.raises(GazError, match=r"the Dask cluster has had no worker for 60 s .*; 1 runs of the sweep "
+                                       r"were stored whole, the others not; start workers"):
+        sweeps._without_workers(_Alone(), since, report)
+
+
+@pytest.mark.long
+def test_a_sweep_whose_only_worker_is_killed_ends(tmp_path, monkeypatch):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from gaz_cli.run import sweeps
+
+    monkeypatch.setattr(sweeps, "NO_WORKER_S", 5.0)
+    port = 8700 + os.getpid() % 90
+    dask = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    scheduler = subprocess.Popen([*dask, "--port", str(port), "--no-dashboard"], stderr=subprocess.DEVNULL)
+    worker = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", f"tcp://127.0.0.1:{port}",
+                               "--no-nanny", "--nthreads", "1", "--no-dashboard"], stderr=subprocess.DEVNULL)
+    try:
+        time.sleep(6)
+        (tmp_path / "sw.toml").write_text(SWEEP_SCENE.replace("3e-7", "3e-5"))
+        import threading
+
+        threading.Timer(4, lambda: worker.send_signal(signal.SIGKILL)).start()
+        res = invoke(["sweep", str(tmp_path / "sw.toml"), "--vary", "temperature=100,200", "--quiet",
+                      "--scheduler", f"tcp://127.0.0.1:{port}", "--db", str(tmp_path / "sw.db")])
+        one_line(res, 1, "the Dask cluster has had no worker for 5 s")
+    finally:
+        worker.kill()
+        scheduler.kill()

@@ -596,6 +596,11 @@ IN_FLIGHT_PER_THREAD = 4
 """Runs handed to the cluster at once, per worker thread: enough to keep every worker busy
 while the client stores what came back, few enough that the client is never busy submitting."""
 
+NO_WORKER_S = 60.0
+"""How long a sweep waits on a cluster without a single worker before it gives up, s: an
+existing cluster's workers killed (``dask worker --no-nanny``: nobody starts them again) left it
+waiting for good (a local cluster's nannies start theirs again within seconds)."""
+
 
 def _run_all(client, store, todo, report, bar) -> None:
     """Run ``todo`` on ``client``'s cluster, at most :data:`IN_FLIGHT_PER_THREAD` per worker thread
@@ -620,12 +625,15 @@ def _run_all(client, store, todo, report, bar) -> None:
 
     submit_more()
     stored = failed = 0
+    alone_since = None  # when the cluster was last seen without a worker
     while pending:
         try:
             finished, pending = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
         except TimeoutError:  # nothing finished in this tick: refresh the bar
             finished = ()
         interrupts.check()
+        if not finished:
+            alone_since = _without_workers(client, alone_since, report)
         for fut in finished:
             point = futures.pop(fut)
             if fut.status == "finished":
@@ -638,6 +646,25 @@ def _run_all(client, store, todo, report, bar) -> None:
             fut.release()
         submit_more()
         bar.update(done=stored, failed=failed, running=_running(client, pending))
+
+
+def _without_workers(client, since: float | None, report) -> float | None:
+    """When the cluster was first seen without a worker in this stretch (None: it has one);
+    GazError once that is :data:`NO_WORKER_S` ago, saying what was stored."""
+    try:
+        workers = len(client.nthreads())
+    except Exception:  # noqa: BLE001 - the scheduler did not answer in time: not known to be alone
+        return since
+    if workers:
+        return None
+    now = time.monotonic()
+    if since is None:
+        return now
+    if now - since < NO_WORKER_S:
+        return since
+    raise GazError(f"the Dask cluster has had no worker for {NO_WORKER_S:g} s (its workers died or left: "
+                   f"killed, or out of memory); {report.count('stored')} runs of the sweep were stored whole, "
+                   "the others not; start workers, then run the same sweep again (stored runs are skipped)")
 
 
 def _store(store, run) -> int:
