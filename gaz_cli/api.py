@@ -13,6 +13,7 @@ Every scene goes through :func:`gaz_cli.scenes.validate.validate`, as it does fr
 
 from __future__ import annotations
 
+import os
 from typing import TYPE_CHECKING, Any
 
 from gaz_cli.scenes import files as scenefile
@@ -47,13 +48,42 @@ def _plain(value):
     return value
 
 
-def _path(value, what: str):
-    """``value`` if it is a path (str or os.PathLike), else SceneError naming what was expected."""
+def _path(value, what: str, optional: bool = False):
+    """``value`` if it is a path (str or os.PathLike; None too when ``optional``), else
+    SceneError naming what was expected."""
     import os
 
+    if optional and value is None:
+        return value
     if not isinstance(value, (str, os.PathLike)):
-        raise SceneError(f"{what} {value!r} is not a file path; give a path (text or pathlib.Path)")
+        none = " or None" if optional else ""
+        raise SceneError(f"{what} {value!r} is not a file path; give a path (text or pathlib.Path){none}")
     return value
+
+
+def _switch(value, what: str, optional: bool = False) -> bool | None:
+    """``value`` as a bool if it is one (NumPy's too; None when ``optional``), else SceneError:
+    a switch given a string or a number is a mistake more often than a truth value."""
+    value = _plain(value)
+    if (optional and value is None) or isinstance(value, bool):
+        return value
+    raise SceneError(f"{what} {value!r} is not True or False" + (" (or None)" if optional else ""))
+
+
+def _text(value, what: str, optional: bool = False) -> str | None:
+    """``value`` if it is text (None when ``optional``), else SceneError naming what was expected."""
+    if (optional and value is None) or isinstance(value, str):
+        return value
+    raise SceneError(f"{what} {value!r} is not text; give a name as a string" + (" or None" if optional else ""))
+
+
+def _whole(scene):
+    """A Scene made by hand with ``extras=None`` given the empty extras :func:`make_scene` gives it."""
+    if isinstance(scene, Scene) and scene.extras is None:
+        from dataclasses import replace
+
+        scene = replace(scene, extras={})
+    return scene
 
 
 def make_scene(*, species, **keys) -> Scene:
@@ -85,18 +115,20 @@ def make_scene(*, species, **keys) -> Scene:
 
 def load_scene(path) -> Scene:
     """The validated Scene of a scene file (its [output] table is for ``gaz simulate``)."""
-    return scenefile.load(path)[0]
+    return scenefile.load(_path(path, "load_scene: path"))[0]
 
 
 def write_scene(path, scene: Scene) -> None:
     """Write ``scene`` as a scene file (TOML) that :func:`load_scene` reads back exactly; a scene
     the door refuses (:func:`gaz_cli.scenes.validate.validate`, SceneError) is not written."""
+    scene = _whole(scene)
     _checked(scene, path)
     scenefile.write(_path(path, "write_scene: path"), scene)
 
 
 def scene_text(scene: Scene) -> str:
     """The scene file of ``scene``, as text (a scene the door refuses: SceneError)."""
+    scene = _whole(scene)
     _checked(scene)
     return scenefile.dumps(scene)
 
@@ -126,10 +158,15 @@ def simulate(scene: Scene, *, db: str | None = None, keep_state: bool = False, k
     scene was read from ({'the scene file': path}): no output may be one of them. Every output
     appears under its name when the run is committed, whole (a temporary file renamed).
     """
-    if isinstance(scene, Scene) and scene.extras is None:  # (a Scene made by hand: no extras)
-        from dataclasses import replace
-
-        scene = replace(scene, extras={})
+    scene = _whole(scene)
+    keep_state, keep_bounces, keep_collisions, progress = (
+        _switch(v, f"simulate: {k}") for k, v in (("keep_state", keep_state), ("keep_bounces", keep_bounces),
+                                                   ("keep_collisions", keep_collisions), ("progress", progress)))
+    # (the outputs' paths and diagnostics are the door's: gaz_cli.scenes.validate.admit_outputs)
+    if inputs is not None and not (isinstance(inputs, dict) and all(
+            isinstance(k, str) and isinstance(v, (str, os.PathLike)) for k, v in inputs.items())):
+        raise SceneError(f"simulate: inputs {inputs!r} is not a dict of what -> file path "
+                         "({'the scene file': 'run.toml'}); give one, or None")
     every = _plain(every)
     return run_scene(scene, db=db, keep_state=keep_state, keep_bounces=keep_bounces,
                      keep_collisions=keep_collisions, trajectory=trajectory, every=every,
@@ -142,7 +179,7 @@ def open_store(db: str, create: bool = False) -> Store:
     ``create=False`` refuses to make a new one."""
     from gaz_cli.results.store import Store
 
-    return Store(db, create=create)
+    return Store(_path(db, "open_store: db"), create=_switch(create, "open_store: create"))
 
 
 def analyse(db: str, sim: int | None = None, plot: str | None = None,
@@ -161,9 +198,11 @@ def analyse(db: str, sim: int | None = None, plot: str | None = None,
     """
     from gaz_cli.analysis import report as analysis
 
+    _text(table, "analyse: table", optional=True)
     if table is not None and table not in analysis.TABLES:
         raise QueryError(f"table {table!r} is not one of {', '.join(analysis.TABLES)}")
-    frames = analysis.report(db, sim=_plain(sim), plot_dir=plot)
+    frames = analysis.report(_path(db, "analyse: db"), sim=_plain(sim),
+                             plot_dir=_path(plot, "analyse: plot (a folder)", optional=True))
     if table is None:
         return frames
     import pandas as pd
@@ -198,6 +237,10 @@ def sweep(scene_file, vary: list[str], seeds: int = 1, db: str | None = None, wo
     from gaz_cli.scenes import files as scenefile
     from gaz_cli.run import sweeps
 
+    _path(scene_file, "sweep: scene_file")
+    _path(db, "sweep: db", optional=True)
+    _text(scheduler, "sweep: scheduler (an address such as 'tcp://host:8786')", optional=True)
+    progress = _switch(progress, "sweep: progress", optional=True)
     if isinstance(vary, str):
         vary = [vary]
     if not (isinstance(vary, (list, tuple)) and all(isinstance(v, str) for v in vary)):
@@ -215,6 +258,8 @@ def versus(db: str, key: str, plot: str | None = None) -> pd.DataFrame:
     from gaz_cli.analysis import studies
     from gaz_cli.analysis.report import interruptible
 
+    _text(key, "versus: key")
+    _path(plot, "versus: plot (a folder)", optional=True)
     with interruptible(plot):
         with open_store(db) as store:
             table = studies.versus(store, key)

@@ -329,6 +329,13 @@ def simulate(scene_file, as_json, db, no_db, save_state, trajectory, every, writ
         else:
             os.environ["NUMBA_NUM_THREADS"] = str(threads)
     scene, outputs = opts.from_options(scene_file=scene_file, **options)
+    if threads is not None:
+        from gaz_cli.scenes.validate import validate
+
+        engine = validate(scene).engine
+        if engine != "step":
+            raise click.UsageError(f"--threads {threads} applies to --engine step only (the {engine} engine "
+                                   "runs on one thread and would ignore it); set --engine step, or drop --threads")
     db = None if no_db else scenefile.database(db, outputs)
     trajectory = trajectory if trajectory is not None else outputs.get("trajectory")
     every = every if every is not None else outputs.get("every")
@@ -482,7 +489,9 @@ def sweep(scene_file, vary, seeds, workers, scheduler, db, quiet, fmt):
     from gaz_cli.results.store import shown
 
     click.echo(f"gaz sweep: {len(report.rows)} runs: {counts} (--db {shown(report.db)})", err=True)
-    if report.failed:
+    if report.helpers:
+        click.echo(f"gaz: error: {report.helpers}", err=True)
+    if report.failed or report.helpers:
         raise SystemExit(1)
 
 
@@ -509,6 +518,9 @@ def query(name, db, params, fmt, list_only):
     """
     from gaz_cli.results import queries
 
+    if list_only and (name is not None or params):
+        given = " and ".join(w for w, g in ((f"NAME {name!r}", name is not None), ("--param", params)) if g)
+        raise click.UsageError(f"--list names the packaged queries and runs none; drop {given}, or drop --list")
     if list_only:
         import pandas as pd
 
@@ -636,6 +648,27 @@ def _stdout_problem() -> str | None:
     return None
 
 
+LIBRARY_LOGGERS = ("psycopg", "sqlalchemy")
+"""Libraries that log their secondary failures: psycopg's "error ignored terminating Copy" and
+"query cancellation failed" (a server gone in the middle of a COPY), SQLAlchemy's pool's
+"Exception during reset". Python's last-resort handler printed them on stderr, before gaz's
+own line for the error that ended the command (the one to tell); with GAZ_DEBUG=1 they are
+printed as before."""
+
+
+def _quiet_library_logs() -> None:
+    """Give :data:`LIBRARY_LOGGERS` a handler that drops their records, unless GAZ_DEBUG is set
+    or the program configured a handler of its own (then it is theirs to show)."""
+    import logging
+
+    if os.environ.get("GAZ_DEBUG"):
+        return
+    for name in LIBRARY_LOGGERS:
+        logger = logging.getLogger(name)
+        if not logger.handlers:
+            logger.addHandler(logging.NullHandler())
+
+
 def main(argv=None) -> None:
     """Console entry point: one line on stderr and a non-zero exit for every error. Started by
     ``mpiexec -n P`` (P > 1): rank 0 runs the command, the others serve its step-engine runs
@@ -651,6 +684,7 @@ def main(argv=None) -> None:
 def _main(argv=None) -> None:
     """:func:`main` in one process."""
     prog = "gaz"
+    _quiet_library_logs()
     args = sys.argv[1:] if argv is None else list(argv)
     command = next((a for a in args if not a.startswith("-")), None)
     problem = _stdout_problem()
@@ -696,6 +730,18 @@ def _main(argv=None) -> None:
         from gaz_cli.scenes.options import message
 
         click.echo(f"{prog}: error: {message(exc)}", err=True)
+        sys.exit(1)
+    except MemoryError as exc:
+        # beyond what the door estimated (gaz_cli.scenes.validate.check_memory_limit): the run
+        # unwound, its transaction rolled back and its outputs' temporary files removed
+        from gaz_cli.scenes.validate import memory_limit
+
+        limit = memory_limit()
+        under = f" under {limit[2]} ({limit[0] / 1e9:.3g} GB)" if limit else ""
+        detail = " ".join(str(exc).split())
+        click.echo(f"{prog}: error: out of memory{under}" + (f" ({detail})" if detail else "") +
+                   "; the run that ran out was not stored; lower --n (or --duration, --repeat, --record), "
+                   "or run it where more memory is free", err=True)
         sys.exit(1)
     except _StdoutError as exc:
         click.echo(f"{prog}: error: cannot write to standard output: {exc}", err=True)

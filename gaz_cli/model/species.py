@@ -26,6 +26,24 @@ NAME_SEPARATORS = ",:"
 --species and the composition column SPECIES), which a name holding one would make ambiguous."""
 
 
+def split_list(text: str, what: str, example: str) -> list[str]:
+    """The entries of a comma-separated list given on the command line or in a scene file
+    (``--species Ar:500,He:500``, ``--vary temperature=100,200``, ``--plane 0,1:0,1``), each
+    stripped of spaces: the one rule for every such list. An empty entry -- a comma leading,
+    trailing or doubled -- is refused, SceneError naming where (``what``: the option and its
+    text, ``example``: a list written right): it is a value lost more often than a
+    style (``He:10,$OTHER`` with $OTHER unset), and --vary and --plane refused it while
+    --species dropped it."""
+    items = [item.strip() for item in text.split(",")]
+    if len(items) > 1 and not all(items):
+        k = items.index("")
+        where = ("before the first comma" if k == 0 else "after the last comma" if k == len(items) - 1
+                 else "between two commas")
+        raise SceneError(f"{what}: an empty entry {where}; give a value between every two commas, "
+                         f"e.g. {example}")
+    return items
+
+
 @dataclass(frozen=True)
 class Species:
     """One kind of particle. ``mass`` in kg, ``radius`` in m."""
@@ -89,7 +107,7 @@ def parse_mixture(spec: str, n: int | None) -> list[tuple[Species, int]]:
     Returns a list of (species, count). With counts given, ``n`` must be None or
     equal their sum.
     """
-    parts = [p for p in spec.split(",") if p.strip()]
+    parts = [p for p in split_list(spec, f"--species {spec!r}", "Ar:500,He:500") if p]
     if not parts:
         raise SceneError("--species is empty; give a name such as Ar or a mixture Ar:500,He:500")
     if len(parts) == 1 and ":" not in parts[0]:

@@ -16,9 +16,14 @@ Each snapshot is an unstructured grid of N points (padded to 3D: z = 0 in 2D, y 
   orient=False)`` is ParaView's Glyph filter.
 - OVITO reads the collection as meshes, without particles: open the GSD file there.
 
-Writing over an earlier .pvd first deletes it and the snapshots it lists that gaz would have
-written there (STEM_NNNNN.vtu beside it; not another .vtu it names), so that no snapshot of
-the earlier run is left among the new ones.
+The collection is written whole or not at all, as the other formats: its snapshots and its
+.pvd go to a temporary folder beside it (``.STEM.pvd.tmp-XXXXXXXX/``), and :meth:`VTKWriter.commit`
+(``gaz simulate``: once the run is stored) moves the snapshots into place, then the .pvd over
+the earlier one (the step that makes the new collection the one ParaView opens), then deletes
+the earlier collection's snapshots that gaz had written there and the new one does not list
+(STEM_NNNNN.vtu beside it; not another .vtu it names), so that none of the earlier run is left
+among the new ones. A failure or an interrupt before the commit removes the temporary folder
+and leaves the earlier collection as it was.
 """
 
 from __future__ import annotations
@@ -29,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gaz_cli import atomic
 from gaz_cli.errors import OutputError, SceneError
 from gaz_cli.model.scene import Scene
 from gaz_cli.outputs.writer import TrajectoryWriter, check_read_size, reason
@@ -44,42 +50,62 @@ class VTKWriter(TrajectoryWriter):
         self.pvd = self.path.with_suffix(".pvd")
         self.stem = self.path.with_suffix("")
         self.entries: list[tuple[float, str]] = []
-        self._remove_earlier()
-        self._closed = False
+        self.folder = atomic.temporary_name(self.pvd).with_suffix("")  # the snapshots until the commit
+        try:
+            self.folder.mkdir()
+        except OSError as err:
+            raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {reason(err)}") from None
+        self._closed = self._done = False
         n = scene.n
         self._cells = [("vertex", np.arange(n, dtype=np.int64).reshape(n, 1))]
         self._species = scene.kinds().astype(np.int32)
         self._radius = scene.radii()
         self._diameter = 2.0 * self._radius
 
-    def _remove_earlier(self) -> None:
-        """Delete the collection written over and the snapshots it lists (module docstring):
-        a run with fewer snapshots would otherwise leave the earlier run's last ones beside it.
-        Only the names this writer gives its snapshots (STEM_NNNNN.vtu, no folder): a .vtu of
-        the user's that a collection made elsewhere lists stays. Nothing for a file that is not
-        a readable collection."""
+    def _earlier(self) -> list[str]:
+        """The snapshots of the collection written over that this writer would have named
+        (STEM_NNNNN.vtu, no folder): a .vtu of the user's that a collection made elsewhere lists
+        stays. None for a file that is not a readable collection."""
         import re
         import xml.etree.ElementTree as ET
 
         ours = re.compile(re.escape(self.stem.name) + r"_\d{5,}\.vtu")
-
         if not self.pvd.is_file():
-            return
+            return []
         try:
             names = [e.get("file") or "" for e in ET.parse(self.pvd).getroot().iter("DataSet")]
         except (OSError, ET.ParseError):
+            return []
+        return [name for name in names if ours.fullmatch(name)]
+
+    def commit(self) -> None:
+        """Put the finished collection in place (module docstring); idempotent."""
+        import shutil
+
+        if self._done:
             return
-        for name in names:
-            if ours.fullmatch(name):
-                try:
-                    (self.pvd.parent / name).unlink(missing_ok=True)
-                except OSError as err:
-                    raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: its earlier snapshot "
-                                      f"{name!r} cannot be removed ({reason(err)})") from None
+        self.close()
+        earlier = self._earlier()
+        final = atomic.target(self.pvd).parent
         try:
-            self.pvd.unlink()
+            for _, name in self.entries:
+                os.replace(self.folder / name, final / name)
+            atomic.commit(self.folder / self.pvd.name, self.pvd)
         except OSError as err:
-            raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {reason(err)}") from None
+            raise OutputError(f"cannot put --trajectory {str(self.pvd)!r} in place: {reason(err)} (the run "
+                              f"was stored; its snapshots are in {str(self.folder)!r})") from None
+        self._done = True
+        for name in set(earlier) - {name for _, name in self.entries}:
+            with contextlib.suppress(OSError):
+                (final / name).unlink()
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def __exit__(self, kind, *exc) -> None:
+        """(Used alone, not by ``gaz simulate``: committed at the end of the block, or discarded.)"""
+        if kind is None:
+            self.commit()
+        else:
+            self._discard()
 
     def _write(self, t, positions, velocities, images=None):
         import meshio
@@ -95,7 +121,7 @@ class VTKWriter(TrajectoryWriter):
                                        "diameter": self._diameter})
         self.entries.append((t, name))
         try:
-            meshio.write(self.stem.parent / name, mesh, file_format="vtu")
+            meshio.write(self.folder / name, mesh, file_format="vtu")
         except OSError as err:
             self._discard()
             raise OutputError(f"cannot write --trajectory {str(self.stem.parent / name)!r}: {reason(err)}; "
@@ -114,20 +140,20 @@ class VTKWriter(TrajectoryWriter):
                   for t, name in self.entries]
         lines += ["  </Collection>", "</VTKFile>", ""]
         try:
-            self.pvd.write_text("\n".join(lines), encoding="utf-8")
+            (self.folder / self.pvd.name).write_text("\n".join(lines), encoding="utf-8")
         except OSError as err:
             self._discard()
             raise OutputError(f"cannot write --trajectory {str(self.pvd)!r}: {reason(err)}; "
                              "the snapshots written were removed") from None
 
     def _discard(self) -> None:
-        """Delete the snapshot files and the collection after a failed write (a full disk)."""
+        """Delete the temporary folder after a failed write (a full disk), a failed run or an
+        interrupt: the earlier collection, if any, stays as it was."""
+        import shutil
+
         self._closed = True
-        for path in [self.stem.parent / name for _, name in self.entries] + [self.pvd]:
-            try:
-                os.unlink(path)
-            except OSError:
-                pass
+        if not self._done:
+            shutil.rmtree(self.folder, ignore_errors=True)
         self.entries = []
 
 

@@ -84,6 +84,11 @@ class TrajectoryWriter(Recorder):
     def close(self) -> None:
         """Finish the file(s); idempotent."""
 
+    def commit(self) -> None:
+        """Put the finished file(s) in place, once the run is stored: nothing to do for a format
+        written to one file (its caller renames it, :mod:`gaz_cli.atomic`); a VTK collection's
+        files move from their temporary folder."""
+
     def __enter__(self):
         return self
 

@@ -110,10 +110,16 @@ class _Layout:
                 probe.execute(statement)
             names = [r[0] for r in probe.execute(
                 "SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY rowid")]
-            self.columns = {n: [r[1] for r in probe.execute(f"PRAGMA table_info({n})")] for n in names}
+            self.shape = {n: _columns(probe, n) for n in names}  # (name, place in the primary key)
+            self.columns = {n: [c for c, _ in shape] for n, shape in self.shape.items()}
             self.version = int(probe.execute("SELECT MAX(sv_version) FROM schema_version").fetchone()[0])
         finally:
             probe.close()
+
+
+def _columns(conn: sqlite3.Connection, table: str) -> list[tuple[str, int]]:
+    """Each column of ``table``: its name (lower case) and its place in the primary key (0: not in it)."""
+    return [(r[1].lower(), r[5]) for r in conn.execute(f"PRAGMA table_info({table})")]
 
 
 @functools.cache
@@ -150,8 +156,8 @@ def use_wal(conn: sqlite3.Connection) -> None:
 
 
 def _state(conn: sqlite3.Connection) -> str | None:
-    """_NEW (no table at all), _CURRENT (every one of gaz's, with exactly this layout's columns,
-    at this version), or None: anything else -- an older gaz database, another application's
+    """_NEW (no table at all), _CURRENT (every one of gaz's, with exactly this layout's columns
+    and primary keys, at this version in SCHEMA_VERSION's one row), or None: anything else -- an older gaz database, another application's
     (which the store refuses) -- left to :class:`gaz_cli.results.store.Store`."""
     ours = layout().columns
     found = {r[0].lower(): r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
@@ -160,11 +166,11 @@ def _state(conn: sqlite3.Connection) -> str | None:
         return None if any(not t.startswith("sqlite_") for t in found) else _NEW
     if len(present) < len(ours):
         return None
-    for table, columns in ours.items():
-        if [r[1].lower() for r in conn.execute(f"PRAGMA table_info({found[table]})")] != columns:
+    for table, shape in layout().shape.items():
+        if _columns(conn, found[table]) != shape:
             return None
-    (version,) = conn.execute("SELECT MAX(sv_version) FROM schema_version").fetchone()
-    return _CURRENT if version == layout().version else None
+    versions = conn.execute("SELECT sv_version FROM schema_version").fetchall()
+    return _CURRENT if versions == [(layout().version,)] else None
 
 
 class ForTheStore(Exception):
@@ -878,11 +884,31 @@ def _simulation_rows(conn: sqlite3.Connection, scene: Scene, started: _dt.dateti
     """SIMULATION, COMPOSITION and SCENE rows of one run (:mod:`gaz_cli.results.rows`); returns
     SI_NUM and each species' PA_NUM."""
     si_num = _insert(conn, "simulation", rows.simulation_row(scene, started))
+    _refuse_leftovers(conn, si_num)
     nums = [_pa_num(conn, sp) for sp in scene.species]
     for row in rows.composition_rows(si_num, nums, scene):
         _insert(conn, "composition", row)
     _insert(conn, "scene", rows.scene_row(si_num, scene))
     return si_num, nums
+
+
+class Leftovers(sqlite3.IntegrityError):
+    """Rows of a run whose SIMULATION row is gone, keyed by the SI_NUM a new run was given."""
+
+
+def _refuse_leftovers(conn: sqlite3.Connection, si_num: int) -> None:
+    """Leftovers if a table keyed by SI_NUM already holds rows of ``si_num``, the number SQLite
+    gave the new run (one past the largest SIMULATION row): that run's SIMULATION row was
+    deleted by hand and its other rows left, which the new run would collide with or adopt.
+    An index look-up a table."""
+    held = [t for t, columns in layout().columns.items() if t != "simulation" and "si_num" in columns
+            and conn.execute(f"SELECT 1 FROM {t} WHERE si_num = ? LIMIT 1", (si_num,)).fetchone()]
+    if held:
+        raise Leftovers(
+            f"{', '.join(t.upper() for t in held)} hold{'s' * (len(held) == 1)} rows of SI_NUM {si_num} but "
+            f"SIMULATION has no such row (deleted by hand?), and {si_num} is the number the new run would "
+            f"take; nothing was written; delete those rows (DELETE FROM {held[0].upper()} WHERE SI_NUM = "
+            f"{si_num}; ...), or give --db a new database")
 
 
 def _pa_num(conn: sqlite3.Connection, sp: Species) -> int:

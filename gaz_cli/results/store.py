@@ -118,6 +118,8 @@ def url_for(db: str) -> sa.URL:
     if url.get_backend_name() not in ("sqlite", "postgresql"):
         raise StoreError(f"--db {shown(db)!r}: gaz writes to SQLite files and PostgreSQL servers, "
                          f"not {url.get_backend_name()}; give a file path or a postgresql:// URL")
+    if url.get_backend_name() == "sqlite":
+        check_sqlite_query(db)
     if url.get_backend_name() == "sqlite" and url.database and url.query.get("uri") not in ("true", "1"):
         sqlite_writer.refuse_a_uri(url.database, db)  # (a SQLite URL has no password to hide)
     if url.get_backend_name() == "sqlite" and "timeout" in url.query:
@@ -126,6 +128,35 @@ def url_for(db: str) -> sa.URL:
         raise StoreError(f"--db {shown(db)!r}: gaz talks to PostgreSQL through psycopg 3 (binary COPY), "
                          f"not {url.get_driver_name()}; write the URL as postgresql://...")
     return url
+
+
+SQLITE_URL_KEYS = ("timeout", "uri")
+"""The parameters of a ``sqlite:///`` URL gaz reads without ``uri=true`` (with it, SQLite's own
+URI parameters, ``mode``, ``cache``...)."""
+
+
+def check_sqlite_query(db: str) -> None:
+    """Refuse a ``sqlite:///`` URL whose parameters would be ignored or ambiguous: one given
+    twice, one without a name, or one SQLAlchemy drops with a SAWarning on stderr (``?mode=ro``
+    without ``uri=true``: ignored, and the run written all the same; ``?foo=1``). StoreError."""
+    if "?" not in db:
+        return
+    query = db.split("?", 1)[1]
+    pairs = urllib.parse.parse_qsl(query, keep_blank_values=True)
+    names = [k for k, _ in pairs]
+    if any(not k for k in names) or ("&&" in query or query.startswith("&") or query.endswith("&")):
+        raise StoreError(f"--db {db!r} holds an empty parameter; write 'sqlite:///FILE?name=value&...', "
+                         "or leave the '?' out")
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise StoreError(f"--db {db!r} gives {twice[0]} twice; give each parameter once")
+    uri = dict(pairs).get("uri", "").lower() in ("true", "1", "yes", "on")
+    unknown = [k for k in names if k not in SQLITE_URL_KEYS]
+    if unknown and not uri:
+        raise StoreError(f"--db {db!r}: parameter {unknown[0]!r} is not one gaz gives SQLite without "
+                         f"uri=true (it takes {' and '.join(SQLITE_URL_KEYS)}; SQLAlchemy would ignore it); "
+                         "for SQLite's URI parameters (mode, cache...) write "
+                         "'sqlite:///file:FILE?mode=ro&uri=true', or drop it")
 
 
 def _timeout(url: sa.URL, db: str) -> float:
@@ -360,6 +391,13 @@ class Store(RunStore):
                     f"({', '.join(c.upper() for c in found)}), not gaz's "
                     f"({', '.join(c.name.upper() for c in table.columns)}); nothing was written; "
                     "point --db at a new file or a gaz database")
+            key = [c.lower() for c in insp.get_pk_constraint(table.name).get("constrained_columns") or []]
+            if set(key) != {c.name for c in table.primary_key.columns}:
+                raise StoreError(
+                    f"{self.shown!r} is not a gaz database: its table {table.name.upper()} has primary key "
+                    f"({', '.join(c.upper() for c in key) or 'none'}), not gaz's "
+                    f"({', '.join(c.name.upper() for c in table.primary_key.columns)}); nothing was "
+                    "written; point --db at a new file or a gaz database")
         present = [t for t in EXAM_TABLES if t in names]
         if not present:
             others = sorted(n for n in names if not n.startswith("sqlite_"))
@@ -383,12 +421,28 @@ class Store(RunStore):
                              f"but no {missing.upper()}; point --db at a new file or a gaz database")
         if schema_version.name not in names:
             return 1
-        version = conn.execute(sa.select(sa.func.max(schema_version.c.sv_version))).scalar() or 1
+        return self._version(conn)
+
+    def _version(self, conn) -> int:
+        """The one row of SCHEMA_VERSION, as gaz writes it (a whole number from 2 to this gaz's
+        version); StoreError for a newer one, and for one gaz did not write (several rows, NULL,
+        text, a fraction, below 2: a table edited by hand), nothing written. No row at all is
+        version 1, as no table (its row deleted by hand: the migration finds every table there
+        and writes the row again, tests/test_store_edges.py)."""
+        found = [v for (v,) in conn.execute(sa.select(schema_version.c.sv_version))]
+        if not found:
+            return 1
         latest = latest_version(conn.dialect.name)
-        if version > latest:
-            raise StoreError(f"{self.shown!r} has schema version {version}, newer than this gaz "
+        if (len(found) == 1 and isinstance(found[0], int) and not isinstance(found[0], bool)
+                and found[0] > latest):
+            raise StoreError(f"{self.shown!r} has schema version {found[0]}, newer than this gaz "
                              f"({__version__}, schema {latest}) knows; upgrade gaz to use it")
-        return int(version)
+        if len(found) == 1 and isinstance(found[0], int) and 2 <= found[0] <= latest:
+            return found[0]
+        held = f"{len(found)} rows" if len(found) > 1 else f"SV_VERSION = {found[0]!r}"
+        raise StoreError(f"{self.shown!r}: its table SCHEMA_VERSION holds {held}, not the one whole number "
+                         f"from 2 to {latest} that gaz writes there (edited by hand?); nothing was written; "
+                         "restore the database from a backup, or give --db a new database")
 
     def _writable_state(self, conn) -> int:
         """:meth:`_schema_state` for a writer, which also refuses a gaz database of version 2 or
@@ -501,9 +555,36 @@ class Store(RunStore):
             stmt = sa.select(*[c for c in table.columns if c.info.get("since", 1) == 1 or c.name in found])
             if si_num is not None and "si_num" in table.c:
                 stmt = stmt.where(table.c.si_num == si_num)
-            frame = _pandas().read_sql_query(stmt, conn)
+            try:
+                frame = _pandas().read_sql_query(stmt, conn)
+            except (ValueError, TypeError) as err:  # a DATETIME that is no date (SQLAlchemy's parser)
+                raise StoreError(self._not_ours(table, f"a value gaz cannot read ({' '.join(str(err).split())})"))
+        self._check_types(table, frame)
         frame.columns = [c.upper() for c in frame.columns]
         return frame
+
+    ROWS_CHECKED_BY_THE_ANALYSIS = ("simulation", "particule", "composition")
+    """Tables whose rows the analysis checks itself, value by value, naming the run and the
+    fix of analysing the others (gaz_cli.analysis.stored._check_stored): left to it."""
+
+    def _check_types(self, table: sa.Table, frame) -> None:
+        """StoreError for a number column read back holding something else (SQLite keeps what
+        it is given: a value edited by hand, 'hot' in SCENE.SC_TEMPERATURE), before the analysis
+        trips on it ('internal error: ValueError')."""
+        if table.name in self.ROWS_CHECKED_BY_THE_ANALYSIS:
+            return
+        for column in table.columns:
+            if column.name not in frame or not isinstance(column.type, (sa.Integer, sa.Float)):
+                continue
+            values = frame[column.name]
+            if not _pandas().api.types.is_numeric_dtype(values):  # (object, or pandas' str dtype)
+                bad = next((v for v in values if v is not None and not isinstance(v, (int, float))), None)
+                if bad is not None:
+                    raise StoreError(self._not_ours(table, f"{column.name.upper()} = {bad!r} where gaz writes a number"))
+
+    def _not_ours(self, table: sa.Table, what: str) -> str:
+        return (f"{self.shown!r}: its table {table.name.upper()} holds {what} (edited by hand?); restore "
+                "the database from a backup, or give --db another database")
 
     def check_row_numbers(self, scenes: list[Scene], fix: str = "shorten `duration`") -> None:
         """Refuse, before they run, the runs of ``scenes`` whose rows would number past this

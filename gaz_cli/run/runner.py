@@ -144,34 +144,14 @@ class Diagnostics(Recorder):
         self.callback(values)
 
 
-SQLITE_URL_KEYS = ("timeout", "uri")
-"""The parameters of a ``sqlite:///`` URL gaz reads without ``uri=true`` (with it, SQLite's own
-URI parameters, ``mode``, ``cache``...)."""
-
-
 def _check_url(db: str) -> None:
-    """Refuse a ``sqlite:///`` URL whose parameters would be ignored or ambiguous: one given
-    twice, one without a name, or one SQLAlchemy drops with a warning on stderr (``?mode=ro``
-    without ``uri=true``: ignored, and the run written all the same)."""
-    if not db.startswith("sqlite:///") or "?" not in db:
-        return
-    from urllib.parse import parse_qsl
+    """Refuse, before the run, a ``sqlite:///`` URL whose parameters would be ignored or
+    ambiguous (:func:`gaz_cli.results.store.check_sqlite_query`, which every opening of ``--db``
+    runs)."""
+    if db.startswith("sqlite:///") and "?" in db:
+        from gaz_cli.results.store import check_sqlite_query
 
-    query = db.split("?", 1)[1]
-    pairs = parse_qsl(query, keep_blank_values=True)
-    names = [k for k, _ in pairs]
-    if any(not k for k in names) or ("&&" in query or query.startswith("&") or query.endswith("&")):
-        raise SceneError(f"--db {db!r} holds an empty parameter; write 'sqlite:///FILE?name=value&...', "
-                         "or leave the '?' out")
-    twice = sorted({k for k in names if names.count(k) > 1})
-    if twice:
-        raise SceneError(f"--db {db!r} gives {twice[0]} twice; give each parameter once")
-    uri = dict(pairs).get("uri", "").lower() in ("true", "1", "yes", "on")
-    unknown = [k for k in names if k not in SQLITE_URL_KEYS]
-    if unknown and not uri:
-        raise SceneError(f"--db {db!r}: parameter {unknown[0]!r} is read only with uri=true (SQLAlchemy "
-                         f"would ignore it); add &uri=true with a file: name "
-                         "('sqlite:///file:FILE?mode=ro&uri=true'), or drop it")
+        check_sqlite_query(db)
 
 
 def sqlite_file(db: str | None) -> str | None:
@@ -301,8 +281,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
             ke_start = state.kinetic_energy(masses)
             if trajectory:
                 from gaz_cli.outputs.trajectory import open_trajectory
-                traj = stack.enter_context(open_trajectory(trajectory, every, scene,
-                                                           write_to=_temporary(pending, trajectory)))
+                traj = open_trajectory(trajectory, every, scene, write_to=_temporary(pending, trajectory))
+                stack.callback(traj.close)  # (finished, not committed: a VTK collection waits for the commit)
             diag = Diagnostics(diagnostics) if diagnostics else None
             memory = MemoryRecorder(collisions=keep_collisions) if keep_bounces or keep_collisions else None
             if memory is not None:
@@ -327,11 +307,13 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
                 writer.finish(stats, ke_start, ke_end)
         with interrupts.held():  # committed: the outputs take their names, all of them
             _rename_all(pending)
+            if traj is not None:
+                traj.commit()
     except BaseException as exc:
         for temporary in pending.values():
             atomic.discard(temporary)
         if traj is not None and hasattr(traj, "_discard") and not pending.get(str(trajectory)):
-            traj._discard()  # (a VTK collection: its files are written in place)
+            traj._discard()  # (a VTK collection: its temporary folder)
         signum = interrupts.signal_of(exc)
         if signum is not None:
             raise Interrupted(signum, _left_on_disk(store, writer, traj)) from None
@@ -344,7 +326,8 @@ def run_scene(scene: Scene, db: str | None = None, save_state: str | None = None
 
 def _temporary(pending: dict, path) -> Path | None:
     """The name to write the output ``path`` under until the run is committed, noted in
-    ``pending`` (None for a VTK trajectory, written in place, and for a device or FIFO)."""
+    ``pending`` (None for a device or FIFO, and for a VTK trajectory, whose writer keeps its
+    files in a temporary folder until its own commit)."""
     if atomic.in_place(path):
         return None
     if Path(path).suffix.lower() in (".pvd", ".vtu"):

@@ -37,6 +37,7 @@ import itertools
 import logging
 import math
 import os
+import sys
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -110,9 +111,9 @@ def parse_vary(text: str) -> tuple[str, list]:
                              f"{key}={parts[0].strip()}, or COUNT 2 or more to reach STOP")
         step = (stop - start) / (count - 1) if count > 1 else 0.0
         return key, _once(text, _typed(text, key, [_tidy(start + k * step) for k in range(count)], ranged=True))
-    items = [v.strip() for v in values.split(",")]
-    if any(not v for v in items):
-        raise SceneError(f"--vary {text!r}: an empty value between commas")
+    from gaz_cli.model.species import split_list
+
+    items = split_list(values, f"--vary {text!r}", f"{key}=100,200,300")
     return key, _once(text, _typed(text, key, items))
 
 
@@ -342,6 +343,10 @@ class Report:
 
     rows: list = field(default_factory=list)  # (point, status, si_num or None, message)
     db: str = ""  # where the runs were stored (a path or URL, as given)
+    helpers: str | None = None
+    """What went wrong with the processes the sweep started besides its runs (multiprocessing's
+    resource tracker died, a helper wrote on stderr), one line; None if nothing did. The runs
+    stored are whole all the same; ``gaz sweep`` exits 1."""
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.rows if r[1] == status)
@@ -420,8 +425,9 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
         raise SceneError(str(err)) from None
     # the cluster before the database: an unreachable --scheduler creates or migrates nothing
     # a new SQLite file takes its name with the first run stored (sqlite_writer.SqliteFile): none if none is
-    with interrupts.catching(), _client(workers, scheduler, len(todo)) as client, open_for_writing(db) as store, \
-            _Bar(len(todo), progress) as bar:
+    helpers = _Helpers()
+    with interrupts.catching(), helpers, _client(workers, scheduler, len(todo)) as client, \
+            open_for_writing(db) as store, _Bar(len(todo), progress) as bar:
         before = len(report.rows)
         try:
             _run_all(client, store, todo, report, bar)
@@ -433,7 +439,109 @@ def run(points: list[Point], scene_of: Callable[[dict], Any], key: Callable[[Any
             raise Interrupted(signum, f"{report.count('stored')} runs of the sweep were stored in "
                                       f"{store.shown!r}, {left} were not; run the same sweep again to "
                                       "finish it (stored runs are skipped)") from None
+    report.helpers = helpers.trouble()
     return report.in_order(points)
+
+
+def _tracker() -> int | None:
+    """The process id of multiprocessing's resource tracker, a child of this process, started
+    here if it was not (None where it cannot be known)."""
+    try:
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+        return resource_tracker._resource_tracker._pid  # (private)
+    except (ImportError, AttributeError, OSError):
+        return None
+
+
+def _tracker_died(first: int | None) -> bool:
+    """Whether the resource tracker ``first`` has died: relaunched since (at the next semaphore
+    made or freed, with a warning), or dead and not relaunched yet."""
+    if first is None:
+        return False
+    try:
+        from multiprocessing import resource_tracker
+
+        if resource_tracker._resource_tracker._pid != first:
+            return True
+        return os.waitpid(first, os.WNOHANG)[0] == first
+    except (ImportError, AttributeError, ChildProcessError, OSError):
+        return False
+
+
+class _Helpers:
+    """The standard error of the processes a sweep starts (the cluster's workers, and
+    multiprocessing's resource tracker, relaunched by this process when it dies) goes to a
+    temporary file while the cluster lives; this process's own (``sys.stderr``: the bar, gaz's
+    lines) is kept on the real one. A resource tracker killed in the middle of a sweep (SIGKILL,
+    the OOM killer) was relaunched with a warning, and the new one printed a KeyError traceback
+    for every semaphore the old one had registered: 51 lines, exit 0. :meth:`trouble` makes one
+    line of it. Where standard error is no real descriptor (a test's capture), nothing moves."""
+
+    def __init__(self):
+        self.died = False
+        self._saved = self._file = self._stderr = self._warnings = self._first = None
+
+    def __enter__(self):
+        import tempfile
+        import warnings
+
+        self._warnings = warnings.catch_warnings(record=True)
+        self._caught = self._warnings.__enter__()
+        warnings.simplefilter("always", UserWarning)  # (resource_tracker's "process died unexpectedly")
+        try:
+            fd = sys.stderr.fileno()
+        except (AttributeError, OSError, ValueError):
+            return self
+        if fd != 2:
+            return self
+        sys.stderr.flush()
+        self._file = tempfile.TemporaryFile()
+        self._saved = os.dup(2)
+        self._stderr = sys.stderr
+        sys.stderr = open(os.dup(self._saved), "w", encoding=self._stderr.encoding,  # noqa: SIM115
+                          errors=self._stderr.errors, buffering=1)
+        os.dup2(self._file.fileno(), 2)
+        self._first = _tracker()  # (started now, its standard error the file's)
+        return self
+
+    def __exit__(self, *exc):
+        try:
+            if self._saved is not None:
+                sys.stderr.flush()
+                sys.stderr.close()
+                sys.stderr = self._stderr
+                os.dup2(self._saved, 2)
+                os.close(self._saved)
+        finally:
+            self.died = self.died or _tracker_died(self._first)
+            self._warnings.__exit__(*exc)
+            for w in self._caught:
+                if "resource_tracker" in str(w.message):
+                    self.died = True
+                else:  # another warning of the sweep's: shown as before
+                    import warnings
+
+                    warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        return False
+
+    def trouble(self) -> str | None:
+        """One line for what went wrong with the helper processes, or None."""
+        written = b""
+        if self._file is not None:
+            self._file.seek(0)
+            written = self._file.read()
+            self._file.close()
+        lines = [line for line in written.decode(errors="replace").splitlines() if line.strip()]
+        if not self.died and not lines:
+            return None
+        what = ("multiprocessing's resource tracker, a helper process of the cluster, died during the "
+                "sweep (killed, or out of memory)" if self.died else
+                "the sweep's helper processes wrote on standard error")
+        last = f" (their last line: {lines[-1].strip()[:200]!r})" if lines else ""
+        return (f"{what}{last}; the runs stored are whole (the table above), but the cluster's named "
+                "semaphores may be left in /dev/shm; look for what killed it (dmesg)")
 
 
 def _refuse_points_that_cannot_run(points: list[Point], refused: dict) -> None:
@@ -488,6 +596,11 @@ IN_FLIGHT_PER_THREAD = 4
 """Runs handed to the cluster at once, per worker thread: enough to keep every worker busy
 while the client stores what came back, few enough that the client is never busy submitting."""
 
+NO_WORKER_S = 60.0
+"""How long a sweep waits on a cluster without a single worker before it gives up, s: an
+existing cluster's workers killed (``dask worker --no-nanny``: nobody starts them again) left it
+waiting for good (a local cluster's nannies start theirs again within seconds)."""
+
 
 def _run_all(client, store, todo, report, bar) -> None:
     """Run ``todo`` on ``client``'s cluster, at most :data:`IN_FLIGHT_PER_THREAD` per worker thread
@@ -512,12 +625,15 @@ def _run_all(client, store, todo, report, bar) -> None:
 
     submit_more()
     stored = failed = 0
+    alone_since = None  # when the cluster was last seen without a worker
     while pending:
         try:
             finished, pending = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED")
         except TimeoutError:  # nothing finished in this tick: refresh the bar
             finished = ()
         interrupts.check()
+        if not finished:
+            alone_since = _without_workers(client, alone_since, report)
         for fut in finished:
             point = futures.pop(fut)
             if fut.status == "finished":
@@ -530,6 +646,25 @@ def _run_all(client, store, todo, report, bar) -> None:
             fut.release()
         submit_more()
         bar.update(done=stored, failed=failed, running=_running(client, pending))
+
+
+def _without_workers(client, since: float | None, report) -> float | None:
+    """When the cluster was first seen without a worker in this stretch (None: it has one);
+    GazError once that is :data:`NO_WORKER_S` ago, saying what was stored."""
+    try:
+        workers = len(client.nthreads())
+    except Exception:  # noqa: BLE001 - the scheduler did not answer in time: not known to be alone
+        return since
+    if workers:
+        return None
+    now = time.monotonic()
+    if since is None:
+        return now
+    if now - since < NO_WORKER_S:
+        return since
+    raise GazError(f"the Dask cluster has had no worker for {NO_WORKER_S:g} s (its workers died or left: "
+                   f"killed, or out of memory); {report.count('stored')} runs of the sweep were stored whole, "
+                   "the others not; start workers, then run the same sweep again (stored runs are skipped)")
 
 
 def _store(store, run) -> int:
@@ -551,6 +686,9 @@ def _why(exc: BaseException | None) -> str:
     text = " ".join(str(exc).split())
     if isinstance(exc, GazError):
         return text
+    if type(exc).__name__ == "KilledWorker":  # (Dask's words run over 300 characters and a link)
+        return ("its worker process died each time it ran it (killed, or out of memory: dmesg says "
+                "which); run the same sweep again to retry it, with fewer --workers if memory is short")
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
 
 
@@ -600,10 +738,16 @@ class _client:
         # the cluster's own logs stay off stderr up to ERROR (a worker's heartbeat failing as an
         # interrupted sweep closes the scheduler printed a traceback): gaz says every run's failure
         # preload: each worker process runs dask_setup below as it starts (its SIGINT ignored)
-        self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
-                                    processes=True, dashboard_address=":0",
-                                    silence_logs=logging.CRITICAL, preload=[__name__])
-        self.client = Client(self.cluster)
+        try:
+            self.cluster = LocalCluster(n_workers=min(workers, self.runs), threads_per_worker=1,
+                                        processes=True, dashboard_address=":0",
+                                        silence_logs=logging.CRITICAL, preload=[__name__])
+            self.client = Client(self.cluster)
+        except Exception as err:  # noqa: BLE001 - "Nanny failed to start", and whatever else stops it
+            self.__exit__()
+            raise GazError(f"the local Dask cluster could not start its workers ({' '.join(str(err).split())}); "
+                           "from a script, call gaz.sweep under \"if __name__ == '__main__':\" (each "
+                           "worker process imports the script first), or give --scheduler") from None
         return self.client
 
     def __exit__(self, *exc):

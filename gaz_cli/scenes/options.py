@@ -17,7 +17,7 @@ from gaz_cli.scenes import files as scenefile
 from gaz_cli.errors import SceneError
 from gaz_cli.model.checks import render
 from gaz_cli.model.scene import OPTIONS, Scene
-from gaz_cli.model.species import DEFAULT_SPECIES, parse_mixture
+from gaz_cli.model.species import DEFAULT_SPECIES, parse_mixture, split_list
 
 FLAGS = {**{name: row.flag for name, row in OPTIONS.items()},
          "n": "--n", "packing": "--packing", "species": "--species", "radius": "--radius", "mass": "--mass",
@@ -42,9 +42,11 @@ def message(err: BaseException, given=None) -> str:
 def parse_plane(text: str, dim: int) -> tuple:
     """Parse ``--plane X,Y[,Z]:NX,NY[,NZ][:E]`` into (point, unit inward normal, restitution)."""
     parts = text.split(":")
+    example = f"{','.join(['0'] * dim)}:{','.join(['0'] * (dim - 1) + ['1'])}:0.9"
+    lists = [split_list(part, f"--plane {text!r}", example) for part in parts[:2]]
     try:
-        point = tuple(float(v) for v in parts[0].split(","))
-        normal = tuple(float(v) for v in parts[1].split(","))
+        point = tuple(float(v) for v in lists[0])
+        normal = tuple(float(v) for v in lists[1])
         restitution = float(parts[2]) if len(parts) > 2 else 1.0
     except (IndexError, ValueError):
         raise SceneError(f"--plane {text!r} is not X,Y[,Z]:NX,NY[,NZ][:E]") from None

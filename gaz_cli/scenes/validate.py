@@ -24,7 +24,7 @@ from gaz_cli.errors import SceneError
 from gaz_cli.geometry import DENSEST, DENSEST_NAME
 from gaz_cli.model.checks import (SPEED_TAIL, check_count, check_fields, check_magnitudes, check_outside,
                                   check_positive, field_error, is_real, length_range, radius_range, speed_range)
-from gaz_cli.model.estimates import MAX_SNAPSHOTS, check_memory, check_work, format_bytes
+from gaz_cli.model.estimates import MAX_SNAPSHOTS, check_memory, check_work, format_bytes, memory_needed
 from gaz_cli.model.scene import INITIAL_KINDS, Scene
 
 
@@ -51,9 +51,44 @@ def validate(scene: Scene) -> Scene:
         raise field_error(f"packing fraction {eta:.3g} is at or above {densest:.4g}, {DENSEST_NAME[scene.dim]}; "
                           "lower `n` or raise `length`")
     check_memory(scene.n, scene.engine, scene.dim)
+    check_memory_limit(scene.n, scene.engine, scene.dim)
     if not scene.force:
         check_work(scene)
     return scene
+
+
+def memory_limit() -> tuple[int, int, str] | None:
+    """This process's memory limit, when one is set below what the machine has: (the limit, what
+    of it is left now, its name), bytes; None for none. ``ulimit -v`` (RLIMIT_AS) bounds the
+    address space, of which the process uses some already (Python, NumPy, Numba's compiler: about
+    a gigabyte); ``ulimit -d`` (RLIMIT_DATA) bounds the heap."""
+    try:
+        import resource
+
+        with open("/proc/self/statm") as f:
+            used = int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (ImportError, OSError, ValueError, IndexError):
+        return None
+    found = None
+    for kind, flag in ((resource.RLIMIT_AS, "ulimit -v"), (resource.RLIMIT_DATA, "ulimit -d")):
+        soft = resource.getrlimit(kind)[0]
+        if soft != resource.RLIM_INFINITY and (found is None or soft - used < found[1]):
+            found = (soft, max(0, soft - used), flag)
+    return found
+
+
+def check_memory_limit(n: int, engine: str, dim: int = 3) -> None:
+    """Refuse, before any allocation, a run that needs more memory than this process may still
+    take under its limit (:func:`memory_limit`); a run within it that still runs out ends as
+    'out of memory' (the CLI's one line, :func:`gaz_cli.cli.main`)."""
+    limit = memory_limit()
+    need = memory_needed(n, engine, dim)
+    if limit is not None and need > limit[1]:
+        soft, left, flag = limit
+        what = f"N = {n:.3g} needs about {format_bytes(need)} of memory ({engine} engine)" if engine != "place" \
+            else f"placing N = {n:.3g} particles needs about {format_bytes(need)} of memory"
+        raise field_error(f"{what}; this process may take {format_bytes(left)} more ({flag}: "
+                          f"{format_bytes(soft)} in all); lower `n`, or raise the limit")
 
 
 def _resolve_engine(scene: Scene) -> Scene:
@@ -260,3 +295,4 @@ def check_placement(dim: int, n: int, radius: float, length: float) -> None:
     check_outside("`radius`", radius, rlo, rhi, "m", "where the contact distance squared stays within double "
              "precision", "change `radius`")
     check_memory(n, "place", dim)
+    check_memory_limit(n, "place", dim)
