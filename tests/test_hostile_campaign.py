@@ -1119,6 +1119,12 @@ def test_an_option_that_would_do_nothing_is_refused(tmp_path, monkeypatch, args,
     ("UPDATE resultat SET rs_events = 'x'", "its table RESULTAT holds RS_EVENTS = 'x' where gaz writes a number"),
     ("UPDATE simulation SET si_deb = 'yesterday'",
      "its table SIMULATION holds a value gaz cannot read (Invalid isoformat string: 'yesterday')"),
+    # the bounces reach the analysis through its binning SQL, whose SUM reads text as 0: the first
+    # row's time (compared in Python: "internal error: TypeError"), the last row's speed (summed as 0)
+    ("UPDATE rebond SET re_t = 'abc' WHERE si_num = 1 AND re_num = (SELECT MIN(re_num) FROM rebond WHERE si_num = 1)",
+     "its table REBOND holds RE_T = 'abc' where gaz writes a number"),
+    ("UPDATE rebond SET re_vp = 'x' WHERE si_num = 1 AND re_num = (SELECT MAX(re_num) FROM rebond WHERE si_num = 1)",
+     "its table REBOND holds RE_VP = 'x' where gaz writes a number"),
 ])
 @pytest.mark.parametrize("sim", [[], ["--sim", "1"]], ids=["all", "sim"])
 def test_a_value_of_another_type_in_gazs_tables_is_one_line(tmp_path, stored, edit, fragment, sim):
@@ -1134,6 +1140,21 @@ def test_a_value_of_another_type_in_gazs_tables_is_one_line(tmp_path, stored, ed
     conn.executescript(edit)
     conn.close()
     one_line(invoke(["analyse", "--db", str(db), *sim]), 1, fragment)
+
+
+def test_a_collision_of_another_type_is_one_line(tmp_path):
+    """CHOC reaches the analysis through collision_bins.sql, whose SUM read 'x' in CH_IMP as 0:
+    the collision virial came out wrong with exit 0. Now the analysis names it."""
+    import sqlite3
+
+    db = tmp_path / "gaz.db"
+    assert invoke(["simulate", "--dim", "2", "--n", "100", "--packing", "0.3", "--duration", "1e-11", "--seed", "1",
+                   "--record", "all", "--db", str(db)]).exit_code == 0
+    conn = sqlite3.connect(db)
+    assert conn.execute("SELECT COUNT(*) FROM choc").fetchone()[0] > 0
+    conn.executescript("UPDATE choc SET ch_imp = 'x' WHERE ch_num = (SELECT MAX(ch_num) FROM choc)")
+    conn.close()
+    one_line(invoke(["analyse", "--db", str(db)]), 1, "its table CHOC holds CH_IMP = 'x' where gaz writes a number")
 
 
 class _Alone:

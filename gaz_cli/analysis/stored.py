@@ -279,6 +279,7 @@ def load_run(store, si_num: int) -> StoredRun:
     # groups by hashing, nothing to gain (its GROUP BY of 10^7 rows: 5.5 s, by ranges 8-9 s)
     run.hits = _bin_sums_by_ranges(store, run) if store.engine.dialect.name == "sqlite" else None
     if run.hits is None:  # PostgreSQL, or rows not in time order: one GROUP BY of them all
+        store.check_number_columns(st.rebond, run.si_num)   # (SQLite's SUM reads text as 0)
         hits = store.query("bounce_bins", **bins)
         hits = hits[hits.BIN_KEY.notna()].reset_index(drop=True)        # no bounce: one NULL row
         key = _checked_bin_keys(run, hits.pop("BIN_KEY").to_numpy(dtype=float))
@@ -289,6 +290,9 @@ def load_run(store, si_num: int) -> StoredRun:
     _check_bounce_speeds(run)
     if run.record == "all":
         coll = store.query("collision_bins", **bins)
+        if coll.NB_ODD.sum():   # text edited by hand, summed as 0: named
+            store.check_number_columns(st.choc, run.si_num)
+        coll = coll.drop(columns="NB_ODD")
         coll = coll[coll.BIN.notna()].reset_index(drop=True)
         if len(coll):
             coll["BIN"] = np.clip(coll.BIN.to_numpy(dtype=float), 0, errorbars.BINS - 1).astype(np.int64)
@@ -480,6 +484,8 @@ def _bin_sums_by_ranges(store, run: StoredRun) -> pd.DataFrame | None:
                 return seen[r]
 
             t_first, t_last = at(int(first))[1], at(int(last))[1]
+            if not (isinstance(t_first, float) and isinstance(t_last, float)):
+                return None     # text edited by hand: the caller's path names it
             if not (0.0 <= t_first and t_last * errorbars.BINS / duration < errorbars.BINS + 1):
                 return None     # a time no run has: bounce_bins.sql's path refuses it (_checked_bin_keys)
             starts = _bin_starts(at, int(first), int(last), duration)
@@ -488,10 +494,10 @@ def _bin_sums_by_ranges(store, run: StoredRun) -> pd.DataFrame | None:
                     continue
                 t_lo = -math.inf if b == 0 else _bin_start_time(b, duration)
                 t_hi = math.inf if b == errorbars.BINS - 1 else _bin_start_time(b + 1, duration)
-                for key, nb, outside, s_vp, s_vit, s_vp2 in sql(
+                for key, nb, outside, odd, s_vp, s_vit, s_vp2 in sql(
                         "wall_sums_in_range", si_num=run.si_num, lo=starts[b], hi=starts[b + 1] - 1,
                         t_lo=t_lo, t_hi=t_hi):
-                    if outside:
+                    if outside or odd:
                         return None
                     rows.append((int(key) % 8 - 4, int(key) // 8, b, int(nb), float(s_vp), float(s_vit),
                                  float(s_vp2)))

@@ -582,6 +582,21 @@ class Store(RunStore):
                 if bad is not None:
                     raise StoreError(self._not_ours(table, f"{column.name.upper()} = {bad!r} where gaz writes a number"))
 
+    def check_number_columns(self, table: sa.Table, si_num: int) -> None:
+        """StoreError if a number column of run ``si_num``'s rows of ``table`` holds text or
+        bytes: SQLite keeps what it is given ('x' in REBOND.RE_T, edited by hand), which the
+        analysis' SQL would sum as 0 or compare with a number. One pass over the run's rows
+        (its key's range), SQLite only: PostgreSQL keeps each column's type."""
+        if self.engine.dialect.name != "sqlite":
+            return
+        numbers = [c for c in table.columns if isinstance(c.type, (sa.Integer, sa.Float))]
+        odd = sa.or_(*(sa.func.typeof(c).in_(("text", "blob")) for c in numbers))
+        with self._errors(), self.engine.connect() as conn:
+            row = conn.execute(sa.select(*numbers).where(table.c.si_num == si_num, odd).limit(1)).first()
+        if row is not None:
+            column, bad = next((c, v) for c, v in zip(numbers, row) if isinstance(v, (str, bytes)))
+            raise StoreError(self._not_ours(table, f"{column.name.upper()} = {bad!r} where gaz writes a number"))
+
     def _not_ours(self, table: sa.Table, what: str) -> str:
         return (f"{self.shown!r}: its table {table.name.upper()} holds {what} (edited by hand?); restore "
                 "the database from a backup, or give --db another database")
