@@ -190,7 +190,7 @@ def mean_wall_pressure(run: StoredRun, temperature: float) -> errorbars.Estimate
     series = np.mean([by_wall[w] for w in run.walls], axis=0)
     ends = ends_variance(run, temperature, run.dim)
     closed = (ends is not None and run.settle_bin == 0 and run.collisions is not None
-              and math.isfinite(run.virial) and run.restitution >= 1.0 and run.wall_restitution >= 1.0
+              and math.isfinite(run.virial) and math.isfinite(run.ke_start) and run.restitution >= 1.0 and run.wall_restitution >= 1.0
               and run.engine in EXACT_ENGINES and not run.extra_forces and run.duration > 0.0)
     if not closed:
         return run_average(run, series, end_var=None if ends is None else ends / (2 * run.dim) ** 2)
@@ -223,8 +223,9 @@ def axis_sum(run: StoredRun, series: dict, d: int, temperature: float, static_va
     axis holds. The axes are alike, so M and A are uncorrelated: Var S = Var M + Var A.
     Where M's error is in closed form (:func:`mean_wall_pressure`), A alone is reblocked
     (:func:`run_average`: its ends' part is (1 - 1/D) of the axis', the frozen share all in
-    A; in 1D A is 0); else S is. Reading S's whole noise from blocks less the ends, as before, scattered the
-    error over seeds (2D box, N = 200: a factor 4 over 30 seeds, walls up to 5.2 sigma).
+    A; in 1D A is 0); else S is. Reading S's whole noise from blocks less the ends, as
+    before, scattered the error over seeds (2D box, N = 200: a factor 4 over 30 seeds,
+    walls up to 5.2 sigma).
     """
     pair = series[-d] + series[d]
     ends = ends_variance(run, temperature, 1)
@@ -249,8 +250,8 @@ def wall_estimates(run: StoredRun, expected: dict, temperature: float) -> dict[i
     A wall's pressure is half the sum S of its axis' two walls plus (or
     minus) half their difference D. S follows the axis' kinetic energy (:func:`axis_sum`:
     the walls' mean in closed form, the axis' excess reblocked, with the frozen share of
-    the energy the axis drew at the start, scaled by the expected, else measured, pressure). D is exactly the change
-    of the gas's momentum along the axis over the run, divided by the run's
+    the energy the axis drew at the start, scaled by the expected, else measured,
+    pressure). D is exactly the change of the gas's momentum along the axis over the run, divided by the run's
     time and the wall measure: its variance has the closed form
     2 sum_s N_s m_s k_B T/(T L^(D-1))^2 (start and end momenta independent
     draws), where reblocking would read its hit-by-hit noise as white and
