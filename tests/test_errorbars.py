@@ -171,3 +171,40 @@ def test_axis_share_variance_by_monte_carlo():
     v2 = rng.standard_normal((20000, 50, 3)) ** 2
     share = 3 * v2[:, :, 0].sum(axis=1) / v2.sum(axis=(1, 2))
     assert share.var() == pytest.approx(errorbars.axis_share_var(3, 50), rel=0.03)
+
+
+def test_virial_spread_of_flux_weighted_impulses():
+    """<J^2>/<J>^2 = 4/pi: the normal relative speed at contact, a Gaussian component weighted by itself."""
+    rng = np.random.default_rng(3)
+    g = np.abs(rng.standard_normal(2_000_000))
+    weight = g / g.sum()                       # flux weighting
+    ratio = np.sum(weight * g * g) / np.sum(weight * g) ** 2
+    assert ratio == pytest.approx(errorbars.VIRIAL_SPREAD, rel=3e-3)   # MC error about 1e-3
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_species_split_variance_by_monte_carlo(dim):
+    """Var(sum_s c_s K_s/K)/mean^2 at fixed total energy, N Maxwellian components, against 200,000 draws."""
+    rng = np.random.default_rng(dim)
+    counts = np.array([30, 10, 20])
+    parts = np.array([1.0, 0.7, 1.6])             # each species' part of the pressure, at equipartition
+    per_energy = parts / (counts / counts.sum())  # c_s: pressure per unit share of the energy
+    k = 200_000
+    energies = np.stack([rng.chisquare(dim * c, k) for c in counts], axis=1)
+    p = (energies / energies.sum(axis=1, keepdims=True)) @ per_energy
+    # 200,000 draws: the variance is known to about 0.3 % (sqrt(2/k)), plus its kurtosis
+    assert np.var(p) / np.mean(p) ** 2 == pytest.approx(errorbars.species_split_var(counts, parts, dim), rel=0.015)
+    assert errorbars.species_split_var([50], [1.0], dim) == 0.0
+
+
+def test_pair_spread_and_split_relaxation():
+    """One species: spread 1, nothing to relax; equal masses: rate (8/D) (1/4) Z_12 (1/N_1 + 1/N_2)."""
+    assert errorbars.pair_spread(3, [100], [1.0], [0.1]) == pytest.approx(1.0)
+    assert errorbars.species_split_relaxation(3, [100], [1.0], [0.1], 1e3) == math.inf
+    # two species identical but for their label: half the collisions are cross (N^2 against 2 N(N-1)/2)
+    n, rate = 50, 1000.0
+    cross = rate * n * n / (n * n + n * (n - 1))
+    expected = 1.0 / ((8.0 / 2) * 0.25 * cross * (2.0 / n))
+    assert errorbars.species_split_relaxation(2, [n, n], [1.0, 1.0], [0.1, 0.1], rate) == pytest.approx(expected)
+    # a mixture's pairs differ: the virial's spread over pairs is above 1 (He:Xe at walls about 2)
+    assert errorbars.pair_spread(3, [100, 100], [4.0, 131.3], [1.1, 2.2]) > 1.5

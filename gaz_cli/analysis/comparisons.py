@@ -20,7 +20,7 @@ import pandas as pd
 
 from gaz_cli import theory
 from gaz_cli.analysis import errorbars
-from gaz_cli.analysis.estimators import (NA, ends_variance, per_bin, run_average, settled_temperature,
+from gaz_cli.analysis.estimators import (NA, mean_wall_pressure, per_bin, run_average, settled_temperature,
                                          species_arrays, virial_bin_pressures, wall_bin_pressures,
                                          wall_estimates)
 from gaz_cli.analysis.expectations import (Expectation, deviation, evaluate, few_dof_note, gravity_walls, hit_shares,
@@ -94,11 +94,7 @@ def pressure_summary(run: StoredRun, temperature: float) -> dict:
         measured, est = math.nan, errorbars.NAN_ESTIMATE
         how = "no wall bounce recorded" + (" (--record none)" if run.record == "none" else "")
     else:
-        by_wall = wall_bin_pressures(run)
-        # the mean over the 2D walls: the sum over the D axes' pairs / (2D)
-        ends = ends_variance(run, temperature, run.dim)
-        est = run_average(run, np.mean([by_wall[w] for w in run.walls], axis=0),
-                        end_var=None if ends is None else ends / (2 * run.dim) ** 2)
+        est = mean_wall_pressure(run, temperature)      # the mean over the 2D walls
         measured = est.mean
         how = "mean over the walls" + (" after settling" if run.settle_bin else "")
     stat_rel = est.error / abs(measured) if math.isfinite(est.error) and measured else 0.0

@@ -13,7 +13,7 @@ import numpy as np
 
 from gaz_cli import theory
 from gaz_cli.analysis import errorbars
-from gaz_cli.analysis.estimators import NA, species_arrays
+from gaz_cli.analysis.estimators import EXACT_ENGINES, NA, species_arrays
 from gaz_cli.analysis.stored import StoredRun, rebuilt_state
 from gaz_cli.constants import K_B
 from gaz_cli.errors import SceneError
@@ -49,8 +49,6 @@ def evaluate(model: str, func, note: str = "") -> Expectation:
         return Expectation(NA, model, str(err))
 
 
-EXACT_ENGINES = ("event", "ideal", "reference")
-"""Engines that conserve the energy to round-off (the step engine's leap-frog drifts)."""
 
 
 def energy_temperature(run: StoredRun) -> float:
