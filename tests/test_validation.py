@@ -118,7 +118,13 @@ def test_2d_gas_wall_pressure(tmp_path):
     """
     scene = reduced_scene(2, 1000, 0.05, duration=12.0, seed=2)
     frames = analyse(tmp_path, scene)
-    row = best_row(frames)
+    table = frames["pressure against theory"].set_index("MODEL", drop=False)
+    middle = table[table.MODEL.str.contains("middle density")]
+    # the equation of state at the middle density (PROFIL): a verdict, or withheld with its reason
+    # (this box's middle density has few effective degrees of freedom in so short a run)
+    for _, row in middle.iterrows():
+        assert abs(row.DEV_SIGMA) < 3 if math.isfinite(row.DEV_SIGMA) else "withheld" in row.NOTE, row
+    row = table[table.MODEL.str.contains(r"N/\(L-2R\)\^D")].iloc[0]     # the first-order wall model
     assert "kolafa-rottner" in row.MODEL
     if math.isnan(row.DEV_SIGMA):
         assert row.SYST_REL > row.P_ERR / row.P_MEASURED and "systematic" in row.NOTE, row
@@ -126,7 +132,7 @@ def test_2d_gas_wall_pressure(tmp_path):
     else:
         assert abs(row.DEV_SIGMA) < 3, row
     # the disks' excluded area is seen: the ideal gas is 10% low, many sigma away
-    ideal = frames["pressure against theory"].iloc[1]
+    ideal = table[table.MODEL.str.startswith("ideal gas")].iloc[0]
     assert (ideal.P_MEASURED - ideal.P_THEORY) / ideal.P_ERR > 10, ideal
     # ... so it is shown for scale, not as a verdict: its excess pressure is SYST_REL
     assert math.isnan(ideal.DEV_SIGMA) and ideal.SYST_REL > ideal.P_ERR / ideal.P_MEASURED, ideal
